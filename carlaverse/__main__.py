@@ -1,0 +1,5 @@
+import sys
+
+from carlaverse.cli import main
+
+sys.exit(main())

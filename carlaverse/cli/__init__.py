@@ -1,0 +1,89 @@
+"""The `carlaverse` command line.
+
+Each subcommand lives in its own module with two functions, `add_arguments(parser)` and
+`run(args) -> int`, and is imported only when invoked, so a node host that lacks SUMO or rerun
+can still run `carlaverse join`. Library code never exits; `main` is the only place that does.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import logging
+import sys
+from collections.abc import Sequence
+
+from carlaverse import __version__
+
+# name -> (module, one-line help). The module is imported lazily.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "demo": ("carlaverse.cli.demo", "run a local demo session: router, authority, scripted nodes"),
+    "router": ("carlaverse.cli.router", "host a Zenoh router for a site"),
+    "authority": ("carlaverse.cli.authority", "run the session authority (membership, world)"),
+    "join": ("carlaverse.cli.join", "join a session as a node (observer, scripted, drive, ...)"),
+    "stats": ("carlaverse.cli.stats", "per-node rate, latency, jitter and loss of a live session"),
+    "config": ("carlaverse.cli.config_cmd", "validate configuration and scenario files"),
+    "ffb-server": ("carlaverse.cli.ffb_server", "UDP force-feedback server with watchdog"),
+    "motion-server": ("carlaverse.cli.motion_server", "UDP motion-platform server with watchdog"),
+    "doctor": ("carlaverse.cli.doctor", "hardware diagnostics: joysticks, FFB and motion tests"),
+    "record": ("carlaverse.cli.record", "record every key of a session to MCAP"),
+    "replay": ("carlaverse.cli.replay", "republish an MCAP recording into a live session"),
+    "view": ("carlaverse.cli.view", "live Rerun view of a session or a recording"),
+    "certs": ("carlaverse.cli.certs", "generate a test CA and certificates for a lab"),
+    "roster": ("carlaverse.cli.roster", "session roster tools: generate router ACLs"),
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="carlaverse",
+        description="CARLAverse: share one live traffic world across labs over Zenoh.",
+    )
+    parser.add_argument("--version", action="version", version=f"carlaverse {__version__}")
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv)")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (module, help_text) in COMMANDS.items():
+        sub.add_parser(name, help=help_text, add_help=False)
+    return parser
+
+
+def _command_parser(name: str) -> tuple[argparse.ArgumentParser, object]:
+    module_name, help_text = COMMANDS[name]
+    module = importlib.import_module(module_name)
+    parser = argparse.ArgumentParser(prog=f"carlaverse {name}", description=help_text)
+    parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv)")
+    module.add_arguments(parser)
+    return parser, module
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    argv = list(sys.argv[1:] if argv is None else argv)
+    top = build_parser()
+    # Split at the subcommand so each command owns its own flags and --help.
+    first = next((i for i, a in enumerate(argv) if not a.startswith("-")), None)
+    if first is None:
+        top.parse_args(argv)
+        top.print_help()
+        return 2
+    name = argv[first]
+    if name not in COMMANDS:
+        top.parse_args(argv)  # argparse reports the unknown command with choices
+        return 2
+    top_args = top.parse_args(argv[:first])
+    try:
+        parser, module = _command_parser(name)
+    except ModuleNotFoundError as exc:
+        print(
+            f"carlaverse {name}: needs the missing module '{exc.name}'. "
+            "Install the extras with: pip install 'carlaverse[all]'",
+            file=sys.stderr,
+        )
+        return 3
+    args = parser.parse_args(argv[first + 1 :])
+    verbosity = max(top_args.verbose, args.verbose)
+    level = logging.WARNING if verbosity == 0 else logging.INFO if verbosity == 1 else logging.DEBUG
+    logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    try:
+        return int(module.run(args) or 0)
+    except KeyboardInterrupt:
+        return 130

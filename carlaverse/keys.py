@@ -1,0 +1,144 @@
+"""The key-expression space (DESIGN §3): the only module that builds or parses keys.
+
+Every key starts with `carlaverse/<session>/`. Node ids and session names are short,
+human-readable tokens; anything that could act as a Zenoh wildcard or separator is refused
+so a node id can never widen an ACL rule or collide with another key.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+
+ROOT = "carlaverse"
+AUTHORITY_ID = "authority"
+
+_TOKEN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$")
+
+# Per-node channels under ego/<node_id>/...
+EGO_CHANNELS = ("pose", "skeleton", "state", "override")
+WORLD_CHANNELS = ("npc", "lights", "weather", "events")
+AUTHORITY_QUERIES = ("clock", "join", "snapshot", "map", "scenario")
+
+
+class KeySpaceError(ValueError):
+    """A node id, session name or key expression that does not belong to the key space."""
+
+
+def check_token(value: str, what: str = "node id") -> str:
+    """Return `value` if it is a valid session name or node id, else raise with the rule."""
+    if not _TOKEN.match(value):
+        raise KeySpaceError(
+            f"invalid {what} {value!r}: use 1-63 letters, digits, '_', '.' or '-', "
+            "starting with a letter or digit (e.g. 'tum-drive-1')"
+        )
+    return value
+
+
+@dataclass(frozen=True, slots=True)
+class Keys:
+    """Key builders for one session. Build once, reuse the strings."""
+
+    session: str
+
+    def __post_init__(self) -> None:
+        check_token(self.session, "session name")
+
+    @property
+    def prefix(self) -> str:
+        return f"{ROOT}/{self.session}"
+
+    @property
+    def everything(self) -> str:
+        return f"{self.prefix}/**"
+
+    # presence
+    def node(self, node_id: str) -> str:
+        return f"{self.prefix}/node/{check_token(node_id)}"
+
+    @property
+    def all_nodes(self) -> str:
+        return f"{self.prefix}/node/*"
+
+    # ego channels
+    def ego(self, node_id: str, channel: str) -> str:
+        if channel not in EGO_CHANNELS:
+            raise KeySpaceError(f"unknown ego channel {channel!r}; expected one of {EGO_CHANNELS}")
+        return f"{self.prefix}/ego/{check_token(node_id)}/{channel}"
+
+    def pose(self, node_id: str) -> str:
+        return self.ego(node_id, "pose")
+
+    def state(self, node_id: str) -> str:
+        return self.ego(node_id, "state")
+
+    def override(self, node_id: str) -> str:
+        return self.ego(node_id, "override")
+
+    def all_ego(self, channel: str) -> str:
+        if channel not in EGO_CHANNELS:
+            raise KeySpaceError(f"unknown ego channel {channel!r}; expected one of {EGO_CHANNELS}")
+        return f"{self.prefix}/ego/*/{channel}"
+
+    # world, written by the authority
+    def world(self, channel: str) -> str:
+        if channel not in WORLD_CHANNELS:
+            raise KeySpaceError(f"unknown world channel {channel!r}; expected one of {WORLD_CHANNELS}")
+        return f"{self.prefix}/world/{channel}"
+
+    @property
+    def all_world(self) -> str:
+        return f"{self.prefix}/world/*"
+
+    def impulse(self, node_id: str) -> str:
+        return f"{self.prefix}/impulse/{check_token(node_id)}"
+
+    def audio(self, node_id: str) -> str:
+        return f"{self.prefix}/audio/{check_token(node_id)}"
+
+    # authority queryables
+    def authority(self, query: str) -> str:
+        if query not in AUTHORITY_QUERIES:
+            raise KeySpaceError(f"unknown authority query {query!r}; expected {AUTHORITY_QUERIES}")
+        return f"{self.prefix}/authority/{query}"
+
+    def with_session(self, key: str, session: str) -> str:
+        """The same key under another session (replay rewrites keys this way)."""
+        parsed = parse(key)
+        return f"{ROOT}/{check_token(session, 'session name')}/{parsed.path}"
+
+
+@dataclass(frozen=True, slots=True)
+class ParsedKey:
+    """A concrete key split into its parts; `node_id` is empty where the key has none."""
+
+    session: str
+    area: str  # node | ego | world | impulse | audio | authority
+    channel: str  # pose/state/... for ego; npc/lights/... for world; query name for authority
+    node_id: str
+
+    @property
+    def path(self) -> str:
+        """The key after `carlaverse/<session>/`."""
+        if self.area == "ego":
+            return f"ego/{self.node_id}/{self.channel}"
+        if self.area in ("node", "impulse", "audio"):
+            return f"{self.area}/{self.node_id}"
+        return f"{self.area}/{self.channel}"
+
+
+def parse(key: str) -> ParsedKey:
+    """Split a concrete key of the space; raise KeySpaceError naming the key otherwise."""
+    parts = str(key).split("/")
+    if len(parts) < 4 or parts[0] != ROOT or not _TOKEN.match(parts[1]):
+        raise KeySpaceError(f"not a carlaverse key: {key!r}")
+    session, area, rest = parts[1], parts[2], parts[3:]
+    if area == "ego" and len(rest) == 2 and rest[1] in EGO_CHANNELS and _TOKEN.match(rest[0]):
+        return ParsedKey(session, area, rest[1], rest[0])
+    if area in ("node", "impulse", "audio") and len(rest) == 1 and _TOKEN.match(rest[0]):
+        return ParsedKey(session, area, "", rest[0])
+    if area == "world" and len(rest) == 1 and rest[0] in WORLD_CHANNELS:
+        return ParsedKey(session, area, rest[0], "")
+    if area == "authority" and len(rest) == 1 and rest[0] in AUTHORITY_QUERIES:
+        return ParsedKey(session, area, rest[0], "")
+    raise KeySpaceError(f"not a carlaverse key: {key!r}")
