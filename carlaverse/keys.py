@@ -18,7 +18,7 @@ _TOKEN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$")
 # Per-node channels under ego/<node_id>/...
 EGO_CHANNELS = ("pose", "skeleton", "state", "override")
 WORLD_CHANNELS = ("npc", "lights", "weather", "events")
-AUTHORITY_QUERIES = ("clock", "join", "snapshot", "map", "scenario")
+AUTHORITY_QUERIES = ("clock", "join", "snapshot", "map", "scenario", "configs")
 
 
 class KeySpaceError(ValueError):

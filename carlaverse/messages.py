@@ -349,6 +349,14 @@ class ScenarioReply(msgspec.Struct, frozen=True):
     seed: int = 0
 
 
+class ConfigsReply(msgspec.Struct, frozen=True):
+    """Every joined node's effective config, for archiving with a recording."""
+
+    schema: int
+    nodes: dict[str, str]  # node id -> config YAML as the node sent it at join
+    scenario_yaml: str = ""
+
+
 # --------------------------------------------------------------------------- codecs
 
 
@@ -401,6 +409,7 @@ CLOCK_REPLY: Codec[ClockReply] = Codec(ClockReply)
 SNAPSHOT: Codec[Snapshot] = Codec(Snapshot)
 MAP: Codec[MapReply] = Codec(MapReply)
 SCENARIO: Codec[ScenarioReply] = Codec(ScenarioReply)
+CONFIGS: Codec[ConfigsReply] = Codec(ConfigsReply)
 
 # What travels on each key (area, channel) — recorders and validators look types up here.
 CHANNEL_CODECS: dict[tuple[str, str], Codec[Any]] = {
@@ -418,4 +427,5 @@ CHANNEL_CODECS: dict[tuple[str, str], Codec[Any]] = {
     ("authority", "snapshot"): SNAPSHOT,
     ("authority", "map"): MAP,
     ("authority", "scenario"): SCENARIO,
+    ("authority", "configs"): CONFIGS,
 }
