@@ -83,7 +83,7 @@ class Keys:
     # world, written by the authority
     def world(self, channel: str) -> str:
         if channel not in WORLD_CHANNELS:
-            raise KeySpaceError(f"unknown world channel {channel!r}; expected one of {WORLD_CHANNELS}")
+            raise KeySpaceError(f"unknown world channel {channel!r}; expected {WORLD_CHANNELS}")
         return f"{self.prefix}/world/{channel}"
 
     @property
