@@ -1,0 +1,1 @@
+"""Node kinds shipped with CARLAverse, installed as `carlaverse_nodes` (see pyproject)."""

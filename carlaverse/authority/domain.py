@@ -20,6 +20,7 @@ from carlaverse.messages import (
     NpcBatch,
     Pose,
     ScenarioReply,
+    SpawnPoint,
     Weather,
     WorldEvent,
 )
@@ -62,6 +63,7 @@ class GlobalDomain(Protocol):
     def snapshot_parts(self) -> tuple[NpcBatch | None, LightsState | None, Weather | None]: ...
     def map_reply(self) -> MapReply | None: ...
     def scenario_reply(self) -> ScenarioReply | None: ...
+    def spawn_point(self, node_kind: str, node_id: str) -> SpawnPoint | None: ...
     def close(self) -> None: ...
 
 
@@ -84,6 +86,9 @@ class EmptyDomain:
         return None
 
     def scenario_reply(self) -> ScenarioReply | None:
+        return None
+
+    def spawn_point(self, node_kind: str, node_id: str) -> SpawnPoint | None:
         return None
 
     def close(self) -> None:

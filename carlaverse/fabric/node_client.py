@@ -44,7 +44,7 @@ class JoinRefused(RuntimeError):
 
 
 class NodeSettings(StrictStruct):
-    node_id: str
+    node_id: str = ""  # required; may come from --id instead of the file
     session: str = "default"
     kind: str = "scripted"
     actor_kind: str = "car"

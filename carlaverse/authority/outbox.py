@@ -1,0 +1,66 @@
+"""The authority's outbox on Zenoh: one publisher per world channel, right delivery class each.
+
+NPC batches may drop under congestion (the next batch supersedes them); lights, weather,
+events and impulses must arrive, so they are reliable with congestion control BLOCK and carry
+sequence numbers for idempotent receivers (DESIGN §4).
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import zenoh
+
+from carlaverse import messages as m
+from carlaverse.keys import Keys
+
+
+class ZenohOutbox:
+    def __init__(self, session: zenoh.Session, keys: Keys) -> None:
+        self._session = session
+        self._keys = keys
+        self._seq = itertools.count(1)
+        self.sent: dict[str, int] = {}
+        reliable = {
+            "congestion_control": zenoh.CongestionControl.BLOCK,
+            "reliability": zenoh.Reliability.RELIABLE,
+        }
+        self._npc = session.declare_publisher(
+            keys.world("npc"), congestion_control=zenoh.CongestionControl.DROP
+        )
+        self._lights = session.declare_publisher(keys.world("lights"), **reliable)
+        self._weather = session.declare_publisher(keys.world("weather"), **reliable)
+        self._events = session.declare_publisher(
+            keys.world("events"), priority=zenoh.Priority.INTERACTIVE_HIGH, **reliable
+        )
+
+    def next_seq(self) -> int:
+        return next(self._seq)
+
+    def _count(self, channel: str) -> None:
+        self.sent[channel] = self.sent.get(channel, 0) + 1
+
+    def npc(self, batch: m.NpcBatch) -> None:
+        self._npc.put(m.NPC_BATCH.encode(batch))
+        self._count("npc")
+
+    def lights(self, state: m.LightsState) -> None:
+        self._lights.put(m.LIGHTS.encode(state))
+        self._count("lights")
+
+    def weather(self, state: m.Weather) -> None:
+        self._weather.put(m.WEATHER.encode(state))
+        self._count("weather")
+
+    def event(self, event: m.WorldEvent) -> None:
+        self._events.put(m.WORLD_EVENT.encode(event))
+        self._count("events")
+
+    def impulse(self, node_id: str, impulse: m.Impulse) -> None:
+        self._session.put(
+            self._keys.impulse(node_id),
+            m.IMPULSE.encode(impulse),
+            congestion_control=zenoh.CongestionControl.BLOCK,
+            priority=zenoh.Priority.INTERACTIVE_HIGH,
+        )
+        self._count("impulse")

@@ -1,0 +1,91 @@
+"""Flags and plumbing every fabric command shares: endpoints, session, stop signals, output."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from typing import Any
+
+import msgspec
+
+from carlaverse.fabric.session import FabricSettings
+
+
+def add_fabric_args(parser: argparse.ArgumentParser, session: bool = True) -> None:
+    group = parser.add_argument_group("fabric")
+    if session:
+        group.add_argument("--session", help="session name (default: from config, else 'default')")
+    group.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="EP",
+        help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)",
+    )
+    group.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="EP",
+        help="Zenoh endpoint to listen on (repeatable; default tcp/127.0.0.1:0, loopback only)",
+    )
+    group.add_argument("--mode", choices=["peer", "client"], help="Zenoh mode (default peer)")
+    group.add_argument(
+        "--lowlatency",
+        action="store_true",
+        help="Zenoh low-latency transport (every process on the path must use it)",
+    )
+
+
+def fabric_from_args(
+    args: argparse.Namespace, base: FabricSettings | None = None
+) -> FabricSettings:
+    base = base or FabricSettings()
+    changes: dict[str, Any] = {}
+    if args.connect:
+        changes["connect"] = list(args.connect)
+    if args.listen:
+        changes["listen"] = list(args.listen)
+    if getattr(args, "mode", None):
+        changes["mode"] = args.mode
+    if getattr(args, "lowlatency", False):
+        changes["lowlatency"] = True
+    return msgspec.structs.replace(base, **changes)
+
+
+def add_output_args(parser: argparse.ArgumentParser, duration: float | None = None) -> None:
+    parser.add_argument(
+        "--duration",
+        type=float,
+        default=duration,
+        metavar="S",
+        help=f"stop after S seconds (default {duration:g})" if duration else "stop after S seconds",
+    )
+    parser.add_argument(
+        "--json", action="store_true", help="print a machine-readable summary at exit"
+    )
+
+
+def stop_on_signals() -> threading.Event:
+    """An event set by SIGINT or SIGTERM, so loops end cleanly and leave the session."""
+    stop = threading.Event()
+
+    def handler(signum: int, frame: object) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+    return stop
+
+
+def print_json(value: Any) -> None:
+    sys.stdout.write(json.dumps(msgspec.to_builtins(value), indent=2, sort_keys=True) + "\n")
+    sys.stdout.flush()
+
+
+def fail(command: str, message: str, code: int = 2) -> int:
+    print(f"carlaverse {command}: {message}", file=sys.stderr)
+    return code

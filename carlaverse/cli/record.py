@@ -1,0 +1,120 @@
+"""`carlaverse record`: every key of a session into an MCAP file, or `--recover` a killed one."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+import time
+from pathlib import Path
+
+from carlaverse.fabric.session import FabricError, endpoint_settings, open_session
+from carlaverse.keys import Keys, KeySpaceError
+from carlaverse.recording.recorder import DEFAULT_QUEUE_SIZE, Recorder, RecorderStats
+from carlaverse.recording.recover import recover
+from carlaverse.recording.sink import DEFAULT_CHUNK_SIZE, McapSink, RecordingError
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--session", help="session name to record (e.g. demo)")
+    parser.add_argument("-o", "--output", required=True, type=Path, help="MCAP file to write")
+    parser.add_argument("--connect", action="append", default=[], metavar="EP",
+                        help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)")
+    parser.add_argument("--listen", action="append", default=[], metavar="EP",
+                        help="Zenoh endpoint to listen on (default tcp/127.0.0.1:0)")
+    parser.add_argument("--duration", type=float, default=None, metavar="S",
+                        help="stop after S seconds (default: until Ctrl-C / SIGTERM)")
+    parser.add_argument("--recover", type=Path, metavar="IN.mcap",
+                        help="rewrite an unfinished recording (killed recorder) into -o, indexed")
+    parser.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd")
+    parser.add_argument("--chunk-kib", type=int, default=DEFAULT_CHUNK_SIZE // 1024,
+                        help="chunk size [KiB]; a crash loses at most one chunk or 1 s")
+    parser.add_argument("--queue-size", type=int, default=DEFAULT_QUEUE_SIZE,
+                        help="samples buffered for the writer before drops are counted")
+    parser.add_argument("--progress-s", type=float, default=1.0,
+                        help="progress line interval on stderr [s]; 0 turns it off")  # fmt: skip
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        if args.recover:
+            return _recover(args)
+        if not args.session:
+            print("carlaverse record: --session NAME is required (or --recover IN.mcap)",
+                  file=sys.stderr)  # fmt: skip
+            return 2
+        return _record(args)
+    except (RecordingError, FabricError, KeySpaceError) as exc:
+        print(f"carlaverse record: {exc}", file=sys.stderr)
+        return 1
+
+
+def _recover(args: argparse.Namespace) -> int:
+    report = recover(args.recover, args.output, args.compression)
+    state = "was complete" if report.complete else f"was cut short ({report.stopped_by})"
+    print(
+        f"recovered {report.messages} messages on {report.channels} channels, "
+        f"{report.attachments} attachments, {report.metadata} metadata records from "
+        f"{args.recover} ({state}) into {args.output}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _record(args: argparse.Namespace) -> int:
+    keys = Keys(args.session)
+    session = open_session(endpoint_settings(listen=args.listen, connect=args.connect))
+    try:
+        sink = McapSink(args.output, compression=args.compression,
+                        chunk_size=args.chunk_kib * 1024, monotonic=time.monotonic)  # fmt: skip
+        recorder = Recorder(session, keys, sink, queue_size=args.queue_size)
+        recorder.start()
+        _wait(recorder, args.duration, args.progress_s)
+        stats = recorder.stop()
+    finally:
+        session.close()
+    print(f"recorded {_describe(stats)} into {args.output}", file=sys.stderr)
+    if stats.failure:
+        print(f"carlaverse record: {stats.failure}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def _wait(recorder: Recorder, duration_s: float | None, progress_s: float) -> None:
+    """Block until the duration passes, SIGINT/SIGTERM arrives or the writer fails."""
+    stop = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    start = time.monotonic()
+    deadline = None if duration_s is None else start + duration_s
+    last = (start, 0)
+    try:
+        while not stop.is_set() and recorder.stats().failure == "":
+            now = time.monotonic()
+            if deadline is not None and now >= deadline:
+                return
+            step = progress_s if progress_s > 0 else 0.5
+            timeout = step if deadline is None else max(0.0, min(step, deadline - now))
+            if stop.wait(timeout) or progress_s <= 0:
+                continue
+            last = _progress(recorder.stats(), last)
+    except KeyboardInterrupt:
+        return
+
+
+def _progress(stats: RecorderStats, last: tuple[float, int]) -> tuple[float, int]:
+    now = time.monotonic()
+    rate = (stats.written - last[1]) / max(now - last[0], 1e-6)
+    print(f"recording: {_describe(stats)}, {rate:.0f} msg/s", file=sys.stderr, flush=True)
+    return now, stats.written
+
+
+def _describe(stats: RecorderStats) -> str:
+    text = (
+        f"{stats.written} messages, {stats.bytes_in / 1e6:.2f} MB on {stats.channels} keys, "
+        f"{stats.attachments} attachments, {stats.dropped} dropped"
+    )
+    if stats.decode_errors:
+        text += f", {stats.decode_errors} undecodable (kept raw)"
+    return text

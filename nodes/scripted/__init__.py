@@ -1,0 +1,50 @@
+"""A scripted participant: an honest simulated node driving a known path at a set speed.
+
+Its pose is an exact function of session time (`carlaverse.paths`), so whoever knows its
+config knows where it truly is — the reference for interpolation-error measurements.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+from carlaverse.config import StrictStruct
+from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
+from carlaverse.fabric.session import FabricSettings
+from carlaverse.messages import Pose
+from carlaverse.paths import CirclePath, PathSpec
+
+
+class ScriptedConfig(StrictStruct):
+    node: NodeSettings = NodeSettings(kind="scripted")
+    fabric: FabricSettings = FabricSettings()
+    path: PathSpec = CirclePath()
+
+
+class ScriptedNode:
+    name = "scripted"
+    config_type = ScriptedConfig
+
+    def __init__(self, config: ScriptedConfig) -> None:
+        self.config = config
+        self.path = config.path
+
+    def pose_source(self) -> PoseSource | None:
+        path = self.path
+        return lambda t: path.pose_at(t)
+
+    def step(self, client: NodeClient, now: float) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+    def report(self) -> dict[str, Any]:
+        return {"path": type(self.path).__name__}
+
+
+def truth_error(path: PathSpec, view_x: float, view_y: float, render_t: float) -> float:
+    """Distance [m] between a rendered position and where the path really was then."""
+    true: Pose = path.pose_at(render_t)
+    return math.hypot(view_x - true.x, view_y - true.y)
