@@ -84,6 +84,7 @@ class NodeClient:
         self.refused: str | None = None
         self._settled = threading.Event()  # the first join was answered, yes or no
         self.join_reply: m.JoinReply | None = None
+        self.snapshot: m.Snapshot | None = None
         self.joins = 0
         self.poses_sent = 0
         self._seq = 0
@@ -348,7 +349,22 @@ class NodeClient:
         self.admitted.set()
         self.joined.set()
         self._settled.set()
+        self._fetch_snapshot()
         log.info("joined session %s as %s (join #%d)", s.session, s.node_id, self.joins)
+
+    def _fetch_snapshot(self) -> None:
+        """Seed the world with everything present now, so a late joiner misses nothing."""
+        raw = self._query(self.keys.authority("snapshot"), b"", self.settings.join_timeout_s)
+        if raw is None:
+            return
+        try:
+            snapshot = m.SNAPSHOT.decode(raw)
+        except m.MessageError as exc:
+            self.dropped["snapshot"] += 1
+            log.warning("unreadable snapshot: %s", exc)
+            return
+        self.snapshot = snapshot
+        self.world.inbox.append(("snapshot", snapshot, self.now()))
 
     def _sync_clock(self) -> None:
         local = self.clock.local

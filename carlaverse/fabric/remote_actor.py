@@ -221,8 +221,8 @@ class RemoteActor:
     def _raw(self, t: float) -> tuple[Pose, Phase]:
         ts, poses = self._t, self._poses
         i = bisect.bisect_right(ts, t)
-        if i == 0:
-            return poses[0], Phase.HOLDING
+        if i == 0:  # a new actor: dead-reckon back from its first sample
+            return self._extrapolate(poses[0], max(t - ts[0], -self.s.max_extrapolation_s))
         if i == len(ts):
             return self._extrapolate(poses[-1], t - ts[-1])
         return _interpolate(poses[i - 1], poses[i], t), Phase.INTERPOLATING

@@ -13,7 +13,7 @@ lifts the tombstone.
 from __future__ import annotations
 
 import logging
-from collections import deque
+from collections import Counter, deque
 from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
@@ -28,6 +28,7 @@ from carlaverse.messages import (
     LightsState,
     NpcBatch,
     Pose,
+    Snapshot,
     Weather,
 )
 
@@ -57,6 +58,10 @@ class WorldView:
         self.despawns: list[Despawn] = []
         self.seen: set[str] = set()  # every ego id ever rendered
         self._tombstones: dict[str, float] = {}
+        # Poses count only from nodes with a presence token (or announced by the authority):
+        # a well-formed pose from a node that never joined is an intruder, not an actor.
+        self.present: set[str] = set()
+        self.rejected: Counter[str] = Counter()
 
     # ------------------------------------------------------------ called from callbacks
 
@@ -93,7 +98,8 @@ class WorldView:
         if stats is None:
             stats = self.stats[node_id] = StreamStats()
         stats.add(pose.seq, pose.t, rx_t)
-        if node_id in self._tombstones:
+        if node_id in self._tombstones or node_id not in self.present:
+            self.rejected["pose_from_absent_node"] += 1
             return
         actor = self.egos.get(node_id)
         if actor is None:
@@ -113,16 +119,36 @@ class WorldView:
                 actor = self.npcs[npc_id] = RemoteActor(npc_id, self.settings, kind)
             actor.add(_npc_pose(batch, row), rx_t)
 
+    def _on_snapshot(self, snapshot: Snapshot, rx_t: float) -> None:
+        self.lights = self.lights or snapshot.lights
+        self.weather = self.weather or snapshot.weather
+        if snapshot.npc is not None and not self.npcs:
+            self._on_npc(snapshot.npc, rx_t)
+        for ego in snapshot.egos:
+            if ego.node_id == self.own_id or ego.node_id in self._tombstones:
+                continue
+            self.present.add(ego.node_id)
+            if ego.state is not None:
+                self.ego_states.setdefault(ego.node_id, ego.state)
+            if ego.pose is not None and ego.node_id not in self.egos:
+                actor = self.egos[ego.node_id] = RemoteActor(
+                    ego.node_id, self.settings, ego.actor_kind
+                )
+                self.seen.add(ego.node_id)
+                actor.add(ego.pose, rx_t)
+
     def _on_state(self, node_id: str, state: EgoState) -> None:
         if node_id not in self._tombstones:
             self.ego_states[node_id] = state
 
     def _on_gone(self, node_id: str, reason: str, t: float) -> None:
         self._tombstones[node_id] = t
+        self.present.discard(node_id)
         self._remove(node_id, reason, t)
 
     def _on_present(self, node_id: str) -> None:
         self._tombstones.pop(node_id, None)
+        self.present.add(node_id)
 
     def _remove(self, node_id: str, reason: str, t: float) -> None:
         if self.egos.pop(node_id, None) is not None:

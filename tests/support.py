@@ -1,0 +1,129 @@
+"""Shared test plumbing: real processes, real sessions, waiting on conditions with deadlines."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from carlaverse.fabric.clock import MonotonicClock
+from carlaverse.fabric.node_client import NodeClient, NodeSettings
+from carlaverse.fabric.session import FabricSettings, open_session
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return int(s.getsockname()[1])
+
+
+def wait_until(condition: Callable[[], Any], timeout: float, what: str, poll: float = 0.02) -> Any:
+    """Poll `condition` until it is truthy; fail naming `what` when the deadline passes."""
+    deadline = time.monotonic() + timeout
+    while True:
+        value = condition()
+        if value:
+            return value
+        if time.monotonic() > deadline:
+            raise AssertionError(f"timed out after {timeout:.1f} s waiting for {what}")
+        threading.Event().wait(poll)
+
+
+class Proc:
+    """A `python -m carlaverse ...` child with its output captured."""
+
+    def __init__(self, args: list[str], name: str = "") -> None:
+        self.args = args
+        self.name = name or args[0]
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        self.proc = subprocess.Popen(
+            [sys.executable, "-m", "carlaverse", *args],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        )  # fmt: skip
+        self.stdout: list[str] = []
+        self.stderr: list[str] = []
+        for stream, sink in ((self.proc.stdout, self.stdout), (self.proc.stderr, self.stderr)):
+            threading.Thread(target=_drain, args=(stream, sink), daemon=True).start()
+
+    def alive(self) -> bool:
+        return self.proc.poll() is None
+
+    def stop(self, sig: int = signal.SIGINT, timeout: float = 15) -> int:
+        if self.alive():
+            self.proc.send_signal(sig)
+        try:
+            return self.proc.wait(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            return self.proc.wait()
+
+    def wait(self, timeout: float) -> int:
+        return self.proc.wait(timeout=timeout)
+
+    def json(self) -> dict[str, Any]:
+        wait_until(lambda: not self.alive(), 1, f"{self.name} to exit")
+        text = "".join(self.stdout)
+        start = text.find("{")
+        assert start >= 0, f"{self.name} printed no JSON; stderr:\n{''.join(self.stderr)[-2000:]}"
+        return json.loads(text[start:])
+
+    def output(self) -> str:
+        return "".join(self.stdout) + "".join(self.stderr)
+
+
+def _drain(stream: Any, sink: list[str]) -> None:
+    for line in stream:
+        sink.append(line)
+
+
+class Cluster:
+    """Processes started by one test, all stopped at teardown."""
+
+    def __init__(self, tmp: Path) -> None:
+        self.tmp = tmp
+        self.procs: list[Proc] = []
+        self.port = free_port()
+        self.endpoint = f"tcp/127.0.0.1:{self.port}"
+        self.sessions: list[Any] = []
+
+    def start(self, *args: str, name: str = "") -> Proc:
+        proc = Proc(list(args), name)
+        self.procs.append(proc)
+        return proc
+
+    def router(self) -> Proc:
+        return self.start("router", "--listen", self.endpoint, name="router")
+
+    def authority(self, *extra: str) -> Proc:
+        return self.start("authority", "--scenario", "none", "--session", "t",
+                          "--connect", self.endpoint, "--json", *extra, name="authority")  # fmt: skip
+
+    def scripted(self, node_id: str, config: Path | None = None, *extra: str) -> Proc:
+        args = ["join", "scripted", "--id", node_id, "--session", "t", "--connect", self.endpoint,
+                "--json", *extra]  # fmt: skip
+        if config is not None:
+            args += ["--config", str(config)]
+        return self.start(*args, name=node_id)
+
+    def observer(self, node_id: str = "obs", **fabric: Any) -> NodeClient:
+        settings = FabricSettings(connect=[self.endpoint], **fabric)
+        session = open_session(settings)
+        self.sessions.append(session)
+        node = NodeSettings(node_id=node_id, session="t", kind="observer", actor_kind="")
+        client = NodeClient(session, node, MonotonicClock()).start()
+        self.sessions.append(client)
+        return client
+
+    def close(self) -> None:
+        for item in reversed(self.sessions):
+            item.close()
+        for proc in self.procs:
+            proc.stop(signal.SIGKILL if not proc.alive() else signal.SIGINT)
