@@ -68,7 +68,7 @@ class FfbServer(UdpServer):
             self._reject(exc)
             return
         self.last_valid_t = now
-        self.forces_live = True
+        self.forces_live = not command.is_zero()  # a client's own zero needs no watchdog
         if self._device_call(self.actuator.apply, command, "apply"):
             self.stats.applied += 1
 

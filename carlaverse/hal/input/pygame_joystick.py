@@ -84,6 +84,18 @@ def list_joysticks() -> list[str]:
     return [pygame.joystick.Joystick(i).get_name() for i in range(pygame.joystick.get_count())]
 
 
+def describe_joysticks() -> list[str]:
+    """One line per joystick: index, name, and its axis/button/hat counts."""
+    rows = []
+    for i, name in enumerate(list_joysticks()):
+        js = pygame.joystick.Joystick(i)
+        rows.append(
+            f"{i}: {name} ({js.get_numaxes()} axes, {js.get_numbuttons()} buttons, "
+            f"{js.get_numhats()} hats)"
+        )
+    return rows
+
+
 def find_joystick(options: PygameOptions) -> pygame.joystick.JoystickType:
     names = list_joysticks() if options.pump_events else _names_without_pump()
     if options.device:

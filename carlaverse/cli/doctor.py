@@ -1,0 +1,119 @@
+"""`carlaverse doctor`: hardware diagnostics before a study.
+
+    carlaverse doctor                                  # joysticks SDL detects
+    carlaverse doctor --watch                          # their axes and buttons, live
+    carlaverse doctor --ffb 127.0.0.1:45500            # test force sequence to an FFB server
+    carlaverse doctor --motion 192.168.1.20:45501      # test sweep to a motion server
+
+Forces and motion go through the same `udp` clients the nodes use, at a steady rate, so the
+servers' watchdogs stay fed; the last step of each sequence is always "off"/neutral.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+from collections.abc import Callable
+
+from carlaverse.config import ConfigError
+from carlaverse.hal import open_ffb, open_input, open_motion
+from carlaverse.hal.diagnostics import SweepAmplitudes, ffb_test_sequence, motion_sweep, ticks
+from carlaverse.hal.errors import HalError
+from carlaverse.hal.input import InputState
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--watch", action="store_true", help="show joystick channels live")
+    parser.add_argument("--joystick", type=int, default=0, help="joystick index for --watch")
+    parser.add_argument("--duration", type=float, metavar="S", help="--watch for S seconds")
+    parser.add_argument("--ffb", metavar="HOST:PORT", help="send a test force sequence")
+    parser.add_argument("--strength", type=float, default=0.3, help="FFB test strength 0..1")
+    parser.add_argument("--motion", metavar="HOST:PORT", help="send a test motion sweep")
+    parser.add_argument("--step-s", type=float, default=1.0, help="seconds per test step")
+    parser.add_argument("--rate", type=float, default=100.0, help="send/poll rate [Hz]")
+
+
+def run(args: argparse.Namespace) -> int:
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # the CLI is headless; SDL must not ask
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    try:
+        if args.ffb:
+            run_ffb(args)
+        if args.motion:
+            run_motion(args)
+        if not (args.ffb or args.motion):
+            list_joysticks(args)
+    except (ConfigError, HalError, ValueError) as exc:
+        print(f"carlaverse doctor: {exc}", file=sys.stderr)
+        return 2
+    return 0
+
+
+def host_port(text: str) -> dict[str, object]:
+    host, sep, port = text.rpartition(":")
+    if not sep or not port.isdigit():
+        raise ValueError(f"{text!r} is not HOST:PORT (e.g. 127.0.0.1:45500)")
+    return {"host": host or "127.0.0.1", "port": int(port)}
+
+
+def run_ffb(args: argparse.Namespace) -> None:
+    with open_ffb({"backend": "udp", "options": host_port(args.ffb)}) as ffb:
+        for label, command in ffb_test_sequence(args.strength):
+            print(f"ffb: {label}", flush=True)
+            paced(args, lambda _u, c=command: ffb.send(c))
+        print(f"ffb: sent {ffb.sender.sent} packets to {args.ffb}; did the wheel follow?")
+
+
+def run_motion(args: argparse.Namespace) -> None:
+    with open_motion({"backend": "udp", "options": host_port(args.motion)}) as motion:
+        for label, frame_at in motion_sweep(SweepAmplitudes()):
+            print(f"motion: {label}", flush=True)
+            paced(args, lambda u, f=frame_at: motion.send(f(u)))
+        print(f"motion: sent {motion.sender.sent} frames to {args.motion}; did the rig move?")
+
+
+def paced(args: argparse.Namespace, send: Callable[[float], None]) -> None:
+    """Call `send(phase)` at `args.rate` for one step."""
+    period = 1.0 / args.rate
+    next_t = time.monotonic()
+    for phase in ticks(args.step_s, args.rate):
+        send(phase)
+        next_t += period
+        time.sleep(max(0.0, next_t - time.monotonic()))
+
+
+def list_joysticks(args: argparse.Namespace) -> None:
+    try:
+        from carlaverse.hal.input.pygame_joystick import describe_joysticks
+    except ImportError as exc:
+        raise HalError(
+            f"joystick listing needs pygame: pip install 'carlaverse[input]' ({exc})"
+        ) from exc
+    rows = describe_joysticks()
+    print("joysticks:" if rows else "no joysticks detected (plugged in? permissions?)")
+    for row in rows:
+        print(f"  {row}")
+    if args.watch and rows:
+        watch(args)
+
+
+def watch(args: argparse.Namespace) -> None:
+    cfg = {"backend": "pygame", "options": {"index": args.joystick}}
+    end = time.monotonic() + args.duration if args.duration is not None else float("inf")
+    with open_input(cfg) as device:
+        try:
+            while time.monotonic() < end:
+                print("\r" + render(device.poll()), end="", flush=True)
+                time.sleep(1.0 / args.rate)
+        except KeyboardInterrupt:
+            pass
+    print()
+
+
+def render(state: InputState) -> str:
+    axes = " ".join(f"{k}={v:+.3f}" for k, v in state.axes.items())
+    pressed = ",".join(k for k, v in state.buttons.items() if v) or "-"
+    hats = " ".join(f"{k}={v}" for k, v in state.hats.items())
+    return f"{axes} | buttons {pressed} | {hats}"

@@ -1,0 +1,58 @@
+"""`carlaverse motion-server`: the motion-platform server (paper, "Motion Platform Server").
+
+    carlaverse motion-server --verbose                          # log every frame
+    carlaverse motion-server --backend csv -o path=motion.csv   # timestamped rows
+    carlaverse motion-server --backend dbox                     # a lab's SDK plugin
+
+`--verbose` (or -v) shows each frame; a lab's vendor SDK plugs in as a backend (see
+`carlaverse.hal.motion_server.platform`) without any change on the client side.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from carlaverse.cli import hal_common
+from carlaverse.config import ConfigError
+from carlaverse.hal.errors import HalError
+from carlaverse.hal.motion_packet import DEFAULT_MOTION_PORT
+from carlaverse.hal.motion_server import MotionServer, registry
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    hal_common.add_server_args(parser, DEFAULT_MOTION_PORT, "log (default), csv")
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.list_backends:
+        return hal_common.list_backends(registry())
+    backend = args.backend or "log"
+    try:
+        options = hal_common.parse_options(args.option)
+        platform = hal_common.open_backend(registry(), backend, options)
+    except (ConfigError, HalError) as exc:
+        return hal_common.fail("motion-server", exc)
+    try:
+        server = MotionServer(platform, args.bind, args.port, watchdog_s=args.watchdog_ms / 1000)
+    except OSError as exc:
+        platform.close()
+        return hal_common.fail("motion-server", f"cannot listen on {args.bind}:{args.port}: {exc}")
+    hal_common.stop_on_signals(server.stop)
+    hal_common.stop_after(args.duration, server.stop)
+    host, port = server.address
+    print(
+        f"motion-server listening on udp {host}:{port}, backend {backend}, "
+        f"watchdog {args.watchdog_ms:g} ms",
+        file=sys.stderr,
+        flush=True,
+    )
+    server.serve_forever()
+    s = server.stats
+    print(
+        f"motion-server stopped: {s.received} packets, {s.frames} frames, {s.short} short, "
+        f"{s.long} long, {s.unknown_command} unknown commands, {s.invalid_value} invalid "
+        f"values, {s.neutral_events} watchdog neutrals",
+        file=sys.stderr,
+    )
+    return 0
