@@ -46,8 +46,11 @@ class Proc:
         env = dict(os.environ, PYTHONUNBUFFERED="1")
         self.proc = subprocess.Popen(
             [sys.executable, "-m", "carlaverse", *args],
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-        )  # fmt: skip
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
         self.stdout: list[str] = []
         self.stderr: list[str] = []
         for stream, sink in ((self.proc.stdout, self.stdout), (self.proc.stderr, self.stderr)):
@@ -103,12 +106,32 @@ class Cluster:
         return self.start("router", "--listen", self.endpoint, name="router")
 
     def authority(self, *extra: str) -> Proc:
-        return self.start("authority", "--scenario", "none", "--session", "t",
-                          "--connect", self.endpoint, "--json", *extra, name="authority")  # fmt: skip
+        return self.start(
+            "authority",
+            "--scenario",
+            "none",
+            "--session",
+            "t",
+            "--connect",
+            self.endpoint,
+            "--json",
+            *extra,
+            name="authority",
+        )
 
     def scripted(self, node_id: str, config: Path | None = None, *extra: str) -> Proc:
-        args = ["join", "scripted", "--id", node_id, "--session", "t", "--connect", self.endpoint,
-                "--json", *extra]  # fmt: skip
+        args = [
+            "join",
+            "scripted",
+            "--id",
+            node_id,
+            "--session",
+            "t",
+            "--connect",
+            self.endpoint,
+            "--json",
+            *extra,
+        ]
         if config is not None:
             args += ["--config", str(config)]
         return self.start(*args, name=node_id)

@@ -21,8 +21,9 @@ def circle_config(tmp: Path, name: str, **path: float) -> tuple[Path, CirclePath
     spec = {"type": "circle", "radius": 30.0, "speed_mps": 14.0, **path}
     target = tmp / f"{name}.yaml"
     target.write_text(yaml.safe_dump({"path": spec}))
-    return target, CirclePath(radius=spec["radius"], speed_mps=spec["speed_mps"],
-                              phase_deg=spec.get("phase_deg", 0.0))  # fmt: skip
+    return target, CirclePath(
+        radius=spec["radius"], speed_mps=spec["speed_mps"], phase_deg=spec.get("phase_deg", 0.0)
+    )
 
 
 def start_pair(cluster: Cluster) -> tuple[CirclePath, CirclePath]:
@@ -115,7 +116,9 @@ def test_duplicate_id_is_refused_with_a_reason(cluster: Cluster) -> None:
     assert "already in use" in dup.output() and "choose another --id" in dup.output()
     # the original keeps its identity and stream
     seq_before = obs.world.stats["a"].count
-    wait_until(lambda: obs.update() and obs.world.stats["a"].count > seq_before + 10, 2, "a's poses")
+    wait_until(
+        lambda: obs.update() and obs.world.stats["a"].count > seq_before + 10, 2, "a's poses"
+    )
 
 
 def _snapshot_ids(client) -> set[str]:  # type: ignore[no-untyped-def]
@@ -129,12 +132,25 @@ def test_garbage_on_every_subscribed_key_is_counted_and_dropped(cluster: Cluster
     wait_until(lambda: obs.update() and {"a", "b"} <= set(obs.world.egos), 20, "actors")
     keys = Keys("t")
     targets = [
-        keys.pose("mallory"), keys.state("mallory"), keys.override("obs"), keys.world("npc"),
-        keys.world("lights"), keys.world("weather"), keys.world("events"), keys.impulse("obs"),
+        keys.pose("mallory"),
+        keys.state("mallory"),
+        keys.override("obs"),
+        keys.world("npc"),
+        keys.world("lights"),
+        keys.world("weather"),
+        keys.world("events"),
+        keys.impulse("obs"),
         keys.pose("a"),
-    ]  # fmt: skip
-    garbage = [b"", b"\x00", b"\xff" * 7, b"\x01" * 64, b"\x93\x01", bytes(range(200)),
-               m.encode_pose(m.Pose(1, 1.0, 0, 0))[:-1]]  # fmt: skip
+    ]
+    garbage = [
+        b"",
+        b"\x00",
+        b"\xff" * 7,
+        b"\x01" * 64,
+        b"\x93\x01",
+        bytes(range(200)),
+        m.encode_pose(m.Pose(1, 1.0, 0, 0))[:-1],
+    ]
     session = cluster.sessions[0]
     for key in targets:
         for payload in garbage:

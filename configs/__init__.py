@@ -1,0 +1,1 @@
+"""Node, authority and router configs shipped with CARLAverse (data only)."""
