@@ -1,0 +1,20 @@
+#!/usr/bin/env bash
+# Debian packages some tests use: Chromium (web-viewer screenshot test) and iproute2
+# (network namespaces for the WAN tests). Installs only what is missing, only as root;
+# otherwise says what it skipped — those tests then skip with the reason.
+set -euo pipefail
+need=()
+command -v chromium >/dev/null 2>&1 || need+=(chromium)
+command -v ip >/dev/null 2>&1 || need+=(iproute2)
+if [ ${#need[@]} -eq 0 ]; then
+  echo "install-test-deps: nothing to install"
+  exit 0
+fi
+if [ "$(id -u)" -ne 0 ] || ! command -v apt-get >/dev/null 2>&1; then
+  echo "install-test-deps: not root or no apt-get; skipping ${need[*]} (their tests will skip)"
+  exit 0
+fi
+echo "install-test-deps: installing ${need[*]}"
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${need[@]}" >/dev/null
