@@ -235,7 +235,7 @@ def main(argv: list[str] | None = None) -> int:
             f"bare zenoh p50 / UDP p50 = "
             f"{pct(by['bare zenoh'], 0.5) / pct(by['raw UDP'], 0.5):.2f}"
         )
-    text = "\n".join(lines + [""] + sorted(ratios))
+    text = "\n".join([*lines, "", *sorted(ratios)])
     print(text)
     if args.write:
         write_section(
