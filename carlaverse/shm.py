@@ -1,0 +1,99 @@
+"""Shared-memory state blocks between a node's processes (the paper's SharedMemory module).
+
+A node's control loop (1 kHz, its own process) and its fabric process exchange *state*
+through a fixed-layout block; events travel on queues (DESIGN §7). One process writes a block,
+any number read it. Consistency without locks comes from a sequence lock: the writer makes
+the counter odd, writes, makes it even; a reader copies the payload and retries if the counter
+was odd or changed meanwhile. Nobody ever waits on the other side, so the control loop cannot
+be stalled by a slow reader.
+
+Layout: 8-byte little-endian sequence counter, then one record of a numpy structured dtype.
+"""
+
+from __future__ import annotations
+
+import struct
+import time
+from multiprocessing import shared_memory
+
+import numpy as np
+
+_SEQ = struct.Struct("<Q")
+HEADER = 8
+
+
+class TornRead(RuntimeError):
+    """The writer kept writing while we tried to read: retries exhausted."""
+
+
+class SharedBlock:
+    """One seqlock-protected record in shared memory."""
+
+    def __init__(self, name: str, dtype: np.dtype, create: bool = False) -> None:
+        self.dtype = np.dtype(dtype)
+        size = HEADER + self.dtype.itemsize
+        self._shm = shared_memory.SharedMemory(name=name, create=create, size=size)
+        self._owner = create
+        self._buf = self._shm.buf
+        self._record = np.ndarray((), dtype=self.dtype, buffer=self._buf, offset=HEADER)
+        self.retries = 0
+        if create:
+            _SEQ.pack_into(self._buf, 0, 0)
+            self._record[()] = np.zeros((), dtype=self.dtype)
+
+    @property
+    def name(self) -> str:
+        return self._shm.name
+
+    def sequence(self) -> int:
+        return _SEQ.unpack_from(self._buf, 0)[0]
+
+    def write(self, values: np.void | np.ndarray) -> None:
+        """Publish a whole record (writer side only)."""
+        seq = _SEQ.unpack_from(self._buf, 0)[0]
+        _SEQ.pack_into(self._buf, 0, seq + 1)  # odd: a write is in progress
+        self._record[()] = values
+        _SEQ.pack_into(self._buf, 0, seq + 2)
+
+    def write_fields(self, **fields: float | int) -> None:
+        """Update some fields, keeping the others (writer side only)."""
+        seq = _SEQ.unpack_from(self._buf, 0)[0]
+        _SEQ.pack_into(self._buf, 0, seq + 1)
+        for key, value in fields.items():
+            self._record[key] = value
+        _SEQ.pack_into(self._buf, 0, seq + 2)
+
+    def read(self, timeout_s: float = 0.1) -> np.void:
+        """A consistent copy of the record; never blocks the writer.
+
+        Spins briefly, then yields the CPU: if the writer was preempted mid-write (two cores,
+        a busy machine), spinning would only keep it from finishing.
+        """
+        deadline = None
+        spins = 0
+        while True:
+            before = _SEQ.unpack_from(self._buf, 0)[0]
+            if not before & 1:
+                copy = self._record.copy()
+                if _SEQ.unpack_from(self._buf, 0)[0] == before:
+                    return copy[()]
+            self.retries += 1
+            spins += 1
+            if spins > 100:
+                now = time.monotonic()
+                deadline = deadline or now + timeout_s
+                if now > deadline:
+                    raise TornRead(f"shared block {self.name}: no consistent read in {timeout_s} s")
+                time.sleep(0)
+
+    def close(self) -> None:
+        del self._record
+        self._buf = None  # type: ignore[assignment]
+        self._shm.close()
+        if self._owner:
+            self._shm.unlink()
+
+
+def new_record(dtype: np.dtype) -> np.void:
+    """A zeroed record to fill and write."""
+    return np.zeros((), dtype=dtype)[()]
