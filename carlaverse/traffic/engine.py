@@ -1,0 +1,121 @@
+"""The traffic engine seam: what the authority's domain needs from a traffic simulator.
+
+A `TrafficEngine` steps NPC vehicles and pedestrians on a road network, carries the humans as
+externally controlled actors so NPCs react to them, runs the traffic-light programs, and
+reports everything as columns (`NpcFrame`) so the collision matrix and the NPC batch never
+touch one Python object per NPC.
+
+Frame conventions follow `carlaverse.messages`: world frame of the road network (x east,
+y north, metres), yaw counter-clockwise from +x in radians, positions at the actor's centre.
+Engine time starts at 0 when the engine starts.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Protocol
+
+import numpy as np
+
+from carlaverse.messages import ACTOR_KINDS, NPC_DTYPE
+
+KIND_CODE = {kind: code for code, kind in enumerate(ACTOR_KINDS)}
+PEDESTRIAN_CODE = KIND_CODE["pedestrian"]
+
+
+def kind_code(kind: str) -> int:
+    """The NPC_DTYPE `kind` byte for an actor kind; unknown kinds count as 'other'."""
+    return KIND_CODE.get(kind, KIND_CODE["other"])
+
+
+@dataclass(frozen=True, slots=True)
+class NpcFrame:
+    """Every NPC at one engine instant: ids beside rows of `messages.NPC_DTYPE`."""
+
+    t: float  # [s] engine time of the instant
+    ids: list[str]
+    rows: np.ndarray  # NPC_DTYPE, len(ids) rows, centre poses
+
+    @classmethod
+    def empty(cls, t: float = 0.0) -> NpcFrame:
+        return cls(t, [], np.zeros(0, dtype=NPC_DTYPE))
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+
+@dataclass(frozen=True, slots=True)
+class EgoPlacement:
+    """Where a human's actor is this step, for the engine to carry it (centre pose)."""
+
+    node_id: str
+    actor_kind: str  # one of messages.ACTOR_KINDS
+    x: float  # [m]
+    y: float  # [m]
+    z: float  # [m]
+    yaw: float  # [rad]
+    speed: float  # [m/s] along the heading
+    length: float  # [m]
+    width: float  # [m]
+    height: float  # [m]
+
+
+@dataclass(frozen=True, slots=True)
+class LightPhase:
+    duration_s: float  # [s]
+    state: str  # one char per controlled link, SUMO style (r y g G o O s u)
+
+
+@dataclass(frozen=True, slots=True)
+class LightReading:
+    """One traffic light now."""
+
+    id: str
+    state: str
+    phase: int
+    next_switch_s: float  # [s] engine time of the next phase switch
+
+
+class TrafficEngine(Protocol):
+    """A traffic simulator stepped by the authority (implemented by `SumoEngine`)."""
+
+    @property
+    def time_s(self) -> float:
+        """[s] engine time of the last completed step."""
+        ...
+
+    @property
+    def step_length_s(self) -> float: ...
+
+    def step(self) -> None:
+        """Advance one step of `step_length_s`."""
+        ...
+
+    def npcs(self) -> NpcFrame:
+        """All NPCs (not the egos) after the last step."""
+        ...
+
+    def place_egos(self, egos: Sequence[EgoPlacement]) -> None:
+        """Carry these egos this step; egos carried before but absent now are removed."""
+        ...
+
+    def stop_npc(self, npc_id: str) -> None:
+        """Bring an NPC to an immediate standstill (it was hit)."""
+        ...
+
+    def remove_npc(self, npc_id: str) -> None: ...
+
+    def light_readings(self) -> list[LightReading]: ...
+
+    def light_programs(self) -> dict[str, list[LightPhase]]:
+        """The running program of every traffic light."""
+        ...
+
+    def set_light_program(
+        self, light_id: str, phases: Sequence[LightPhase], offset_s: float
+    ) -> None:
+        """Replace a light's program (scenario overrides)."""
+        ...
+
+    def close(self) -> None: ...
