@@ -1,0 +1,1 @@
+"""Map sources the shipped scenarios refer to (plain XML, OpenDRIVE)."""
