@@ -1,0 +1,214 @@
+"""The authority's global domain on a traffic engine: traffic, lights, weather, collisions.
+
+`TrafficDomain` is the `GlobalDomain` the membership core ticks. One tick, at session time t:
+
+1. dead-reckon every embodied ego to t and carry it in the engine (so NPCs react to it);
+2. step the engine up to t (one step normally; a few after a stall, then the lag is dropped);
+3. run the collision matrix over egos and NPCs: contact events, impulses, hit NPCs stop;
+4. publish the NPC batch (at `npc_rate_hz`), lights and weather (on change and at 1 Hz).
+
+Everything that talks to the engine runs on the tick's thread. The snapshot, map and scenario
+getters may be called from query threads: they only read immutable messages, swapped in
+whole by the tick.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+from carlaverse.authority.actors import build_actors, egos_at
+from carlaverse.authority.collisions import CollisionMatrix, TickContacts
+from carlaverse.authority.domain import EgoTrack, Outbox
+from carlaverse.authority.lights import LightPublisher, apply_overrides
+from carlaverse.authority.weather import WeatherPublisher
+from carlaverse.config import ConfigError
+from carlaverse.messages import (
+    SCHEMA_VERSION,
+    ContactStarted,
+    LightsState,
+    MapReply,
+    NpcBatch,
+    ScenarioReply,
+    SpawnPoint,
+    Weather,
+)
+from carlaverse.traffic.engine import EgoPlacement, TrafficEngine
+from carlaverse.traffic.scenario import Scenario, load_scenario
+from carlaverse.traffic.spawns import SpawnAllocator
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(slots=True)
+class DomainStats:
+    ticks: int = 0
+    steps: int = 0
+    dropped_s: float = 0.0  # [s] engine time skipped after stalls
+    contacts: int = 0
+    impulses: int = 0
+    npcs_removed: int = 0
+
+
+class TrafficDomain:
+    """Traffic, lights, weather and the collision matrix of one running scenario."""
+
+    def __init__(
+        self,
+        scenario: Scenario,
+        engine: TrafficEngine,
+        map_reply: MapReply | None,
+        spawns: SpawnAllocator,
+        seed: int,
+    ) -> None:
+        spec = scenario.spec
+        self._spec = spec
+        self._source = scenario
+        self._engine = engine
+        self._map = map_reply
+        self._spawns = spawns
+        self._scenario = ScenarioReply(SCHEMA_VERSION, spec.name, scenario.text, seed)
+        apply_overrides(engine, spec.lights)
+        self._lights = LightPublisher(engine, spec.session.status_rate_hz)
+        self._weather = WeatherPublisher(spec.weather, spec.session.status_rate_hz)
+        self._collisions = CollisionMatrix(spec.collisions.npc_npc)
+        self._offset_s: float | None = None  # session time minus engine time
+        self._next_npc_t = -math.inf
+        self._removals: dict[str, float] = {}  # hit NPC id -> session time it leaves
+        self._npc_batch: NpcBatch | None = None
+        self.stats = DomainStats()
+
+    @property
+    def scenario(self) -> Scenario:
+        return self._source
+
+    @property
+    def engine(self) -> TrafficEngine:
+        return self._engine
+
+    # ------------------------------------------------------------------ GlobalDomain
+
+    def ego_joined(self, track: EgoTrack) -> None:
+        log.info("ego %s (%s) joined the traffic", track.node_id, track.info.actor_kind)
+
+    def ego_left(self, node_id: str) -> None:
+        # The next tick no longer finds it among the egos: the engine drops it, contacts end.
+        log.info("ego %s left the traffic", node_id)
+
+    def tick(self, t: float, egos: Mapping[str, EgoTrack], out: Outbox) -> None:
+        self.stats.ticks += 1
+        now = egos_at(t, egos, self._spec.collisions.max_extrapolation_s)
+        placements = [e.placement() for e in now]
+        self._advance(t, placements)
+        actors = build_actors(now, self._engine.npcs(), self._spec.collisions)
+        self._publish_contacts(t, self._collisions.step(t, actors, out.next_seq), out)
+        self._remove_hit_npcs(t)
+        self._publish_world(t, out)
+
+    def snapshot_parts(self) -> tuple[NpcBatch | None, LightsState | None, Weather | None]:
+        return self._npc_batch, self._lights.current, self._weather.latest
+
+    def map_reply(self) -> MapReply | None:
+        return self._map
+
+    def scenario_reply(self) -> ScenarioReply | None:
+        return self._scenario
+
+    def spawn_point(self, node_kind: str, node_id: str) -> SpawnPoint | None:
+        return self._spawns.pick(node_kind, node_id)
+
+    def close(self) -> None:
+        self._engine.close()
+
+    # ------------------------------------------------------------------ one tick
+
+    def _advance(self, t: float, placements: list[EgoPlacement]) -> None:
+        """Step the engine to session time t; after a stall, catch up a little, drop the rest."""
+        engine, step = self._engine, self._engine.step_length_s
+        if self._offset_s is None:
+            self._offset_s = t - engine.time_s - step
+        target = t - self._offset_s
+        for _ in range(self._spec.session.max_catch_up_steps):
+            if engine.time_s + step / 2 > target:
+                return
+            engine.place_egos(placements)
+            engine.step()
+            self.stats.steps += 1
+        lag = target - engine.time_s
+        if lag > step / 2:
+            self._offset_s += lag
+            self.stats.dropped_s += lag
+            log.warning("traffic fell %.3f s behind the session clock; skipped ahead", lag)
+
+    def _publish_contacts(self, t: float, contacts: TickContacts, out: Outbox) -> None:
+        for event in contacts.events:
+            out.event(event)
+        for node_id, impulse in contacts.impulses:
+            out.impulse(node_id, impulse)
+            self.stats.impulses += 1
+        self.stats.contacts += sum(isinstance(e, ContactStarted) for e in contacts.events)
+        for npc_id in contacts.hit_npcs:
+            if npc_id not in self._removals:
+                self._engine.stop_npc(npc_id)
+                self._removals[npc_id] = t + self._spec.collisions.npc_hit_remove_after_s
+
+    def _remove_hit_npcs(self, t: float) -> None:
+        for npc_id in [n for n, due in self._removals.items() if due <= t]:
+            self._engine.remove_npc(npc_id)
+            del self._removals[npc_id]
+            self.stats.npcs_removed += 1
+
+    def _publish_world(self, t: float, out: Outbox) -> None:
+        if t >= self._next_npc_t:
+            period = 1.0 / self._spec.session.npc_rate_hz
+            self._next_npc_t = max(self._next_npc_t + period, t + period / 2)
+            frame = self._engine.npcs()
+            self._npc_batch = NpcBatch.pack(out.next_seq(), t, frame.ids, frame.rows)
+            out.npc(self._npc_batch)
+        lights = self._lights.tick(t, out.next_seq)
+        if lights is not None:
+            out.lights(lights)
+        scenario_s = t - (self._offset_s or 0.0)
+        weather = self._weather.tick(t, scenario_s, out.next_seq)
+        if weather is not None:
+            out.weather(weather)
+
+
+def load_domain(
+    scenario_name_or_path: str | Path,
+    seed_override: int | None = None,
+    *,
+    cache_dir: Path | None = None,
+) -> TrafficDomain:
+    """Build a scenario's network, start SUMO on it and return the domain that ticks it.
+
+    Raises ConfigError (naming the scenario file) for a scenario that does not fit its map,
+    SumoMissingError when SUMO is not installed, SumoToolError when a map fails to convert.
+    """
+    from carlaverse.traffic.mapdata import build_map_reply, read_net
+    from carlaverse.traffic.netbuild import build_map
+    from carlaverse.traffic.spawns import resolve_spawns
+    from carlaverse.traffic.sumo_engine import SumoEngine, SumoSettings
+
+    scenario = load_scenario(scenario_name_or_path)
+    spec = scenario.spec
+    built = build_map(scenario, cache_dir)
+    net = read_net(built.net)
+    try:
+        spawns = SpawnAllocator(resolve_spawns(net, spec.egos))
+        map_reply = build_map_reply(net, spec.name, built.polygons)
+    except ValueError as exc:
+        raise ConfigError(str(scenario.path), str(exc)) from exc
+    seed = spec.seed if seed_override is None else seed_override
+    engine = SumoEngine(SumoSettings(built.net, seed, spec.step_length_s, spec.traffic))
+    try:
+        return TrafficDomain(scenario, engine, map_reply, spawns, seed)
+    except ValueError as exc:
+        engine.close()
+        raise ConfigError(str(scenario.path), str(exc)) from exc
+    except BaseException:
+        engine.close()
+        raise
