@@ -41,8 +41,8 @@ class OrnsteinUhlenbeck:
         due = math.floor(t / self.step_s + 1e-9)
         n = due - self.steps
         if n > 0:
-            z = self.rng.standard_normal((n, self.value.size))
-            weights = self.a ** np.arange(n - 1, -1, -1, dtype=float)
-            self.value = self.mean + self.a**n * (self.value - self.mean) + self.b * (weights @ z)
+            # Step one at a time so the result is bit-identical however the steps are batched.
+            for z in self.rng.standard_normal((n, self.value.size)):
+                self.value = self.mean + self.a * (self.value - self.mean) + self.b * z
             self.steps = due
         return self.value

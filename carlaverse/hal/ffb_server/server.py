@@ -56,7 +56,7 @@ class FfbServer(UdpServer):
         self.actuator = actuator
         self.watchdog_s = watchdog_s  # [s]
         self.stats = FfbServerStats()
-        self.forces_live = False  # True from a valid packet until the next zeroing
+        self.forces_live = False  # a valid non-zero command is in effect
         self.last_valid_t: float | None = None  # [s] server clock
         self._warn = RateLimitedLog(log, clock, log_interval_s)
 
