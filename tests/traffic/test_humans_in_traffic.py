@@ -1,0 +1,86 @@
+"""NPCs see the humans: they queue behind a stopped driver and yield to a walker on a zebra.
+
+Real SUMO on the shipped crossing map (W - Z(ebra) - C(entre), lanes _0 sidewalk, _1 bike,
+_2 car). No random traffic: one scripted NPC meets one scripted ego.
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+from carlaverse.authority.memory_outbox import MemoryOutbox
+from carlaverse.messages import ContactStarted, Extent
+from carlaverse.traffic.sumo_tools import import_libsumo
+from tests.traffic.helpers import (
+    CROSSING_MAP,
+    T0,
+    domain_of,
+    ego_track,
+    lane_point,
+    npc_row,
+    pose,
+    run,
+    write_scenario,
+)
+
+QUIET = """
+traffic:
+  vehicles: {count: 0}
+  pedestrians: {count: 0}
+  scripted_vehicles:
+    - {id: follower, edges: [WZ, ZC, CE], depart_speed_mps: 10}
+"""
+
+
+def test_npc_queues_behind_a_stopped_human_driver(tmp_path: Path, net_cache: Path) -> None:
+    scenario = write_scenario(tmp_path, CROSSING_MAP + QUIET)
+    with domain_of(scenario, net_cache) as domain:
+        x, y, yaw = lane_point(domain.map_reply(), "WZ_2", 60.0)  # ego centre, 60 m down WZ
+        track = ego_track("driver")
+        track.last_pose = pose(T0, x, y, yaw)
+        out = MemoryOutbox()
+        run(domain, out, T0, 25.0, egos=lambda t: {"driver": track})
+        follower = npc_row(out.npcs[-1], "follower")
+        assert math.hypot(follower["vx"], follower["vy"]) < 0.05  # [m/s] it has stopped
+        gap = (x - 4.5 / 2) - (follower["x"] + follower["length"] / 2)  # [m] bumper to bumper
+        assert 0.5 < gap < 5.0, gap  # queued at SUMO's minimum gap (2.5 m), not touching
+        assert not [e for e in out.events if isinstance(e, ContactStarted)]
+
+
+def test_npc_yields_to_a_human_walker_on_the_zebra(tmp_path: Path, net_cache: Path) -> None:
+    scenario = write_scenario(tmp_path, CROSSING_MAP + QUIET)
+    with domain_of(scenario, net_cache) as domain:
+        reply = domain.map_reply()
+        zebra_x = lane_point(reply, ":Z_c0_0", 0.0)[0]  # the zebra runs north-south
+        _, car_lane_y, _ = lane_point(reply, "WZ_2", 100.0)
+        walker = ego_track("walker", actor_kind="pedestrian", kind="walk",
+                           extent=Extent(0.3, 0.5, 1.75), mass_kg=75.0)  # fmt: skip
+        walker.last_pose = pose(T0, zebra_x, car_lane_y, math.pi / 2)
+        out = MemoryOutbox()
+        t = run(domain, out, T0, 20.0, egos=lambda t: {"walker": walker})
+        follower = npc_row(out.npcs[-1], "follower")
+        assert math.hypot(follower["vx"], follower["vy"]) < 0.05  # [m/s] waiting
+        front = follower["x"] + follower["length"] / 2
+        assert zebra_x - 8.0 < front < zebra_x - 2.0  # [m] at the stop line, not on the zebra
+        assert not [e for e in out.events if isinstance(e, ContactStarted)]
+        # The walker leaves the zebra (despawns): the NPC drives on across it.
+        run(domain, out, t, 8.0)
+        follower = npc_row(out.npcs[-1], "follower")
+        assert follower["x"] - follower["length"] / 2 > zebra_x
+
+
+def test_a_despawned_ego_leaves_sumo(tmp_path: Path, net_cache: Path) -> None:
+    scenario = write_scenario(tmp_path, CROSSING_MAP + QUIET)
+    with domain_of(scenario, net_cache) as domain:
+        x, y, yaw = lane_point(domain.map_reply(), "WZ_2", 30.0)
+        track = ego_track("driver")
+        track.last_pose = pose(T0, x, y, yaw)
+        out = MemoryOutbox()
+        t = run(domain, out, T0, 1.0, egos=lambda t: {"driver": track})
+        ls = import_libsumo()
+        assert "@driver" in ls.vehicle.getIDList()
+        assert "driver" not in out.npcs[-1].ids  # egos are not NPCs
+        domain.ego_left("driver")
+        run(domain, out, t, 0.2)
+        assert "@driver" not in ls.vehicle.getIDList()
