@@ -138,9 +138,12 @@ class _Axis:
                 if magnitude <= 0.0
                 else (magnitude if x > 0 else -magnitude) / (1.0 - self.deadzone)
             )
+        # Clamp into the range the curve was checked on at load time, then its output.
+        x = self.lo if x < self.lo else 1.0 if x > 1.0 else x
         if self.curve is not None:
             x = self.curve(x)
-        return self.lo if x < self.lo else 1.0 if x > 1.0 else x
+            x = self.lo if x < self.lo else 1.0 if x > 1.0 else x
+        return x
 
 
 class Controls:
