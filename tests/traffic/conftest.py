@@ -1,11 +1,5 @@
 from __future__ import annotations
 
-from pathlib import Path
+from tests.traffic.helpers import net_cache
 
-import pytest
-
-
-@pytest.fixture(scope="session")
-def net_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """One network cache for the whole run: each map is built by netconvert once."""
-    return tmp_path_factory.mktemp("carlaverse-cache")
+__all__ = ["net_cache"]

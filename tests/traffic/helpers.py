@@ -9,6 +9,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from carlaverse.authority.domain import EgoTrack
 from carlaverse.authority.memory_outbox import MemoryOutbox
@@ -30,6 +31,12 @@ map:
 
 
 CAR = Extent(4.5, 1.8, 1.5)  # [m]
+
+
+@pytest.fixture(scope="session")
+def net_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """One network cache for the whole run: each map is built by netconvert once."""
+    return tmp_path_factory.mktemp("carlaverse-cache")
 
 
 def ego_track(
