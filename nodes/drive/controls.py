@@ -155,13 +155,17 @@ class Controls:
         self._throttle = _Axis(config.throttle, 0.0)
         self._brake = _Axis(config.brake, 0.0)
         self._clutch = _Axis(config.clutch, 0.0) if config.clutch else None
-        self._buttons = {
-            action: (sources,) if isinstance(sources, str) else tuple(sources)
-            for action, sources in config.buttons.items()
-        }
+        # Per action: its plain button channels (a set, for a C-speed disjointness test)
+        # and its hat directions as (hat, axis index, sign).
+        self._buttons: list[tuple[str, frozenset[str], tuple[tuple[str, int, int], ...]]] = []
+        for action, sources in config.buttons.items():
+            listed = [sources] if isinstance(sources, str) else sources
+            plain = frozenset(s for s in listed if not s.startswith("hat:"))
+            hats = tuple(_hat_source(s) for s in listed if s.startswith("hat:"))
+            self._buttons.append((action, plain, hats))
         self._held: frozenset[str] = frozenset()
         self.curve_errors = 0  # curve evaluations that failed; the linear value was used
-        self.has_h_shifter = any(a in self._buttons for a in H_SHIFTER_ACTIONS)
+        self.has_h_shifter = any(a in config.buttons for a in H_SHIFTER_ACTIONS)
 
     def read(self, raw: RawInput) -> DriverCommand:
         """Map one input sample. Missing channels read as released / centred."""
@@ -191,22 +195,27 @@ class Controls:
             return max(axis.lo, min(1.0, raw))
 
     def _held_actions(self, raw: RawInput) -> frozenset[str]:
-        buttons = raw.buttons
+        down = {name for name, value in raw.buttons.items() if value}
         hats: Mapping[str, tuple[int, int]] = getattr(raw, "hats", None) or {}
         held = [
             action
-            for action, sources in self._buttons.items()
-            if any(_source_held(s, buttons, hats) for s in sources)
+            for action, plain, hat_sources in self._buttons
+            if (down and not plain.isdisjoint(down))
+            or (hat_sources and any(_hat_held(h, hats) for h in hat_sources))
         ]
-        return frozenset(held) if held else frozenset()
+        return frozenset(held) if held else _NOTHING
 
 
-def _source_held(
-    source: str, buttons: Mapping[str, bool], hats: Mapping[str, tuple[int, int]]
-) -> bool:
-    if not source.startswith("hat:"):
-        return bool(buttons.get(source, False))
-    _, name, direction = ([*source.split(":"), "", ""])[:3]
-    axis, sign = HAT_DIRECTIONS.get(direction, (0, 0))
-    value = hats.get(name)
-    return value is not None and sign != 0 and value[axis] == sign
+_NOTHING: frozenset[str] = frozenset()
+
+
+def _hat_source(source: str) -> tuple[str, int, int]:
+    """'hat:dpad:left' → ('dpad', axis 0, sign −1); validated by check_source at load."""
+    _, name, direction = source.split(":")
+    axis, sign = HAT_DIRECTIONS[direction]
+    return name, axis, sign
+
+
+def _hat_held(source: tuple[str, int, int], hats: Mapping[str, tuple[int, int]]) -> bool:
+    value = hats.get(source[0])
+    return value is not None and value[source[1]] == source[2]
