@@ -29,7 +29,7 @@ class RateLimitedLog:
         held = self._suppressed.pop(kind, 0)
         if held:
             message += f" ({held} more like this in the last {self.interval_s:g} s)"
-        self.logger.log(level, message, *args)
+        self.logger.log(level, message, *args, stacklevel=3)  # name the caller's line
         return True
 
     def warning(self, kind: str, message: str, *args: object) -> bool:

@@ -44,11 +44,12 @@ def serve() -> Iterator[Callable[..., tuple[FfbServer, LogActuator, Sender]]]:
 def send_all(server: FfbServer, sender: Sender, packets: list[bytes], batch: int = 50) -> None:
     """Send in batches, waiting until the server has read each batch, so none is lost to a
     full socket buffer and the counters can be compared exactly."""
+    base = server.stats.received
     for start in range(0, len(packets), batch):
         chunk = packets[start : start + batch]
         for packet in chunk:
             sender.send(packet)
-        target = start + len(chunk)
+        target = base + start + len(chunk)
         wait_until(lambda t=target: server.stats.received >= t, 5, f"{target} received", FAST)
 
 

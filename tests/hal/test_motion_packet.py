@@ -30,7 +30,7 @@ def f32(x: float) -> float:
 def f32_below(bound: float) -> float:
     """The largest float32 not above `bound`."""
     x = np.float32(bound)
-    return float(np.nextafter(x, np.float32(0)) if x > bound else x)
+    return float(np.nextafter(x, np.float32(0)) if float(x) > bound else x)
 
 
 def frames(limits: MotionLimits = DEFAULT_LIMITS) -> st.SearchStrategy[MotionFrame]:

@@ -41,11 +41,12 @@ def serve() -> Iterator[Callable[..., tuple[MotionServer, LogPlatform, Sender]]]
 
 
 def send_all(server: MotionServer, sender: Sender, packets: list[bytes], batch: int = 50) -> None:
+    base = server.stats.received
     for start in range(0, len(packets), batch):
         chunk = packets[start : start + batch]
         for packet in chunk:
             sender.send(packet)
-        target = start + len(chunk)
+        target = base + start + len(chunk)
         wait_until(lambda t=target: server.stats.received >= t, 5, f"{target} received", FAST)
 
 

@@ -26,7 +26,7 @@ DEFAULT_WATCHDOG_S = 0.250  # [s] the paper's "predefined timeout"; --watchdog-m
 
 @dataclasses.dataclass
 class FfbServerStats:
-    received: int = 0  # datagrams read from the socket
+    received: int = 0  # datagrams read from the socket and fully handled
     applied: int = 0  # valid commands handed to the actuator
     wrong_size: int = 0
     out_of_range: int = 0
@@ -61,7 +61,12 @@ class FfbServer(UdpServer):
         self._warn = RateLimitedLog(log, clock, log_interval_s)
 
     def _on_datagram(self, data: bytes, now: float) -> None:
-        self.stats.received += 1
+        try:
+            self._handle(data, now)
+        finally:
+            self.stats.received += 1  # counted once fully handled, so readers see the outcome
+
+    def _handle(self, data: bytes, now: float) -> None:
         try:
             command = ffb_packet.decode(data)
         except FfbPacketError as exc:

@@ -39,7 +39,7 @@ COUNTER_BY_REASON = {
 
 @dataclasses.dataclass
 class MotionServerStats:
-    received: int = 0
+    received: int = 0  # datagrams read from the socket and fully handled
     frames: int = 0  # valid frames handed to the platform
     short: int = 0
     long: int = 0
@@ -78,7 +78,12 @@ class MotionServer(UdpServer):
         self._warn = RateLimitedLog(log, clock, log_interval_s)
 
     def _on_datagram(self, data: bytes, now: float) -> None:
-        self.stats.received += 1
+        try:
+            self._handle(data, now)
+        finally:
+            self.stats.received += 1  # counted once fully handled, so readers see the outcome
+
+    def _handle(self, data: bytes, now: float) -> None:
         try:
             frame = motion_packet.decode(data, self.limits)
         except MotionPacketError as exc:
