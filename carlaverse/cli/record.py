@@ -19,19 +19,46 @@ from carlaverse.recording.sink import DEFAULT_CHUNK_SIZE, McapSink, RecordingErr
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--session", help="session name to record (e.g. demo)")
     parser.add_argument("-o", "--output", required=True, type=Path, help="MCAP file to write")
-    parser.add_argument("--connect", action="append", default=[], metavar="EP",
-                        help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)")
-    parser.add_argument("--listen", action="append", default=[], metavar="EP",
-                        help="Zenoh endpoint to listen on (default tcp/127.0.0.1:0)")
-    parser.add_argument("--duration", type=float, default=None, metavar="S",
-                        help="stop after S seconds (default: until Ctrl-C / SIGTERM)")
-    parser.add_argument("--recover", type=Path, metavar="IN.mcap",
-                        help="rewrite an unfinished recording (killed recorder) into -o, indexed")
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="EP",
+        help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)",
+    )
+    parser.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="EP",
+        help="Zenoh endpoint to listen on (default tcp/127.0.0.1:0)",
+    )
+    parser.add_argument(
+        "--duration",
+        type=float,
+        default=None,
+        metavar="S",
+        help="stop after S seconds (default: until Ctrl-C / SIGTERM)",
+    )
+    parser.add_argument(
+        "--recover",
+        type=Path,
+        metavar="IN.mcap",
+        help="rewrite an unfinished recording (killed recorder) into -o, indexed",
+    )
     parser.add_argument("--compression", choices=("zstd", "lz4", "none"), default="zstd")
-    parser.add_argument("--chunk-kib", type=int, default=DEFAULT_CHUNK_SIZE // 1024,
-                        help="chunk size [KiB]; a crash loses at most one chunk or 1 s")
-    parser.add_argument("--queue-size", type=int, default=DEFAULT_QUEUE_SIZE,
-                        help="samples buffered for the writer before drops are counted")
+    parser.add_argument(
+        "--chunk-kib",
+        type=int,
+        default=DEFAULT_CHUNK_SIZE // 1024,
+        help="chunk size [KiB]; a crash loses at most one chunk or 1 s",
+    )
+    parser.add_argument(
+        "--queue-size",
+        type=int,
+        default=DEFAULT_QUEUE_SIZE,
+        help="samples buffered for the writer before drops are counted",
+    )
     parser.add_argument("--progress-s", type=float, default=1.0,
                         help="progress line interval on stderr [s]; 0 turns it off")  # fmt: skip
 
@@ -83,9 +110,7 @@ def _record(args: argparse.Namespace) -> int:
 
 def _wait(recorder: Recorder, duration_s: float | None, progress_s: float) -> None:
     """Block until the duration passes, SIGINT/SIGTERM arrives or the writer fails."""
-    stop = threading.Event()
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, lambda *_: stop.set())
+    stop = _stop_event()
     start = time.monotonic()
     deadline = None if duration_s is None else start + duration_s
     last = (start, 0)
@@ -99,8 +124,17 @@ def _wait(recorder: Recorder, duration_s: float | None, progress_s: float) -> No
             if stop.wait(timeout) or progress_s <= 0:
                 continue
             last = _progress(recorder.stats(), last)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # only when signals could not be taken over (not main thread)
         return
+
+
+def _stop_event() -> threading.Event:
+    """Set by SIGINT/SIGTERM, so the file is always finished with its indexes."""
+    stop = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: stop.set())
+    return stop
 
 
 def _progress(stats: RecorderStats, last: tuple[float, int]) -> tuple[float, int]:

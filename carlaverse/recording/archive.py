@@ -1,0 +1,191 @@
+"""What a recording keeps besides the samples: configs, scenario, roster, provenance.
+
+The paper archives the YAML with the logs; here every joined node's effective config and the
+scenario are fetched from the authority (`authority/configs`, `authority/scenario`) and stored
+as MCAP attachments byte-for-byte, at start and again after every spawn. The map and a world
+snapshot are stored as messages on their `authority/<query>` channels, so a recording can be
+viewed and replayed without the authority that produced it.
+
+The archive never writes the file itself: it hands `ArchiveItem`s to the writer thread.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import json
+import logging
+import platform
+import socket
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from datetime import UTC, datetime
+from typing import Any, Literal
+
+import zenoh
+
+from carlaverse import __version__, messages
+from carlaverse.keys import Keys
+
+log = logging.getLogger(__name__)
+
+SESSION_METADATA = "carlaverse.session"
+ROSTER_METADATA = "carlaverse.roster"
+HOSTNAMES_METADATA = "carlaverse.hostnames"
+CONFIG_ATTACHMENT = "config/{node_id}.yaml"
+SCENARIO_ATTACHMENT = "scenario.yaml"
+YAML_MEDIA_TYPE = "application/yaml"
+# Queried once at start and stored as messages; configs are re-queried after each spawn.
+STARTUP_QUERIES = ("scenario", "map", "snapshot", "configs")
+
+
+@dataclass(frozen=True, slots=True)
+class ArchiveItem:
+    """One thing for the writer thread to put in the file."""
+
+    kind: Literal["attachment", "metadata", "message"]
+    name: str  # attachment name, metadata name, or the key of a message
+    time_ns: int = 0  # [ns since the epoch]
+    data: bytes = b""
+    media_type: str = ""
+    values: Mapping[str, str] = field(default_factory=dict)
+
+
+def _version(dist: str) -> str:
+    try:
+        return importlib.metadata.version(dist)
+    except importlib.metadata.PackageNotFoundError:
+        return "not installed"
+
+
+def session_metadata(session: str, start_ns: int) -> dict[str, str]:
+    """Provenance of a recording; MCAP metadata values are strings."""
+    start = datetime.fromtimestamp(start_ns / 1e9, tz=UTC)
+    return {
+        "session": session,
+        "start_time_ns": str(start_ns),
+        "start_time_utc": start.isoformat(),
+        "recorder_hostname": socket.gethostname(),
+        "carlaverse_version": __version__,
+        "message_schema_version": str(messages.SCHEMA_VERSION),
+        "zenoh_version": _version("eclipse-zenoh"),
+        "msgspec_version": _version("msgspec"),
+        "mcap_version": _version("mcap"),
+        "python_version": platform.python_version(),
+    }
+
+
+class Archive:
+    """Fetches configs, scenario, map and snapshot from the authority, on demand."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: Keys,
+        emit: Callable[[ArchiveItem], None],
+        wall_ns: Callable[[], int],
+        query_timeout_s: float = 2.0,
+    ) -> None:
+        self._session = session
+        self._keys = keys
+        self._emit = emit
+        self._wall_ns = wall_ns
+        self._timeout_s = query_timeout_s
+        self._wake = threading.Event()
+        self._attached: dict[str, bytes] = {}
+        self._roster: dict[str, dict[str, Any]] = {}
+        self._hostnames: dict[str, str] = {"recorder": socket.gethostname()}
+        self._last_roster: tuple[dict[str, str], dict[str, str]] | None = None
+        self.errors = 0
+
+    def request_refresh(self) -> None:
+        """Ask for the configs again (a node spawned); safe from any thread."""
+        self._wake.set()
+
+    def run(self, stop: threading.Event) -> None:
+        """Archiver thread body: start-up queries, then a configs refresh per request."""
+        self._emit(ArchiveItem("metadata", SESSION_METADATA, values=self._session_values()))
+        for name in STARTUP_QUERIES:
+            if stop.is_set():
+                return
+            self._fetch(name)
+        while not stop.is_set():
+            if self._wake.wait(timeout=0.1):
+                self._wake.clear()
+                self._fetch("configs")
+
+    def _session_values(self) -> dict[str, str]:
+        return session_metadata(self._keys.session, self._wall_ns())
+
+    # ------------------------------------------------------------------ queries
+
+    def _fetch(self, name: str) -> None:
+        for key, payload in self._query(name):
+            self._emit(ArchiveItem("message", key, self._wall_ns(), payload))
+            self._absorb(name, payload)
+
+    def _query(self, name: str) -> list[tuple[str, bytes]]:
+        selector = self._keys.authority(name)
+        out: list[tuple[str, bytes]] = []
+        try:
+            for reply in self._session.get(selector, timeout=self._timeout_s):
+                if reply.ok is None:
+                    self._count_error(f"{selector} answered with an error: {reply.err}")
+                    continue
+                out.append((str(reply.ok.key_expr), reply.ok.payload.to_bytes()))
+        except zenoh.ZError as exc:
+            self._count_error(f"query {selector} failed: {exc}")
+        if not out:
+            log.info(
+                "no answer to %s (no authority yet?); will archive on the next spawn", selector
+            )
+        return out
+
+    def _count_error(self, message: str) -> None:
+        self.errors += 1
+        log.warning("%s", message)
+
+    def _absorb(self, name: str, payload: bytes) -> None:
+        codec = messages.CHANNEL_CODECS[("authority", name)]
+        try:
+            reply = codec.decode(payload)
+        except messages.MessageError as exc:
+            self._count_error(f"authority/{name} reply did not decode: {exc}")
+            return
+        if isinstance(reply, messages.ConfigsReply):
+            self._absorb_configs(reply)
+        elif isinstance(reply, messages.ScenarioReply):
+            self._attach(SCENARIO_ATTACHMENT, reply.yaml.encode())
+        elif isinstance(reply, messages.Snapshot):
+            self._absorb_snapshot(reply)
+
+    def _absorb_configs(self, reply: messages.ConfigsReply) -> None:
+        for node_id, config_yaml in sorted(reply.nodes.items()):
+            self._attach(CONFIG_ATTACHMENT.format(node_id=node_id), config_yaml.encode())
+            self._roster.setdefault(node_id, {})["config"] = True
+        if reply.scenario_yaml:
+            self._attach(SCENARIO_ATTACHMENT, reply.scenario_yaml.encode())
+        # Node hostnames arrive only if the authority reports them (a later ConfigsReply field).
+        self._hostnames.update(getattr(reply, "hostnames", None) or {})
+        self._emit_roster()
+
+    def _absorb_snapshot(self, snapshot: messages.Snapshot) -> None:
+        for ego in snapshot.egos:
+            entry = self._roster.setdefault(ego.node_id, {})
+            entry.update(kind=ego.kind, actor_kind=ego.actor_kind, site=ego.site)
+        self._emit_roster()
+
+    def _attach(self, name: str, data: bytes) -> None:
+        """Attach a file unless the same bytes are already in the recording under that name."""
+        if self._attached.get(name) == data:
+            return
+        self._attached[name] = data
+        self._emit(ArchiveItem("attachment", name, self._wall_ns(), data, YAML_MEDIA_TYPE))
+
+    def _emit_roster(self) -> None:
+        roster = {node: json.dumps(info, sort_keys=True) for node, info in self._roster.items()}
+        if self._last_roster == (roster, self._hostnames):
+            return
+        self._last_roster = (roster, dict(self._hostnames))
+        self._emit(ArchiveItem("metadata", ROSTER_METADATA, values=roster))
+        self._emit(ArchiveItem("metadata", HOSTNAMES_METADATA, values=dict(self._hostnames)))

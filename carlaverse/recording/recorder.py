@@ -1,0 +1,220 @@
+"""Record every key of a session into an MCAP file (DESIGN §10).
+
+Threads and why:
+- Zenoh callbacks only stamp the receive time and push the sample into a bounded queue;
+  they never touch the file, so a slow disk cannot stall the fabric. A full queue drops the
+  sample and counts it (`RecorderStats.dropped`).
+- One writer thread owns the `McapSink`: it drains the queue, encodes, writes, and closes
+  chunks on time so a crash loses at most `flush_interval_s`.
+- One archiver thread queries the authority (configs, scenario, map, snapshot) at start and
+  again whenever `world/events` announces a spawn, and hands the replies to the writer as
+  attachments, metadata and messages on the `authority/<query>` channels.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import queue
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import zenoh
+
+from carlaverse import messages
+from carlaverse.keys import Keys
+from carlaverse.recording.archive import Archive, ArchiveItem
+from carlaverse.recording.sink import McapSink
+
+log = logging.getLogger(__name__)
+
+DEFAULT_QUEUE_SIZE = 200_000  # samples; ~20 s of a busy session (10k msg/s)
+
+
+@dataclass(frozen=True, slots=True)
+class RecorderStats:
+    received: int  # samples delivered by Zenoh
+    written: int  # messages in the file (includes archived query replies)
+    dropped: int  # samples lost because the writer fell behind
+    bytes_in: int  # [B] payload bytes written
+    channels: int
+    attachments: int
+    decode_errors: int  # payloads of a known type that did not decode (recorded raw)
+    queued: int
+    failure: str  # why the writer stopped early, "" while healthy
+
+
+def _channel_metadata(sample: zenoh.Sample) -> dict[str, str]:
+    """Delivery settings of the first sample of a key, so replay can publish alike."""
+    return {
+        "zenoh.encoding": str(sample.encoding),
+        "zenoh.congestion_control": str(sample.congestion_control).rsplit(".", 1)[-1],
+        "zenoh.priority": str(sample.priority).rsplit(".", 1)[-1],
+        "zenoh.express": "true" if sample.express else "false",
+    }
+
+
+class Recorder:
+    """Subscribes to `Keys(session).everything` and writes what arrives to a sink."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: Keys,
+        sink: McapSink,
+        *,
+        queue_size: int = DEFAULT_QUEUE_SIZE,
+        wall_ns: Callable[[], int] = time.time_ns,
+        query_timeout_s: float = 2.0,
+        archive: bool = True,
+    ) -> None:
+        self._session = session
+        self._keys = keys
+        self._sink = sink
+        self._wall_ns = wall_ns
+        self._queue: queue.Queue[tuple[int, Any]] = queue.Queue(maxsize=queue_size)
+        self._control: deque[ArchiveItem] = deque()
+        self._archive = Archive(session, keys, self._control.append, wall_ns, query_timeout_s)
+        self._archive_enabled = archive
+        self._received = itertools.count(1)
+        self._dropped = itertools.count(1)
+        self._n_received = 0
+        self._n_dropped = 0
+        self._known_keys: set[str] = set()
+        self._events_key = keys.world("events")
+        self._stop = threading.Event()
+        self._failure = ""
+        self._threads: list[threading.Thread] = []
+        self._subscribers: list[Any] = []
+
+    # ------------------------------------------------------------------ lifecycle
+
+    def start(self) -> None:
+        self._threads.append(threading.Thread(target=self._write_loop, name="mcap-writer"))
+        if self._archive_enabled:
+            self._threads.append(
+                threading.Thread(target=self._archive.run, args=(self._stop,), name="mcap-archive")
+            )
+        for thread in self._threads:
+            thread.daemon = True
+            thread.start()
+        self._subscribers.append(
+            self._session.declare_subscriber(self._keys.everything, self._on_sample)
+        )
+        self._subscribers.append(
+            self._session.liveliness().declare_subscriber(
+                self._keys.all_nodes, self._on_sample, history=True
+            )
+        )
+
+    def stop(self) -> RecorderStats:
+        """Stop listening, write what is queued, close the file with its indexes."""
+        for sub in self._subscribers:
+            sub.undeclare()
+        self._subscribers.clear()
+        self._stop.set()
+        for thread in self._threads:
+            thread.join()
+        self._threads.clear()
+        stats = self.stats()
+        try:
+            self._sink.metadata("carlaverse.summary", self._summary(stats))
+            self._sink.close()
+        except OSError as exc:
+            self._failure = self._failure or f"closing {self._sink.path}: {exc}"
+        return self.stats()
+
+    def stats(self) -> RecorderStats:
+        s = self._sink.stats
+        return RecorderStats(
+            received=self._n_received,
+            written=s.messages,
+            dropped=self._n_dropped,
+            bytes_in=s.bytes_in,
+            channels=s.channels,
+            attachments=s.attachments,
+            decode_errors=s.decode_errors,
+            queued=self._queue.qsize(),
+            failure=self._failure,
+        )
+
+    # ------------------------------------------------------------------ Zenoh side
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        """Runs on a Zenoh thread: stamp and hand over, nothing else."""
+        try:
+            self._queue.put_nowait((self._wall_ns(), sample))
+            self._n_received = next(self._received)
+        except queue.Full:
+            self._n_dropped = next(self._dropped)
+
+    # ------------------------------------------------------------------ writer thread
+
+    def _write_loop(self) -> None:
+        try:
+            while not (self._stop.is_set() and self._queue.empty() and not self._control):
+                self._drain_once()
+            self._drain_control()
+        except OSError as exc:
+            self._failure = f"writing {self._sink.path}: {exc}"
+            log.error("recorder stopped: %s", self._failure)
+
+    def _drain_once(self) -> None:
+        try:
+            item = self._queue.get(timeout=0.05)
+        except queue.Empty:
+            item = None
+        batch = 0
+        while item is not None and batch < 4096:
+            self._write_sample(*item)
+            batch += 1
+            try:
+                item = self._queue.get_nowait()
+            except queue.Empty:
+                item = None
+        self._drain_control()
+        self._sink.maybe_flush()
+
+    def _write_sample(self, recv_ns: int, sample: zenoh.Sample) -> None:
+        key = str(sample.key_expr)
+        payload = sample.payload.to_bytes()
+        kind = "delete" if sample.kind == zenoh.SampleKind.DELETE else "put"
+        metadata = None
+        if key not in self._known_keys:
+            self._known_keys.add(key)
+            metadata = _channel_metadata(sample)
+        self._sink.write(key, payload, recv_ns, kind, metadata)
+        if key == self._events_key and kind == "put":
+            self._watch_event(payload)
+
+    def _watch_event(self, payload: bytes) -> None:
+        try:
+            event = messages.WORLD_EVENT.decode(payload)
+        except messages.MessageError:
+            return  # already recorded raw with its error by the sink
+        if isinstance(event, messages.Spawned):
+            self._archive.request_refresh()
+
+    def _drain_control(self) -> None:
+        while self._control:
+            item = self._control.popleft()
+            if item.kind == "attachment":
+                self._sink.attach(item.name, item.media_type, item.data, item.time_ns)
+            elif item.kind == "metadata":
+                self._sink.metadata(item.name, item.values)
+            else:
+                self._sink.write(item.name, item.data, item.time_ns)
+
+    def _summary(self, stats: RecorderStats) -> dict[str, str]:
+        return {
+            "end_time_ns": str(self._wall_ns()),
+            "messages": str(stats.written),
+            "received": str(stats.received),
+            "dropped": str(stats.dropped),
+            "decode_errors": str(stats.decode_errors),
+            "archive_errors": str(self._archive.errors),
+        }

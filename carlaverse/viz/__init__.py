@@ -1,0 +1,6 @@
+"""Live and recorded views of a session in Rerun (DESIGN §10): `carlaverse view`.
+
+`world` keeps the latest state of a session (fed from Zenoh callbacks or a recording),
+`scene` turns it into Rerun entities on the `sim_time` timeline, `live` and `playback` are
+the two sources, and `outputs` connects a recording stream to a viewer, web viewer or file.
+"""
