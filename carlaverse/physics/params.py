@@ -11,7 +11,7 @@ from typing import Annotated, Literal
 
 import msgspec
 
-from carlaverse.config import ConfigError, StrictStruct, load_config
+from carlaverse.config import StrictStruct, load_config
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
@@ -121,10 +121,8 @@ def check_consistency(p: VehicleParams) -> None:
 
 
 def load_vehicle(path: str | Path, relative_to: Path | None = None) -> VehicleParams:
-    """Load a vehicle file by path or shipped name (`vehicles/compact-car`)."""
-    try:
-        return load_config(path, VehicleParams, relative_to)
-    except ValueError as exc:
-        if isinstance(exc, ConfigError):
-            raise
-        raise ConfigError(str(path), str(exc)) from exc
+    """Load a vehicle file by path or shipped name (`vehicles/compact-car`).
+
+    Range and cross-field errors arrive as ConfigError naming the file and the field.
+    """
+    return load_config(path, VehicleParams, relative_to)

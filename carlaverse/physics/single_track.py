@@ -104,26 +104,35 @@ class SingleTrack:
         brake_front, brake_rear = self._brake_split(brake_n, mu, fzf, fzr)
         cos_d, sin_d = math.cos(steer_rad), math.sin(steer_rad)
         fyf, fyr = self._lateral_forces(
-            s, mu, cos_d, sin_d, drive_front_n + brake_front, brake_rear
+            s, mu, cos_d, sin_d, abs(drive_front_n) + brake_front, abs(drive_rear_n) + brake_rear
         )
         # Front tyre force resolved into the body frame (brakes taken along the body x axis;
         # the sin δ part of a braking force is below the model's other simplifications).
         fy_front_body = fyf * cos_d + drive_front_n * sin_d
         propulsive = drive_front_n * cos_d - fyf * sin_d + drive_rear_n
-        propulsive -= self._drag * s.vx * abs(s.vx)
-        propulsive += self.mass * s.vy * s.yaw_rate  # body-frame rotation: v̇x = F_x/m + vy·r
         vx_old = s.vx
-        s.vx = _coulomb(s.vx, propulsive, brake_front + brake_rear + self._roll,
-                        self.mass + extra_mass_kg, dt)  # fmt: skip
-        ay = (fy_front_body + fyr) / self.mass
-        yaw_acc = (self.a * fy_front_body - self.b * fyr) / self.body.yaw_inertia_kgm2
-        s.ax = (s.vx - vx_old) / dt - s.vy * s.yaw_rate
-        s.ay = ay
-        s.vy += (ay - vx_old * s.yaw_rate) * dt
-        s.yaw_rate += yaw_acc * dt
+        self._longitudinal(dt, propulsive, brake_front + brake_rear, extra_mass_kg)
+        self._lateral(dt, vx_old, fy_front_body, fyr)
         s.steer = steer_rad
         self._integrate_pose(dt)
         self._lag_load_transfer(dt)
+
+    def _longitudinal(self, dt: float, propulsive: float, brake: float, extra_mass: float) -> None:
+        """vx under tyre forces, drag and the Coulomb resistances; a_x from the change."""
+        s = self.state
+        propulsive -= self._drag * s.vx * abs(s.vx)
+        propulsive += self.mass * s.vy * s.yaw_rate  # body-frame rotation: v̇x = F_x/m + vy·r
+        vx_old = s.vx
+        s.vx = _coulomb(vx_old, propulsive, brake + self._roll, self.mass + extra_mass, dt)
+        s.ax = (s.vx - vx_old) / dt - s.vy * s.yaw_rate
+
+    def _lateral(self, dt: float, vx_old: float, fy_front_body: float, fy_rear: float) -> None:
+        """vy and yaw rate, explicit Euler with the start-of-step forward speed."""
+        s = self.state
+        s.ay = (fy_front_body + fy_rear) / self.mass
+        yaw_acc = (self.a * fy_front_body - self.b * fy_rear) / self.body.yaw_inertia_kgm2
+        s.vy += (s.ay - vx_old * s.yaw_rate) * dt
+        s.yaw_rate += yaw_acc * dt
 
     def _brake_split(
         self, brake_n: float, mu: float, fzf: float, fzr: float

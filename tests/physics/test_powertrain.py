@@ -4,10 +4,13 @@ from __future__ import annotations
 
 import msgspec
 import pytest
+import yaml
 
+from carlaverse.config import ConfigError
 from carlaverse.physics.car import Car
-from carlaverse.physics.params import VehicleParams
+from carlaverse.physics.params import VehicleParams, load_vehicle
 from carlaverse.physics.powertrain import RADPS_TO_RPM, Powertrain
+from tests.physics.vehicles import VEHICLES_DIR
 
 DT = 0.001  # [s]
 
@@ -106,3 +109,23 @@ def test_a_coarser_loop_rate_gives_the_same_car(compact_car: VehicleParams) -> N
 
     # 250 Hz vs 1 kHz: the same 0-100 time within 1 % (Euler's O(dt) error plus one step).
     assert zero_to_hundred(0.004) == pytest.approx(zero_to_hundred(DT), rel=0.01)
+
+
+@pytest.mark.parametrize(
+    ("section", "field", "value", "message"),
+    [
+        ("body", "mass_kg", -5, r"body\.mass_kg"),
+        ("body", "cg_to_front_axle_m", 9.0, "shorter than body.wheelbase_m"),
+        ("engine", "torque_curve", [[3000, 100], [1000, 120]], "rpm ascending"),
+        ("transmission", "downshift_rpm", [2500, 6500], "hysteresis"),
+        ("tyres", "grip", 1.0, "unknown field"),
+    ],
+)
+def test_vehicle_errors_name_the_file_and_field(tmp_path, section, field, value, message):
+    data = yaml.safe_load((VEHICLES_DIR / "compact-car.yaml").read_text())
+    data[section][field] = value
+    path = tmp_path / "broken-car.yaml"
+    path.write_text(yaml.safe_dump(data))
+    with pytest.raises(ConfigError, match=message) as info:
+        load_vehicle(path)
+    assert "broken-car.yaml" in str(info.value)
