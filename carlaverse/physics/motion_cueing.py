@@ -108,11 +108,9 @@ class MotionCueing:
     def __init__(self, params: MotionCueingParams) -> None:
         self.params = params
         p = params
-        self._ax, self._ay, self._az = (
-            LowPass(p.accel_lpf_s),
-            LowPass(p.accel_lpf_s),
-            LowPass(p.accel_lpf_s),
-        )
+        self._ax = LowPass(p.accel_lpf_s)
+        self._ay = LowPass(p.accel_lpf_s)
+        self._az = LowPass(p.accel_lpf_s)
         self._brake, self._steer = LowPass(p.brake_lpf_s), LowPass(p.steer_lpf_s)
         self._jx, self._jz = LowPass(p.jerk_lpf_s), LowPass(p.jerk_lpf_s)
         self._prev_ax = self._prev_az = self._prev_brake = 0.0
@@ -205,11 +203,9 @@ class MotionCueing:
             pulse.elapsed_s += dt
             if pulse.elapsed_s < pulse.duration_s:
                 k = pulse.shape()
-                roll, pitch, heave = (
-                    roll + k * pulse.roll,
-                    pitch + k * pulse.pitch,
-                    heave + k * (pulse.heave),
-                )
+                roll += k * pulse.roll
+                pitch += k * pulse.pitch
+                heave += k * pulse.heave
                 alive.append(pulse)
         self._pulses = alive
         return roll, pitch, heave
