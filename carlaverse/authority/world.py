@@ -203,7 +203,10 @@ def load_domain(
     except ValueError as exc:
         raise ConfigError(str(scenario.path), str(exc)) from exc
     seed = spec.seed if seed_override is None else seed_override
-    engine = SumoEngine(SumoSettings(built.net, seed, spec.step_length_s, spec.traffic))
+    try:
+        engine = SumoEngine(SumoSettings(built.net, seed, spec.step_length_s, spec.traffic))
+    except ValueError as exc:
+        raise ConfigError(str(scenario.path), str(exc)) from exc
     try:
         return TrafficDomain(scenario, engine, map_reply, spawns, seed)
     except ValueError as exc:

@@ -98,9 +98,7 @@ class SumoEngine:
             self._top_up()
         except self._ls.TraCIException as exc:
             self.close()
-            raise ValueError(
-                f"traffic does not fit the network {settings.net.name}: {exc}"
-            ) from exc
+            raise ValueError(f"traffic does not fit the network ({settings.net}): {exc}") from exc
 
     @staticmethod
     def _command(s: SumoSettings) -> list[str]:

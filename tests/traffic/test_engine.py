@@ -1,0 +1,82 @@
+"""The SUMO engine and the domain's stepping: one simulation per process, centre poses,
+dead reckoning of egos, and catching up with the session clock after a stall."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from carlaverse.authority.actors import egos_at
+from carlaverse.authority.memory_outbox import MemoryOutbox
+from carlaverse.traffic.sumo_engine import EngineBusyError, SumoEngine, SumoSettings
+from carlaverse.traffic.sumo_tools import import_libsumo
+from tests.traffic.helpers import (
+    CROSSING_MAP,
+    T0,
+    TICK_S,
+    domain_of,
+    ego_track,
+    npc_row,
+    pose,
+    run,
+    write_scenario,
+)
+
+PARKED = """
+traffic:
+  vehicles: {count: 0}
+  pedestrians: {count: 0}
+  scripted_vehicles:
+    - {id: parked, kind: truck, edges: [ZC], depart_pos_m: 10, stop: {edge: ZC, pos_m: 25}}
+"""
+
+
+def test_second_simulation_in_one_process_is_refused(tmp_path: Path, net_cache: Path) -> None:
+    with domain_of(write_scenario(tmp_path, CROSSING_MAP + PARKED), net_cache) as domain:
+        net = Path(import_libsumo().simulation.getOption("net-file"))
+        with pytest.raises(EngineBusyError, match="close it first"):
+            SumoEngine(SumoSettings(net, 1, 0.02))
+        assert domain.engine.time_s == 0.0  # the running one is untouched
+
+
+def test_npc_rows_carry_centre_pose_and_kind(tmp_path: Path, net_cache: Path) -> None:
+    with domain_of(write_scenario(tmp_path, CROSSING_MAP + PARKED), net_cache) as domain:
+        out = MemoryOutbox()
+        run(domain, out, T0, 5.0)
+        row = npc_row(out.npcs[-1], "parked")
+        ls = import_libsumo()
+        front_x, front_y = ls.vehicle.getPosition("parked")  # SUMO: the front bumper
+        assert row["x"] == pytest.approx(front_x - 9.0 / 2, abs=1e-3)  # trucks are 9 m
+        assert row["y"] == pytest.approx(front_y, abs=1e-3)
+        assert row["yaw"] == pytest.approx(0.0, abs=1e-4)  # ZC runs east
+        assert (row["length"], row["width"]) == pytest.approx((9.0, 2.5))
+        assert row["kind"] == 2  # messages.ACTOR_KINDS.index("truck")
+
+
+def test_egos_are_dead_reckoned_to_the_tick_and_observers_have_no_body() -> None:
+    driver = ego_track("d")
+    driver.last_pose = pose(10.0, 0.0, 0.0, math.pi / 2, speed=4.0)
+    watcher = ego_track("o", actor_kind="", kind="observer")
+    watcher.last_pose = pose(10.0, 5.0, 5.0)
+    fresh = egos_at(10.25, {"d": driver, "o": watcher, "x": ego_track("x")}, 0.5)
+    assert [e.node_id for e in fresh] == ["d"]  # no pose yet, no body: not in the world
+    assert fresh[0].y == pytest.approx(1.0) and fresh[0].x == pytest.approx(0.0)
+    assert egos_at(20.0, {"d": driver}, 0.5)[0].y == pytest.approx(2.0)  # capped at 0.5 s
+
+
+def test_after_a_stall_the_engine_catches_up_a_little_then_skips(
+    tmp_path: Path, net_cache: Path
+) -> None:
+    with domain_of(write_scenario(tmp_path, CROSSING_MAP + PARKED), net_cache) as domain:
+        out = MemoryOutbox()
+        t = run(domain, out, T0, 1.0)
+        assert domain.engine.time_s == pytest.approx(1.0)
+        domain.tick(t + 0.06, {}, out)  # two ticks late: catch up
+        assert domain.engine.time_s == pytest.approx(1.0 + 0.06 + TICK_S)
+        domain.tick(t + 2.0, {}, out)  # a 2 s stall: 5 steps, the rest is dropped
+        assert domain.engine.time_s == pytest.approx(1.08 + 5 * TICK_S)
+        assert domain.stats.dropped_s == pytest.approx(2.0 - 0.06 - 5 * TICK_S, abs=1e-6)
+        domain.tick(t + 2.0 + TICK_S, {}, out)  # and from there on, one step per tick
+        assert domain.engine.time_s == pytest.approx(1.08 + 6 * TICK_S)
