@@ -8,7 +8,6 @@ carlaverse ffb-server --device G29 --watchdog-ms 150 -o gain_percent=70
 from __future__ import annotations
 
 import argparse
-import sys
 
 from carlaverse.cli import hal_common
 from carlaverse.config import ConfigError
@@ -41,25 +40,13 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         actuator.close()
         return hal_common.fail("ffb-server", f"cannot listen on {args.bind}:{args.port}: {exc}")
-    return serve(server, backend, args)
+    return hal_common.serve("ffb-server", server, backend, args, lambda: summary(server))
 
 
-def serve(server: FfbServer, backend: str, args: argparse.Namespace) -> int:
-    hal_common.stop_on_signals(server.stop)
-    hal_common.stop_after(args.duration, server.stop)
-    host, port = server.address
-    print(
-        f"ffb-server listening on udp {host}:{port}, backend {backend}, "
-        f"watchdog {args.watchdog_ms:g} ms",
-        file=sys.stderr,
-        flush=True,
-    )
-    server.serve_forever()
+def summary(server: FfbServer) -> str:
     s = server.stats
-    print(
-        f"ffb-server stopped: {s.received} packets, {s.applied} applied, {s.wrong_size} wrong "
-        f"size, {s.out_of_range} out of range, {s.watchdog_trips} watchdog stops, "
-        f"{s.device_errors} device errors",
-        file=sys.stderr,
+    return (
+        f"{s.received} packets, {s.applied} applied, {s.wrong_size} wrong size, "
+        f"{s.out_of_range} out of range, {s.watchdog_trips} watchdog stops, "
+        f"{s.device_errors} device errors"
     )
-    return 0

@@ -84,6 +84,23 @@ def stop_after(seconds: float | None, stop: Callable[[], None]) -> None:
         timer.start()
 
 
+def serve(command: str, server: Any, backend: str, args: argparse.Namespace,
+          summary: Callable[[], str]) -> int:  # fmt: skip
+    """Run `server` in this thread until a signal or `--duration`, then print `summary()`."""
+    stop_on_signals(server.stop)
+    stop_after(args.duration, server.stop)
+    host, port = server.address
+    print(
+        f"{command} listening on udp {host}:{port}, backend {backend}, "
+        f"watchdog {args.watchdog_ms:g} ms",
+        file=sys.stderr,
+        flush=True,
+    )
+    server.serve_forever()
+    print(f"{command} stopped: {summary()}", file=sys.stderr)
+    return 0
+
+
 def fail(command: str, exc: object) -> int:
     print(f"carlaverse {command}: {exc}", file=sys.stderr)
     return 2

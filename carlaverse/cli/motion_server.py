@@ -11,7 +11,6 @@
 from __future__ import annotations
 
 import argparse
-import sys
 
 from carlaverse.cli import hal_common
 from carlaverse.config import ConfigError
@@ -38,21 +37,13 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         platform.close()
         return hal_common.fail("motion-server", f"cannot listen on {args.bind}:{args.port}: {exc}")
-    hal_common.stop_on_signals(server.stop)
-    hal_common.stop_after(args.duration, server.stop)
-    host, port = server.address
-    print(
-        f"motion-server listening on udp {host}:{port}, backend {backend}, "
-        f"watchdog {args.watchdog_ms:g} ms",
-        file=sys.stderr,
-        flush=True,
-    )
-    server.serve_forever()
+    return hal_common.serve("motion-server", server, backend, args, lambda: summary(server))
+
+
+def summary(server: MotionServer) -> str:
     s = server.stats
-    print(
-        f"motion-server stopped: {s.received} packets, {s.frames} frames, {s.short} short, "
-        f"{s.long} long, {s.unknown_command} unknown commands, {s.invalid_value} invalid "
-        f"values, {s.neutral_events} watchdog neutrals",
-        file=sys.stderr,
+    return (
+        f"{s.received} packets, {s.frames} frames, {s.short} short, {s.long} long, "
+        f"{s.unknown_command} unknown commands, {s.invalid_value} invalid values, "
+        f"{s.neutral_events} watchdog neutrals"
     )
-    return 0

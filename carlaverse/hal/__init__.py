@@ -23,7 +23,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any
 
-from carlaverse.hal import camera, ffb, input, motion, speed_sensor, trainer, xr
+from carlaverse.hal import camera, ffb, motion, speed_sensor, trainer, xr
+from carlaverse.hal import input as input_family
 from carlaverse.hal.camera import Camera, CameraConfig, CameraFrame
 from carlaverse.hal.device import Clock, DeviceConfig, open_device
 from carlaverse.hal.errors import (
@@ -48,7 +49,7 @@ def open_input(
     cfg: InputConfig | Config, *, clock: Clock | None = None, source: str = "input"
 ) -> InputDevice:
     """Open the input device `cfg` names (wheel, pedals, keyboard, scripted driver)."""
-    return open_device(input.registry(), cfg, InputConfig, clock=clock, source=source)
+    return open_device(input_family.registry(), cfg, InputConfig, clock=clock, source=source)
 
 
 def open_ffb(
