@@ -43,6 +43,7 @@ class UdpServer:
         self._wake_r, self._wake_w = socket.socketpair()
         self._stopping = threading.Event()
         self._thread: threading.Thread | None = None
+        self._served = False
 
     @staticmethod
     def _bind(bind: str, port: int, receive_buffer_bytes: int) -> socket.socket:
@@ -78,6 +79,7 @@ class UdpServer:
     # ------------------------------------------------------------------ loop
     def serve_forever(self) -> None:
         """Run until `stop()`; always ends through `_on_stop`."""
+        self._served = True
         try:
             while not self._stopping.is_set():
                 self._wait_and_drain()
@@ -127,6 +129,9 @@ class UdpServer:
             self._wake_w.send(b"x")
         if self._thread is not None and self._thread is not threading.current_thread():
             self._thread.join(timeout_s)
+        if not self._served:  # never ran: nothing else will close the sockets
+            self._sock.close()
+            self._wake_r.close()
         with contextlib.suppress(OSError):
             self._wake_w.close()
 

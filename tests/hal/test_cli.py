@@ -73,7 +73,7 @@ def test_motion_server_cli_writes_csv(tmp_path: Path) -> None:
     sender.close()
     thread.join(10)
     assert result == [0]
-    rows = list(csv.DictReader(path.open()))
+    rows = list(csv.DictReader(path.read_text().splitlines()))
     frames = [r for r in rows if r["kind"] == "frame"]
     assert [float(r["roll"]) for r in frames] == pytest.approx([0.01, 0.02, 0.03])
     assert rows[-1]["kind"] == "neutral"

@@ -132,7 +132,7 @@ def test_csv_platform_writes_timestamped_rows(tmp_path: Path) -> None:
     finally:
         server.stop()
         sender.close()
-    rows = list(csv.DictReader(path.open()))
+    rows = list(csv.DictReader(path.read_text().splitlines()))
     assert [r["kind"] for r in rows] == ["frame", "neutral", "neutral"]  # watchdog, then stop
     assert float(rows[0]["t_s"]) == 10.0 and float(rows[0]["pitch"]) == 0.125
     assert float(rows[0]["rpm"]) == 900 and float(rows[1]["t_s"]) == pytest.approx(10.3)
