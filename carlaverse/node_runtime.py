@@ -99,13 +99,15 @@ def run_node(
     client = NodeClient(session, node_settings, MonotonicClock(), config_yaml=to_yaml(config))
     started = time.monotonic()
     try:
-        client.start(pose_source=node.pose_source())
-        if not client.wait_joined(join_timeout_s):
-            log.warning("no authority answered within %.0f s; running unjoined", join_timeout_s)
-        _loop(node, client, started, duration_s, stop, 1.0 / loop_hz)
+        try:
+            client.start(pose_source=node.pose_source())
+            if not client.wait_joined(join_timeout_s):
+                log.warning("no authority answered in %.0f s; running unjoined", join_timeout_s)
+            _loop(node, client, started, duration_s, stop, 1.0 / loop_hz)
+        finally:
+            node.close()  # first: its report (e.g. the control loop's timing) is final then
         return _summary(node, client, time.monotonic() - started)
     finally:
-        node.close()
         client.close()
         session.close()
 

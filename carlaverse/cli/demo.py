@@ -58,6 +58,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--session", default="demo", help="session name (default demo)")
     parser.add_argument("--record", metavar="FILE.mcap", help="also record the session to MCAP")
     parser.add_argument("--rrd", metavar="FILE.rrd", help="also save a Rerun recording")
+    parser.add_argument(
+        "--node-config",
+        action="append",
+        default=[],
+        metavar="KIND=FILE",
+        help="config for every node of KIND (repeatable); kinds with devices "
+        "and no config run headless on their sim backend",
+    )
     parser.add_argument("--json", action="store_true", help="print the summary as JSON")
     parser.add_argument("--quiet", action="store_true", help="no progress lines")
 
@@ -121,8 +129,13 @@ def _node_argv(
         str(args.duration),
         "--json",
     ]
+    configs = dict(item.split("=", 1) for item in args.node_config)
     if config is not None:
         argv += ["--config", str(config)]
+    elif kind in configs:
+        argv += ["--config", configs[kind]]
+    elif kind not in ("scripted", "observer"):
+        argv += ["--backend", "sim"]  # no hardware here: the kind's honest simulated devices
     return argv
 
 
@@ -130,6 +143,9 @@ def run(args: argparse.Namespace) -> int:
     kinds = [k.strip() for k in args.nodes.split(",") if k.strip()]
     if not kinds:
         return fail("demo", "--nodes names no node kind")
+    bad = [item for item in args.node_config if "=" not in item]
+    if bad:
+        return fail("demo", f"--node-config takes KIND=FILE, got {bad[0]!r}")
     stop = stop_on_signals()
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     children: list[Child] = []

@@ -33,6 +33,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--config", help="node YAML (path, or name of a shipped config)")
     parser.add_argument(
+        "--backend",
+        help="force every device of the node onto this backend (e.g. sim: run headless "
+        "with a scripted driver/rider, no hardware)",
+    )
+    parser.add_argument(
         "--join-timeout",
         type=float,
         default=30.0,
@@ -70,7 +75,12 @@ def run(args: argparse.Namespace) -> int:
     config = msgspec.structs.replace(config, fabric=fabric)
     stop = stop_on_signals()
     try:
+        if args.backend:
+            if not hasattr(kind_cls, "with_backend"):
+                return fail("join", f"node kind {args.kind!r} has no devices for --backend")
+            config = kind_cls.with_backend(config, args.backend)
         node = kind_cls(config)
+        node_settings = getattr(node, "node_settings", node_settings)
         summary = run_node(
             node,
             node_settings,
@@ -84,6 +94,8 @@ def run(args: argparse.Namespace) -> int:
         return fail("join", f"the authority refused {node_settings.node_id!r}: {exc}", 4)
     except FabricError as exc:
         return fail("join", str(exc), 3)
+    except (ValueError, ConfigError) as exc:
+        return fail("join", f"{args.kind}: {exc}")
     if summary.refused:
         return fail(
             "join", f"the authority refused {node_settings.node_id!r}: {summary.refused}", 4

@@ -1,0 +1,111 @@
+"""The drive node end to end: its own loop process, the fabric, real FFB and motion servers."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+from carlaverse_nodes.drive.node import scripted_route
+
+from carlaverse import messages as m
+from carlaverse.hal.ffb_server import FfbServer, LogActuator
+from carlaverse.hal.ffb_server.actuator import LogActuatorOptions
+from carlaverse.hal.motion_server import LogPlatform, MotionServer
+from carlaverse.hal.motion_server.platform import LogPlatformOptions
+from carlaverse.keys import Keys
+from tests.support import Cluster, wait_until
+
+
+def drive_config(tmp: Path, ffb_port: int, motion_port: int) -> Path:
+    config = {
+        "node": {"kind": "drive"},
+        "vehicle": "vehicles/compact-car.yaml",
+        "input": {
+            "backend": "sim",
+            "options": {
+                "mode": "path",
+                "path": {
+                    "waypoints": [list(p) for p in scripted_route()],
+                    "target_speed_mps": 12.0,
+                    "wheelbase_m": 2.64,
+                    "max_steer_rad": 0.593,
+                },
+            },
+        },
+        "ffb": {"backend": "udp", "options": {"port": ffb_port}},
+        "motion": {"backend": "udp", "options": {"port": motion_port}},
+    }
+    target = tmp / "drive-test.yaml"
+    target.write_text(yaml.safe_dump(config))
+    return target
+
+
+def test_demo_with_a_drive_node_reaches_the_ffb_and_motion_servers(tmp_path: Path) -> None:
+    with (
+        FfbServer(LogActuator(LogActuatorOptions()), "127.0.0.1", 0) as ffb,
+        MotionServer(LogPlatform(LogPlatformOptions()), "127.0.0.1", 0) as motion,
+    ):
+        config = drive_config(tmp_path, ffb.address[1], motion.address[1])
+        done = subprocess.run(
+            [
+                sys.executable,
+                "-m",
+                "carlaverse",
+                "demo",
+                "--nodes",
+                "drive,scripted",
+                "--scenario",
+                "none",
+                "--duration",
+                "8",
+                "--json",
+                "--quiet",
+                "--node-config",
+                f"drive={config}",
+            ],
+            capture_output=True,
+            text=True,
+            timeout=120,
+        )
+        assert done.returncode == 0, done.stderr[-3000:]
+        summary = json.loads(done.stdout)
+        assert summary["all_seen"], summary["nodes"]
+        assert "drive-1" in summary["nodes"]["scripted-2"]["actors_seen"]
+        assert ffb.stats.applied > 1000  # 500 Hz for most of 8 s
+        assert motion.stats.frames > 200  # 100 Hz
+
+
+def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> None:
+    cluster.router()
+    cluster.authority()
+    drive = cluster.start(
+        "join",
+        "drive",
+        "--id",
+        "car",
+        "--session",
+        "t",
+        "--connect",
+        cluster.endpoint,
+        "--backend",
+        "sim",
+        "--duration",
+        "6",
+        "--json",
+        name="car",
+    )
+    obs = cluster.observer()
+    wait_until(lambda: obs.update() and "car" in obs.world.egos, 30, "the car")
+    impulse = m.Impulse(
+        1, obs.now(), 7, (-3000.0, 0.0, 0.0), (0.0, 0.0, 0.5), (-1.0, 0.0, 0.0), "npc-1", "car", 2.0
+    )
+    session = cluster.sessions[0]
+    session.put(Keys("t").impulse("car"), m.IMPULSE.encode(impulse))
+    session.put(Keys("t").impulse("car"), m.IMPULSE.encode(impulse))  # a duplicate: once only
+    assert drive.wait(40) == 0
+    loop = drive.json()["extra"]["loop"]
+    assert loop["impulses_applied"] == 1
+    assert loop["ticks"] > 3000 and loop["distance_m"] > 10
