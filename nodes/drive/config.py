@@ -45,6 +45,9 @@ class LoopSettings(StrictStruct):
     ffb_rate_hz: Positive = 500.0  # FFB commands sent at most this often
     motion_rate_hz: Positive = 100.0  # FRAME_UPDATEs sent at most this often
     blink_period_s: Positive = 0.667  # indicator flasher period [s]
+    # Ask the OS for real-time scheduling (SCHED_FIFO) for the loop process; needs root or
+    # CAP_SYS_NICE, falls back to a raised nice priority, and says so when neither works.
+    realtime_priority: Annotated[int, msgspec.Meta(ge=0, le=99)] = 40  # 0: leave as is
 
 
 class RoadSettings(StrictStruct):

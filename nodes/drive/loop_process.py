@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import os
 import queue
 import time
 from array import array
@@ -57,6 +58,7 @@ class MergedInput:
 
 def run_loop(spec: LoopSpec, events: Any, results: Any, stop: Any) -> None:
     """Entry point of the control process."""
+    raise_priority(spec.config.loop.realtime_priority)
     state = SharedBlock(spec.state_block, STATE)
     control = SharedBlock(spec.control_block, CONTROL)
     runner = _Runner(spec, state, control, events)
@@ -67,6 +69,26 @@ def run_loop(spec: LoopSpec, events: Any, results: Any, stop: Any) -> None:
         runner.close()
         state.close()
         control.close()
+
+
+def raise_priority(priority: int) -> str:
+    """Real-time scheduling for this process if allowed, else a better nice value."""
+    if priority <= 0:
+        return "unchanged"
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        return f"SCHED_FIFO {priority}"
+    except (PermissionError, AttributeError, OSError):
+        pass
+    try:
+        os.nice(-10)
+        return "nice -10"
+    except (PermissionError, OSError):
+        log.warning(
+            "loop runs at normal priority: grant CAP_SYS_NICE (or run as root) "
+            "for real-time scheduling and tighter loop timing"
+        )
+        return "normal"
 
 
 class _Runner:
