@@ -105,6 +105,16 @@ def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> No
     session = cluster.sessions[0]
     session.put(Keys("t").impulse("car"), m.IMPULSE.encode(impulse))
     session.put(Keys("t").impulse("car"), m.IMPULSE.encode(impulse))  # a duplicate: once only
+    # an ADAS program takes over the pedals: the car's published state says so
+    cruise = m.Override(1, obs.now(), "acc-test", cruise_speed_mps=8.0, expires_t=obs.now() + 30)
+    session.put(Keys("t").override("car"), m.OVERRIDE.encode(cruise))
+
+    def adas_visible() -> bool:
+        obs.update()
+        state = obs.world.ego_states.get("car")
+        return state is not None and state.adas != ""
+
+    wait_until(adas_visible, 5, "the override in the car's ego state")
     assert drive.wait(40) == 0
     loop = drive.json()["extra"]["loop"]
     assert loop["impulses_applied"] == 1
