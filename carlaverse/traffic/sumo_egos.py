@@ -24,6 +24,7 @@ EGO_PREFIX = "@"  # SUMO ids of carried egos; NPC ids never start with it
 KEEP_ROUTE_ANYWHERE = 2  # moveToXY: map to the nearest lane, ignoring the route
 SPEED_MODE_NONE = 0  # no safe-speed, acceleration or right-of-way checks: we drive
 LANE_CHANGE_NONE = 0  # no autonomous lane changes
+RETRY_AFTER_S = 1.0  # [s] engine time before an ego that could not be placed is tried again
 
 
 def sumo_id(node_id: str) -> str:
@@ -41,6 +42,7 @@ class EgoCarrier:
     def __init__(self, ls: Any) -> None:
         self._ls = ls
         self._carried: dict[str, bool] = {}  # node id -> is a person
+        self._retry_at: dict[str, float] = {}  # node id -> engine time of the next attempt [s]
         self.failures = 0
 
     @property
@@ -51,12 +53,16 @@ class EgoCarrier:
     def persons(self) -> int:
         return sum(1 for person in self._carried.values() if person)
 
-    def place(self, egos: Sequence[EgoPlacement]) -> None:
+    def place(self, egos: Sequence[EgoPlacement], now_s: float) -> None:
+        """Carry these egos at engine time `now_s`; drop the ones no longer among them."""
         wanted = {e.node_id for e in egos}
         for node_id in [n for n in self._carried if n not in wanted]:
             self.remove(node_id)
+        for node_id in [n for n in self._retry_at if n not in wanted]:
+            del self._retry_at[node_id]
         for ego in egos:
-            self._place_one(ego)
+            if now_s >= self._retry_at.get(ego.node_id, -math.inf):
+                self._place_one(ego, now_s)
 
     def remove(self, node_id: str) -> None:
         person = self._carried.pop(node_id, None)
@@ -68,7 +74,7 @@ class EgoCarrier:
         except self._ls.TraCIException as exc:
             log.debug("ego %s was already gone from SUMO: %s", node_id, exc)
 
-    def _place_one(self, ego: EgoPlacement) -> None:
+    def _place_one(self, ego: EgoPlacement, now_s: float) -> None:
         person = ego.actor_kind == "pedestrian"
         try:
             if self._carried.get(ego.node_id) is not person:
@@ -76,10 +82,16 @@ class EgoCarrier:
                 self._add(ego, person)
             self._move(ego, person)
         except self._ls.TraCIException as exc:
-            # Off the network or finished by SUMO: drop it and add it afresh next step.
+            # Off the network, or its walk finished by SUMO: drop it, add it afresh a bit later.
             self.failures += 1
-            log.debug("ego %s could not be placed in SUMO: %s", ego.node_id, exc)
+            first = ego.node_id not in self._retry_at
+            (log.warning if first else log.debug)(
+                "ego %s cannot be carried in SUMO (NPCs will not see it): %s", ego.node_id, exc
+            )
+            self._retry_at[ego.node_id] = now_s + RETRY_AFTER_S
             self.remove(ego.node_id)
+            return
+        self._retry_at.pop(ego.node_id, None)
 
     def _add(self, ego: EgoPlacement, person: bool) -> None:
         ls, sid = self._ls, sumo_id(ego.node_id)

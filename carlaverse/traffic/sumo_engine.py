@@ -111,7 +111,7 @@ class SumoEngine:
     # ------------------------------------------------------------------ egos and NPC reactions
 
     def place_egos(self, egos: Sequence[EgoPlacement]) -> None:
-        self._egos.place(egos)
+        self._egos.place(egos, self.time_s)
 
     @property
     def ego_failures(self) -> int:

@@ -80,3 +80,17 @@ def test_after_a_stall_the_engine_catches_up_a_little_then_skips(
         assert domain.stats.dropped_s == pytest.approx(2.0 - 0.06 - 5 * TICK_S, abs=1e-6)
         domain.tick(t + 2.0 + TICK_S, {}, out)  # and from there on, one step per tick
         assert domain.engine.time_s == pytest.approx(1.08 + 6 * TICK_S)
+
+
+def test_egos_off_the_network_do_not_break_the_tick(tmp_path: Path, net_cache: Path) -> None:
+    body = CROSSING_MAP + "traffic: {vehicles: {count: 2}, pedestrians: {count: 0}}\n"
+    with domain_of(write_scenario(tmp_path, body), net_cache) as domain:
+        far = ego_track("far")  # SUMO carries a vehicle off-road
+        far.last_pose = pose(T0, 5000.0, 5000.0)
+        lost = ego_track("lost", actor_kind="pedestrian", kind="walk")  # no sidewalk near
+        lost.last_pose = pose(T0, 5000.0, 5000.0)
+        out = MemoryOutbox()
+        run(domain, out, T0, 3.0, egos=lambda t: {"far": far, "lost": lost})
+        # The walker is retried once per second, not every tick; counted, never raised.
+        assert 2 <= domain.engine.ego_failures <= 4
+        assert len(out.npcs) >= 59 and out.npcs[-1].ids  # the world went on
