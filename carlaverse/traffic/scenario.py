@@ -154,6 +154,9 @@ class Traffic(StrictStruct):
     action_step_s: NonNegative = 0.2  # [s] NPC decision interval, 0 = every step
     time_to_teleport_s: float = 120.0  # [s] SUMO unjams stuck vehicles, < 0 = never
     top_up_interval_s: Positive = 1.0  # [s] how often NPC counts are restored
+    # [m] an ego farther than this from every lane is off-road: NPCs do not react to it
+    # (a car park, a plaza); a smaller radius also makes placing egos cheaper.
+    ego_match_radius_m: Positive = 10.0
     sumo_warnings: bool = False  # let SUMO print its warnings (noisy with human actors)
     sumo_options: list[str] = []  # extra sumo options, appended verbatim
 

@@ -39,8 +39,9 @@ def sumo_angle_deg(yaw: float) -> float:
 class EgoCarrier:
     """The egos currently carried in SUMO, kept in step with the placements each tick."""
 
-    def __init__(self, ls: Any) -> None:
+    def __init__(self, ls: Any, match_radius_m: float = 10.0) -> None:
         self._ls = ls
+        self._radius_m = match_radius_m
         self._carried: dict[str, bool] = {}  # node id -> is a person
         self._retry_at: dict[str, float] = {}  # node id -> engine time of the next attempt [s]
         self.failures = 0
@@ -115,12 +116,16 @@ class EgoCarrier:
     def _move(self, ego: EgoPlacement, person: bool) -> None:
         sid, angle = sumo_id(ego.node_id), sumo_angle_deg(ego.yaw)
         if person:
-            self._ls.person.moveToXY(sid, "", ego.x, ego.y, angle, KEEP_ROUTE_ANYWHERE)
+            self._ls.person.moveToXY(
+                sid, "", ego.x, ego.y, angle, KEEP_ROUTE_ANYWHERE, self._radius_m
+            )
             return
         half = ego.length / 2.0
         front_x = ego.x + half * math.cos(ego.yaw)
         front_y = ego.y + half * math.sin(ego.yaw)
-        self._ls.vehicle.moveToXY(sid, "", -1, front_x, front_y, angle, KEEP_ROUTE_ANYWHERE)
+        self._ls.vehicle.moveToXY(
+            sid, "", -1, front_x, front_y, angle, KEEP_ROUTE_ANYWHERE, self._radius_m
+        )
 
     def clear(self) -> None:
         for node_id in list(self._carried):

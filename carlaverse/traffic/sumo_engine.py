@@ -56,7 +56,7 @@ class SumoEngine:
         self._ls.start(self._command(settings))
         SumoEngine._open = True
         self._closed = False
-        self._egos = EgoCarrier(self._ls)
+        self._egos = EgoCarrier(self._ls, settings.traffic.ego_match_radius_m)
         self._frame = NpcFrame.empty()
         self._next_top_up = 0.0
         try:
