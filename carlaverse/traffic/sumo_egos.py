@@ -47,6 +47,10 @@ class EgoCarrier:
         self.failures = 0
 
     @property
+    def carrying(self) -> bool:
+        return bool(self._carried)
+
+    @property
     def vehicles(self) -> int:
         return sum(1 for person in self._carried.values() if not person)
 

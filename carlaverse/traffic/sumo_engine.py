@@ -98,7 +98,7 @@ class SumoEngine:
         self._ls.simulationStep()
         if self.time_s + 1e-9 >= self._next_top_up:
             self._top_up()
-        self._frame = self._reader.read(self.time_s)
+        self._frame = self._reader.read(self.time_s, carried=self._egos.carrying)
 
     def _top_up(self) -> None:
         self._demand.top_up(self._egos.vehicles, self._egos.persons)
