@@ -1,0 +1,93 @@
+"""`carlaverse replay`: republish an MCAP recording into a live session, with its timing."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from pathlib import Path
+
+from carlaverse.fabric.session import FabricError, endpoint_settings, open_session
+from carlaverse.keys import KeySpaceError, check_token
+from carlaverse.recording.reading import iter_samples, read_channels
+from carlaverse.recording.replay import Replayer, ReplayStats, wait_for_peers
+from carlaverse.recording.sink import RecordingError
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("file", type=Path, metavar="FILE.mcap", help="recording to replay")
+    parser.add_argument("--session", help="target session (default: the recorded one)")
+    parser.add_argument(
+        "--speed",
+        type=float,
+        default=1.0,
+        metavar="X",
+        help="time scale: 2 plays twice as fast (default 1)",
+    )
+    parser.add_argument("--loop", action="store_true", help="start over at the end until Ctrl-C")
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="EP",
+        help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)",
+    )
+    parser.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="EP",
+        help="Zenoh endpoint to listen on (default tcp/127.0.0.1:0)",
+    )
+    parser.add_argument(
+        "--no-queries",
+        action="store_true",
+        help="do not answer authority/map|scenario|snapshot|configs from the "
+        "recording (use when a live authority runs in the target session)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    if args.speed <= 0:
+        print(f"carlaverse replay: --speed must be > 0, got {args.speed}", file=sys.stderr)
+        return 2
+    try:
+        if args.session:
+            check_token(args.session, "session name")
+        if not args.file.is_file():
+            raise RecordingError(f"no recording at {args.file}")
+        stats = _replay(args)
+    except (RecordingError, FabricError, KeySpaceError) as exc:
+        print(f"carlaverse replay: {exc}", file=sys.stderr)
+        return 1
+    print(
+        f"replayed {stats.published} samples on {len(stats.per_key)} keys in {stats.passes} "
+        f"pass(es); {stats.late} late (worst {stats.max_late_s * 1e3:.1f} ms), "
+        f"{stats.skipped} skipped",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _replay(args: argparse.Namespace) -> ReplayStats:
+    stop = _stop_event()
+    session = open_session(endpoint_settings(listen=args.listen, connect=args.connect))
+    replayer = Replayer(session, args.session, speed=args.speed, serve_queries=not args.no_queries)
+    try:
+        if args.connect and not wait_for_peers(session, stop):
+            raise FabricError(f"could not reach {', '.join(args.connect)} within 10 s")
+        replayer.prepare(read_channels(args.file))
+        replayer.wait_for_subscribers(stop)  # best effort: a session may have no listener yet
+        return replayer.run(lambda: iter_samples(args.file), stop, loop=args.loop)
+    finally:
+        replayer.close()
+        session.close()
+
+
+def _stop_event() -> threading.Event:
+    stop = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: stop.set())
+    return stop

@@ -1,0 +1,233 @@
+"""Republish a recording into a live session with its original timing (DESIGN §10).
+
+Each sample goes out at `start + (log_time - first_log_time) / speed`, with its original
+payload byte for byte and its key moved under the target session. Timing is kept tight by
+sleeping until ~1 ms before a deadline and spinning the rest (a plain sleep overshoots by
+up to a scheduler tick). A sample that is already late is sent at once, never skipped; the
+lateness is counted.
+
+So that viewers and late joiners see the recorded world, recorded authority replies (map,
+scenario, snapshot, configs) are served as queryables, and recorded presence (`node/<id>`)
+becomes liveliness tokens of the replaying session.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from collections import Counter
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import zenoh
+
+from carlaverse.keys import Keys, KeySpaceError, parse
+from carlaverse.recording.reading import RecordedSample
+
+log = logging.getLogger(__name__)
+
+SPIN_S = 0.001  # [s] busy-wait this close to a deadline
+LATE_S = 0.001  # [s] a sample sent later than this counts as late
+
+
+def wait_until(
+    deadline: float,
+    clock: Callable[[], float],
+    sleep: Callable[[float], None],
+    stop: threading.Event,
+    spin_s: float = SPIN_S,
+) -> bool:
+    """Return at `deadline` (clock seconds), or False early if `stop` is set."""
+    while True:
+        remaining = deadline - clock()
+        if remaining <= 0:
+            return True
+        if stop.is_set():
+            return False
+        if remaining > spin_s:
+            sleep(min(remaining - spin_s, 0.05))  # wake now and then to notice `stop`
+
+
+def wait_for_peers(
+    session: zenoh.Session, stop: threading.Event, timeout_s: float = 10.0, settle_s: float = 0.5
+) -> bool:
+    """Wait until the session reaches a peer or router, then `settle_s` more [s].
+
+    Samples put before the session knows its subscribers are lost, and the first samples are
+    what a replay most needs to deliver; the settle time lets subscriber declarations arrive.
+    """
+    deadline = time.monotonic() + timeout_s
+    while not (list(session.info.peers_zid()) or list(session.info.routers_zid())):
+        if time.monotonic() > deadline or stop.wait(0.02):
+            return False
+    stop.wait(settle_s)
+    return True
+
+
+@dataclass(slots=True)
+class ReplayStats:
+    published: int = 0
+    passes: int = 0
+    late: int = 0  # samples sent more than LATE_S after their slot
+    max_late_s: float = 0.0  # [s]
+    skipped: int = 0  # keys outside the key space (recorded by a newer carlaverse)
+    per_key: Counter[str] = field(default_factory=Counter)
+
+
+def _qos(metadata: Mapping[str, str]) -> dict[str, Any]:
+    """Publisher settings from the channel metadata the recorder wrote."""
+    qos: dict[str, Any] = {}
+    cc = metadata.get("zenoh.congestion_control")
+    if cc and hasattr(zenoh.CongestionControl, cc):
+        qos["congestion_control"] = getattr(zenoh.CongestionControl, cc)
+    prio = metadata.get("zenoh.priority")
+    if prio and hasattr(zenoh.Priority, prio):
+        qos["priority"] = getattr(zenoh.Priority, prio)
+    if "zenoh.express" in metadata:
+        qos["express"] = metadata["zenoh.express"] == "true"
+    if metadata.get("zenoh.encoding"):
+        qos["encoding"] = zenoh.Encoding(metadata["zenoh.encoding"])
+    return qos
+
+
+class Replayer:
+    """Publishes recorded samples on a Zenoh session; one thread calls `run`."""
+
+    def __init__(
+        self,
+        session: zenoh.Session,
+        target_session: str | None = None,
+        *,
+        speed: float = 1.0,
+        serve_queries: bool = True,
+        clock: Callable[[], float] = time.perf_counter,
+        sleep: Callable[[float], None] = time.sleep,
+    ) -> None:
+        if speed <= 0:
+            raise ValueError(f"replay speed must be > 0, got {speed}")
+        self._session = session
+        self._target = target_session
+        self._speed = speed
+        self._serve_queries = serve_queries
+        self._clock = clock
+        self._sleep = sleep
+        self._keys: dict[str, str | None] = {}
+        self._publishers: dict[str, zenoh.Publisher] = {}
+        self._replies: dict[str, bytes] = {}
+        self._queryables: dict[str, zenoh.Queryable] = {}
+        self._tokens: dict[str, Any] = {}
+        self.stats = ReplayStats()
+
+    def run(
+        self,
+        source: Callable[[], Iterable[RecordedSample]],
+        stop: threading.Event,
+        loop: bool = False,
+    ) -> ReplayStats:
+        """Replay `source()` once (or until `stop` with `loop`); returns the counts."""
+        while not stop.is_set():
+            self._one_pass(source(), stop)
+            self.stats.passes += 1
+            if not loop:
+                break
+        return self.stats
+
+    def prepare(self, channels: Mapping[str, Mapping[str, str]]) -> None:
+        """Declare a publisher per recorded key up front, so subscribers can match early."""
+        for key, metadata in channels.items():
+            target = self._target_key(key)
+            if target is not None and parse(target).area not in ("authority", "node"):
+                self._publisher(target, metadata)
+
+    def wait_for_subscribers(self, stop: threading.Event, timeout_s: float = 2.0) -> bool:
+        """Until some subscriber matches a prepared key (declarations have arrived)."""
+        deadline = time.monotonic() + timeout_s
+        while not any(p.matching_status.matching for p in self._publishers.values()):
+            if time.monotonic() > deadline or stop.wait(0.01):
+                return False
+        return True
+
+    def close(self) -> None:
+        for handle in [*self._publishers.values(), *self._queryables.values()]:
+            handle.undeclare()
+        for token in self._tokens.values():
+            token.undeclare()
+        self._publishers.clear()
+        self._queryables.clear()
+        self._tokens.clear()
+
+    def _one_pass(self, samples: Iterable[RecordedSample], stop: threading.Event) -> None:
+        start = self._clock()
+        first_ns: int | None = None
+        for sample in samples:
+            first_ns = sample.log_time_ns if first_ns is None else first_ns
+            due = start + (sample.log_time_ns - first_ns) / 1e9 / self._speed
+            if not wait_until(due, self._clock, self._sleep, stop):
+                return
+            self._count_lateness(self._clock() - due)
+            self._send(sample)
+
+    def _count_lateness(self, late_s: float) -> None:
+        if late_s > LATE_S:
+            self.stats.late += 1
+            self.stats.max_late_s = max(self.stats.max_late_s, late_s)
+
+    # ------------------------------------------------------------------ sending
+
+    def _send(self, sample: RecordedSample) -> None:
+        key = self._target_key(sample.key)
+        if key is None:
+            self.stats.skipped += 1
+            return
+        area = parse(key).area
+        if area == "authority":
+            self._serve(key, sample.payload)
+        elif area == "node":
+            self._presence(key, sample.kind)
+        else:
+            self._publish(key, sample)
+        self.stats.published += 1
+        self.stats.per_key[key] += 1
+
+    def _target_key(self, key: str) -> str | None:
+        if key not in self._keys:
+            try:
+                parsed = parse(key)
+                session = self._target or parsed.session
+                self._keys[key] = Keys(parsed.session).with_session(key, session)
+            except KeySpaceError as exc:
+                log.warning("not replaying %s: %s", key, exc)
+                self._keys[key] = None
+        return self._keys[key]
+
+    def _publisher(self, key: str, metadata: Mapping[str, str]) -> zenoh.Publisher:
+        publisher = self._publishers.get(key)
+        if publisher is None:
+            publisher = self._session.declare_publisher(key, **_qos(metadata))
+            self._publishers[key] = publisher
+        return publisher
+
+    def _publish(self, key: str, sample: RecordedSample) -> None:
+        publisher = self._publisher(key, sample.channel_metadata)
+        if sample.kind == "delete":
+            publisher.delete()
+        else:
+            publisher.put(sample.payload)
+
+    def _serve(self, key: str, payload: bytes) -> None:
+        """Answer queries on an authority key with the latest recorded reply."""
+        self._replies[key] = payload
+        if self._serve_queries and key not in self._queryables:
+            self._queryables[key] = self._session.declare_queryable(
+                key, lambda query, key=key: query.reply(key, self._replies[key]), complete=True
+            )
+
+    def _presence(self, key: str, kind: str) -> None:
+        if kind == "delete":
+            token = self._tokens.pop(key, None)
+            if token is not None:
+                token.undeclare()
+        elif key not in self._tokens:
+            self._tokens[key] = self._session.liveliness().declare_token(key)

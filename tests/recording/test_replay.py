@@ -1,0 +1,116 @@
+"""Replay a recording into a new session: same messages, same order, original timing."""
+
+from __future__ import annotations
+
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import zenoh
+
+from carlaverse import cli, messages
+from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.keys import Keys, parse
+from carlaverse.recording.reading import RecordedSample, iter_samples
+from carlaverse.recording.recorder import Recorder
+from carlaverse.recording.replay import Replayer
+from carlaverse.recording.replay import wait_until as wait_deadline
+from carlaverse.recording.sink import McapSink
+from tests.recording.conftest import World
+from tests.support import wait_until
+
+
+def _record(world: World, path: Path, seconds: float) -> None:
+    session = world.connect()
+    recorder = Recorder(session, Keys("rec"), McapSink(path, monotonic=time.monotonic))
+    try:
+        recorder.start()
+        world.wait_matched()
+        world.publish_for(seconds)
+        total = sum(world.synthetic.published.values())
+        wait_until(lambda: recorder.stats().received >= total, 10, f"{total} samples")
+        recorder.stop()
+    finally:
+        session.close()
+
+
+def test_replay_keeps_payloads_order_and_timing(world: World, tmp_path: Path) -> None:
+    path = tmp_path / "session.mcap"
+    _record(world, path, 2.0)
+    recorded = [s for s in iter_samples(path) if parse(s.key).area not in ("authority", "node")]
+
+    arrivals: list[tuple[float, str, bytes]] = []
+    observer = world.connect()
+    sub = observer.declare_subscriber(
+        Keys("again").everything,
+        lambda s: arrivals.append((time.perf_counter(), str(s.key_expr), s.payload.to_bytes())),
+    )
+    code: list[int] = []
+    argv = ["replay", str(path), "--session", "again", "--connect", world.endpoint]
+    replay = threading.Thread(target=lambda: code.append(cli.main(argv)))
+    try:
+        replay.start()
+        wait_until(lambda: arrivals, 15, "the first replayed sample")
+        # while it runs, the recorded map is served to joiners of the replayed session
+        map_key = Keys("again").authority("map")
+        reply = wait_until(lambda: _answer(observer, map_key), 5, "the recorded map served")
+        assert messages.MAP.decode(reply).lanes
+        replay.join(timeout=30)
+        wait_until(lambda: len(arrivals) >= len(recorded), 5, "every replayed sample")
+    finally:
+        sub.undeclare()
+        observer.close()
+    assert code == [0]
+
+    expected = [(Keys("rec").with_session(s.key, "again"), s.payload) for s in recorded]
+    assert [(k, p) for _, k, p in arrivals] == expected  # byte-identical, same order
+
+    original = np.diff([s.log_time_ns / 1e9 for s in recorded])
+    replayed = np.diff([t for t, _, _ in arrivals])
+    error = np.abs(replayed - original)
+    assert np.percentile(error, 95) < 0.005, f"p95 timing error {np.percentile(error, 95):.4f} s"
+    total = (arrivals[-1][0] - arrivals[0][0]) - (
+        recorded[-1].log_time_ns - recorded[0].log_time_ns
+    ) / 1e9
+    assert abs(total) < 0.02, f"replay drifted {total:.4f} s over {len(recorded)} samples"
+
+
+def _answer(session: zenoh.Session, key: str) -> bytes | None:
+    for reply in session.get(key, timeout=1):
+        if reply.ok is not None:
+            return reply.ok.payload.to_bytes()
+    return None
+
+
+def test_precise_wait_with_a_manual_clock() -> None:
+    now = [0.0]
+    sleeps: list[float] = []
+
+    def sleep(dt: float) -> None:
+        sleeps.append(dt)
+        now[0] += dt
+
+    def clock() -> float:
+        now[0] += 0.00001  # each look at the clock costs a little time
+        return now[0]
+
+    assert wait_deadline(0.2, clock, sleep, threading.Event(), spin_s=0.001)
+    assert now[0] >= 0.2
+    assert max(sleeps) <= 0.05, "wakes up at least every 50 ms to notice stop"
+    assert 0.001 <= 0.2 - sum(sleeps) <= 0.0012, "the last millisecond is spun, not slept"
+    stop = threading.Event()
+    stop.set()
+    assert not wait_deadline(now[0] + 1.0, clock, sleep, stop)
+
+
+def test_unknown_keys_are_skipped_and_counted() -> None:
+    session = open_session(FabricSettings())
+    try:
+        replayer = Replayer(session, "x")
+        samples = [RecordedSample("carlaverse/rec/future/thing", b"1", "put", 0, 0, {})]
+        stats = replayer.run(lambda: samples, threading.Event())
+        replayer.close()
+    finally:
+        session.close()
+    assert stats.skipped == 1 and stats.published == 0
