@@ -59,8 +59,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=DEFAULT_QUEUE_SIZE,
         help="samples buffered for the writer before drops are counted",
     )
-    parser.add_argument("--progress-s", type=float, default=1.0,
-                        help="progress line interval on stderr [s]; 0 turns it off")  # fmt: skip
+    parser.add_argument(
+        "--progress-s",
+        type=float,
+        default=1.0,
+        help="progress line interval on stderr [s]; 0 turns it off",
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -68,8 +72,10 @@ def run(args: argparse.Namespace) -> int:
         if args.recover:
             return _recover(args)
         if not args.session:
-            print("carlaverse record: --session NAME is required (or --recover IN.mcap)",
-                  file=sys.stderr)  # fmt: skip
+            print(
+                "carlaverse record: --session NAME is required (or --recover IN.mcap)",
+                file=sys.stderr,
+            )
             return 2
         return _record(args)
     except (RecordingError, FabricError, KeySpaceError) as exc:
@@ -93,8 +99,12 @@ def _record(args: argparse.Namespace) -> int:
     keys = Keys(args.session)
     session = open_session(endpoint_settings(listen=args.listen, connect=args.connect))
     try:
-        sink = McapSink(args.output, compression=args.compression,
-                        chunk_size=args.chunk_kib * 1024, monotonic=time.monotonic)  # fmt: skip
+        sink = McapSink(
+            args.output,
+            compression=args.compression,
+            chunk_size=args.chunk_kib * 1024,
+            monotonic=time.monotonic,
+        )
         recorder = Recorder(session, keys, sink, queue_size=args.queue_size)
         recorder.start()
         _wait(recorder, args.duration, args.progress_s)
