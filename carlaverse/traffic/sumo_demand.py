@@ -17,7 +17,6 @@ from carlaverse.traffic.scenario import ScriptedPedestrian, ScriptedVehicle, Tra
 
 log = logging.getLogger(__name__)
 
-NOW = "now"
 ROUTE_TRIES = 12  # random origin/destination pairs tried per NPC before giving up this round
 
 
@@ -67,9 +66,16 @@ def define_types(ls: Any) -> dict[str, str]:
 class DemandKeeper:
     """Adds scripted NPCs once and keeps random NPC vehicles and pedestrians at their counts."""
 
-    def __init__(self, ls: Any, traffic: Traffic, seed: int) -> None:
+    def __init__(self, ls: Any, traffic: Traffic, seed: int, step_length_s: float) -> None:
         self._ls = ls
         self._traffic = traffic
+        self._step_s = step_length_s
+        # SUMO lets a vehicle decide every action step, counted from its departure. Vehicles
+        # added together would all decide on the same step (a 5× spike in step time at 500
+        # vehicles), so their departures are spread over one action step.
+        self._spread = max(1, round(traffic.action_step_s / step_length_s))
+        self._added = 0
+        self._scheduled: list[float] = []  # [s] departure times of vehicles not yet due
         self._rng = random.Random(seed)
         self._counter = 0
         self._scripted = {v.id for v in traffic.scripted_vehicles} | {
@@ -92,8 +98,10 @@ class DemandKeeper:
     def top_up(self, carried_vehicles: int, carried_persons: int) -> None:
         """Add random NPCs until the counts are met (egos carried in SUMO do not count)."""
         ls = self._ls
-        pending = len(ls.simulation.getPendingVehicles())
-        vehicles = ls.vehicle.getIDCount() + pending - carried_vehicles - self._scripted_alive()
+        now = ls.simulation.getTime()
+        self._scheduled = [d for d in self._scheduled if d > now + 1e-9]
+        waiting = len(ls.simulation.getPendingVehicles()) + len(self._scheduled)
+        vehicles = ls.vehicle.getIDCount() + waiting - carried_vehicles - self._scripted_alive()
         for _ in range(max(0, self._traffic.vehicles.count - vehicles)):
             self._add_random_vehicle()
         persons = ls.person.getIDCount() - carried_persons - self._scripted_walking()
@@ -124,16 +132,14 @@ class DemandKeeper:
         if route is None:
             return
         vid = self._next_id("v")
+        self._added += 1
+        depart = self._ls.simulation.getTime() + (self._added % self._spread) * self._step_s
+        self._scheduled.append(depart)
         self._ls.route.add(f"r.{vid}", route)
         self._ls.vehicle.add(
-            vid,
-            f"r.{vid}",
-            typeID=npc_type_id(kind),
-            depart=NOW,
-            departLane="best",
-            departPos="random_free",
-            departSpeed="avg",
-        )
+            vid, f"r.{vid}", typeID=npc_type_id(kind), depart=f"{depart:.3f}",
+            departLane="best", departPos="random_free", departSpeed="avg",
+        )  # fmt: skip
 
     def _random_route(self, edges: list[str], type_id: str) -> list[str] | None:
         minimum = self._traffic.vehicles.min_route_edges

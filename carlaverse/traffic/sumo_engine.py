@@ -61,7 +61,9 @@ class SumoEngine:
         self._next_top_up = 0.0
         try:
             self._reader = NpcReader(self._ls, define_types(self._ls), settings.step_length_s)
-            self._demand = DemandKeeper(self._ls, settings.traffic, settings.seed)
+            self._demand = DemandKeeper(
+                self._ls, settings.traffic, settings.seed, settings.step_length_s
+            )
             self._demand.add_scripted()
             self._top_up()
         except self._ls.TraCIException as exc:
