@@ -34,6 +34,8 @@ from carlaverse.authority.obb import (
 from carlaverse.messages import ACTOR_KINDS, ContactEnded, ContactStarted, Impulse
 
 ActorKey = tuple[bool, str]  # (is an ego, id): egos and NPCs may share a name
+PairKey = tuple[ActorKey, ActorKey]  # canonical order: the smaller key first
+Touch = tuple[int, int, np.ndarray]  # actor indices, unit normal from the second into the first
 
 
 @dataclass(slots=True)
@@ -84,7 +86,7 @@ class CollisionMatrix:
 
     def __init__(self, npc_npc: bool = False) -> None:
         self._npc_npc = npc_npc
-        self._contacts: dict[tuple[ActorKey, ActorKey], Contact] = {}
+        self._contacts: dict[PairKey, Contact] = {}
         self._ids = itertools.count(1)
 
     @property
@@ -98,14 +100,12 @@ class CollisionMatrix:
         for pair in [p for p in self._contacts if p not in touching]:
             c = self._contacts.pop(pair)
             out.events.append(ContactEnded(next_seq(), t, c.contact_id, c.a[1], c.b[1]))
-        for pair, (i, j, normal) in touching.items():
+        for pair, touch in touching.items():
             if pair not in self._contacts:
-                self._start(t, actors, i, j, normal, next_seq, out)
+                self._start(t, actors, touch, next_seq, out)
         return out
 
-    def _touching(
-        self, actors: Actors
-    ) -> dict[tuple[ActorKey, ActorKey], tuple[int, int, np.ndarray]]:
+    def _touching(self, actors: Actors) -> dict[PairKey, Touch]:
         """Overlapping pairs, keyed in a canonical order, with the normal into the first."""
         if len(actors) < 2:
             return {}
@@ -116,61 +116,36 @@ class CollisionMatrix:
             i, j = i[keep], j[keep]
         if len(i) == 0:
             return {}
-        o = box_overlaps(
-            i, j, actors.x, actors.y, actors.yaw, actors.hl, actors.hw, actors.z, actors.h
-        )
+        a = actors
+        o = box_overlaps(i, j, a.x, a.y, a.yaw, a.hl, a.hw, a.z, a.h)
         found = {}
         for k in np.flatnonzero(o.hit):
-            a, b, n = int(i[k]), int(j[k]), o.normal[k]
-            ka, kb = actors.key(a), actors.key(b)
-            if kb < ka:
-                a, b, ka, kb, n = b, a, kb, ka, -n
-            found[(ka, kb)] = (a, b, n)
+            first, second, n = int(i[k]), int(j[k]), o.normal[k]
+            if a.key(second) < a.key(first):
+                first, second, n = second, first, -n
+            found[(a.key(first), a.key(second))] = (first, second, n)
         return found
 
-    def _start(
-        self,
-        t: float,
-        actors: Actors,
-        i: int,
-        j: int,
-        normal: np.ndarray,
-        next_seq: Callable[[], int],
-        out: TickContacts,
-    ) -> None:
+    def _start(self, t: float, actors: Actors, touch: Touch, next_seq: Callable[[], int],
+               out: TickContacts) -> None:  # fmt: skip
+        i, j, normal = touch
         contact = Contact(next(self._ids), actors.key(i), actors.key(j), t)
         self._contacts[(contact.a, contact.b)] = contact
-        rel = np.array([actors.vx[i] - actors.vx[j], actors.vy[i] - actors.vy[j]])
+        rel = np.array([actors.vx[i] - actors.vx[j], actors.vy[i] - actors.vy[j]])  # [m/s]
         speed = float(math.hypot(*rel))
-        out.events.append(
-            ContactStarted(next_seq(), t, contact.contact_id, actors.ids[i], actors.ids[j], speed)
-        )
-        magnitude = impulse_magnitude(
-            rel,
-            normal,
-            actors.mass[i],
-            actors.mass[j],
-            (actors.restitution[i] + actors.restitution[j]) / 2,
-        )
+        out.events.append(ContactStarted(next_seq(), t, contact.contact_id, actors.ids[i],
+                                         actors.ids[j], speed))  # fmt: skip
+        e = (actors.restitution[i] + actors.restitution[j]) / 2
+        magnitude = impulse_magnitude(rel, normal, actors.mass[i], actors.mass[j], e)
         point = _contact_point(actors, i, j)
         for this, other, n in ((i, j, normal), (j, i, -normal)):
             if actors.is_ego[this]:
-                out.impulses.append(
-                    (
-                        actors.ids[this],
-                        Impulse(
-                            next_seq(),
-                            t,
-                            contact.contact_id,
-                            (float(magnitude * n[0]), float(magnitude * n[1]), 0.0),
-                            point,
-                            (float(n[0]), float(n[1]), 0.0),
-                            actors.ids[other],
-                            ACTOR_KINDS[actors.kind[other]],
-                            speed,
-                        ),
-                    )
-                )
+                impulse = (float(magnitude * n[0]), float(magnitude * n[1]), 0.0)  # [N·s]
+                out.impulses.append((actors.ids[this], Impulse(
+                    next_seq(), t, contact.contact_id, impulse, point,
+                    (float(n[0]), float(n[1]), 0.0), actors.ids[other],
+                    ACTOR_KINDS[actors.kind[other]], speed,
+                )))  # fmt: skip
             elif actors.is_ego[other]:
                 out.hit_npcs.append(actors.ids[this])
 

@@ -16,7 +16,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-from carlaverse.traffic.scenario import GeneratedMap, MapSource, Scenario
+from carlaverse.traffic.scenario import GeneratedMap, GridTown, MapSource, Scenario, SpiderTown
 from carlaverse.traffic.sumo_tools import run_tool, sumo_homes, tool_version
 
 log = logging.getLogger(__name__)
@@ -67,27 +67,26 @@ def build_map(scenario: Scenario, cache_dir: Path | None = None) -> BuiltMap:
 def _generate_args(gen: GeneratedMap) -> list[str]:
     args = ["--seed", "1", "--default.lanenumber", str(gen.lanes)]
     args += ["--default.speed", f"{gen.speed_mps:g}", *COMMON_NETCONVERT]
-    if gen.kind == "grid":
-        g = gen.grid
-        args += ["--grid", "--grid.x-number", str(g.junctions)]
-        args += ["--grid.y-number", str(g.junctions_y or g.junctions)]
-        args += [
-            "--grid.length",
-            f"{g.length_m:g}",
-            "--grid.attach-length",
-            f"{g.attach_length_m:g}",
-        ]
-    else:
-        s = gen.spider
-        args += ["--spider", "--spider.arm-number", str(s.arms)]
-        args += [
-            "--spider.circle-number",
-            str(s.circles),
-            "--spider.space-radius",
-            f"{s.radius_m:g}",
-        ]
-        if s.omit_center:
-            args.append("--spider.omit-center")
+    town = _grid_args(gen.grid) if gen.kind == "grid" else _spider_args(gen.spider)
+    return args + town + _street_args(gen)
+
+
+def _grid_args(g: GridTown) -> list[str]:
+    args = ["--grid", "--grid.x-number", str(g.junctions)]
+    args += ["--grid.y-number", str(g.junctions_y or g.junctions)]
+    args += ["--grid.length", f"{g.length_m:g}"]
+    return [*args, "--grid.attach-length", f"{g.attach_length_m:g}"]
+
+
+def _spider_args(s: SpiderTown) -> list[str]:
+    args = ["--spider", "--spider.arm-number", str(s.arms)]
+    args += ["--spider.circle-number", str(s.circles), "--spider.space-radius", f"{s.radius_m:g}"]
+    return args + (["--spider.omit-center"] if s.omit_center else [])
+
+
+def _street_args(gen: GeneratedMap) -> list[str]:
+    """Signals, sidewalks, crossings and bike lanes, guessed by netgenerate."""
+    args = []
     if gen.traffic_lights:
         # A low guessing threshold signalises every real junction but not the dead ends.
         args += ["--tls.guess", "--tls.guess.threshold", "20"]

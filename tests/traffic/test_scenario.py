@@ -7,11 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from carlaverse.authority.memory_outbox import MemoryOutbox
 from carlaverse.config import ConfigError
 from carlaverse.traffic.netbuild import build_map
 from carlaverse.traffic.scenario import load_scenario
 from carlaverse.traffic.sumo_tools import SumoMissingError, find_tool
-from tests.traffic.helpers import CROSSING_MAP, domain_of, write_scenario
+from tests.traffic.helpers import CROSSING_MAP, T0, domain_of, run, write_scenario
 
 
 @pytest.mark.parametrize("name", ["town", "crossing", "ring"])
@@ -102,3 +103,17 @@ def test_missing_sumo_program_says_how_to_install(monkeypatch: pytest.MonkeyPatc
         SumoMissingError, match=r"netgenerate.*pip install 'carlaverse\[authority\]'"
     ):
         find_tool("netgenerate")
+
+
+def test_generated_spider_town_with_bike_lanes_runs(tmp_path: Path, net_cache: Path) -> None:
+    body = """
+map: {generate: {kind: spider, spider: {arms: 5, circles: 2, radius_m: 80}, bike_lanes: true}}
+traffic: {vehicles: {count: 10, mix: {car: 1, bicycle: 0.3}}, pedestrians: {count: 10}}
+"""
+    with domain_of(write_scenario(tmp_path, body, "spider"), net_cache) as domain:
+        out = MemoryOutbox()
+        run(domain, out, T0, 5.0)
+        kinds = {lane.kind for lane in domain.map_reply().lanes}
+        assert {"road", "bike", "sidewalk", "crossing", "walkingarea"} <= kinds
+        assert len(out.npcs[-1].ids) >= 15  # 10 vehicles and 10 walkers, a few still entering
+        assert domain.map_reply().lights  # the centre and ring junctions are signalised
