@@ -37,7 +37,7 @@ from carlaverse.messages import (
     Weather,
 )
 from carlaverse.traffic.engine import EgoPlacement, TrafficEngine
-from carlaverse.traffic.scenario import Scenario, load_scenario
+from carlaverse.traffic.scenario import Scenario, Session, load_scenario
 from carlaverse.traffic.spawns import SpawnAllocator
 
 log = logging.getLogger(__name__)
@@ -88,6 +88,11 @@ class TrafficDomain:
     @property
     def engine(self) -> TrafficEngine:
         return self._engine
+
+    @property
+    def session_params(self) -> Session:
+        """The scenario's session parameters: tick rate, despawn timeout, publish rates."""
+        return self._spec.session
 
     # ------------------------------------------------------------------ GlobalDomain
 
