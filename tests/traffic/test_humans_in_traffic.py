@@ -9,6 +9,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import pytest
+
 from carlaverse.authority.memory_outbox import MemoryOutbox
 from carlaverse.messages import ContactStarted, Extent
 from carlaverse.traffic.sumo_tools import import_libsumo
@@ -84,3 +86,35 @@ def test_a_despawned_ego_leaves_sumo(tmp_path: Path, net_cache: Path) -> None:
         domain.ego_left("driver")
         run(domain, out, t, 0.2)
         assert "@driver" not in ls.vehicle.getIDList()
+
+
+CYCLIST_TOWN = """
+map: {generate: {kind: grid, grid: {junctions: 3, length_m: 120, attach_length_m: 60}}}
+traffic:
+  vehicles: {count: 0}
+  pedestrians: {count: 0}
+  scripted_vehicles:
+    - {id: follower, edges: [A1B1, B1C1], depart_speed_mps: 10}
+"""
+
+
+def test_npc_queues_behind_a_human_cyclist(tmp_path: Path, net_cache: Path) -> None:
+    """In a town without bike lanes the cyclist rides in the car lane: the NPC follows."""
+    scenario = write_scenario(tmp_path, CYCLIST_TOWN, "cyclist-town")
+    with domain_of(scenario, net_cache) as domain:
+        x0, y, yaw = lane_point(domain.map_reply(), "A1B1_1", 30.0)
+        rider = ego_track("rider", actor_kind="bicycle", kind="bike",
+                          extent=Extent(1.8, 0.65, 1.7), mass_kg=90.0)  # fmt: skip
+
+        def egos(t: float) -> dict:
+            s = 4.0 * (t - T0)  # [m] riding east at 4 m/s
+            rider.last_pose = pose(t, x0 + s * math.cos(yaw), y + s * math.sin(yaw), yaw, 4.0)
+            return {"rider": rider}
+
+        out = MemoryOutbox()
+        run(domain, out, T0, 12.0, egos=egos)  # the rider ends 78 m down the block
+        follower = npc_row(out.npcs[-1], "follower")
+        assert math.hypot(follower["vx"], follower["vy"]) == pytest.approx(4.0, abs=0.5)
+        gap = rider.last_pose.x - 0.9 - (follower["x"] + follower["length"] / 2)  # [m]
+        assert 1.0 < gap < 15.0, gap
+        assert not [e for e in out.events if isinstance(e, ContactStarted)]
