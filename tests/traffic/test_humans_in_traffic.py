@@ -1,7 +1,7 @@
-"""NPCs see the humans: they queue behind a stopped driver and yield to a walker on a zebra.
+"""NPCs see the humans: they queue behind a driver or a cyclist and yield to a walker.
 
-Real SUMO on the shipped crossing map (W - Z(ebra) - C(entre), lanes _0 sidewalk, _1 bike,
-_2 car). No random traffic: one scripted NPC meets one scripted ego.
+Real SUMO, mostly on the shipped crossing map (W - Z(ebra) - C(entre), lanes _0 sidewalk,
+_1 bike, _2 car). No random traffic: one scripted NPC meets one scripted ego.
 """
 
 from __future__ import annotations
