@@ -1,0 +1,230 @@
+"""Benchmark: the authority's global-domain tick (SUMO step + collisions + publish).
+
+    python tools/bench/bench_authority.py [--seconds 30] [--vehicles 100 500 1000] [--write]
+
+For each NPC vehicle count it builds a generated town big enough for the traffic (8 × 8
+signalised junctions, two lanes per direction, sidewalks and crossings), adds 200 NPC
+pedestrians and 16 scripted egos that drive along roads (carried in SUMO, in the collision
+matrix), lets the traffic fill the town, then times every `TrafficDomain.tick` at 50 Hz into
+an outbox that encodes every message as the Zenoh outbox does. The SUMO step, the NPC read
+and the collision matrix are timed on their own, so a regression points at its part.
+
+Target: tick p99 ≤ 8 ms at 500 vehicles (the tick budget at 50 Hz is 20 ms). This is a
+measurement, not a test.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import itertools
+import math
+import platform
+import sys
+import tempfile
+import time
+from collections import defaultdict
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from carlaverse.authority.domain import EgoTrack
+from carlaverse.authority.memory_outbox import MemoryOutbox
+from carlaverse.authority.world import TrafficDomain, load_domain
+from carlaverse.messages import EgoInfo, Extent, MapReply, Pose
+
+ROOT = Path(__file__).resolve().parents[2]
+TICK_S = 0.02  # [s] 50 Hz
+EGOS = 16
+PEDESTRIANS = 200
+EGO_SPEED = 8.0  # [m/s]
+
+SCENARIO = """name: bench-{vehicles}
+seed: 1
+map:
+  generate:
+    kind: grid
+    grid: {{junctions: 8, length_m: 150, attach_length_m: 80}}
+    lanes: 2
+traffic:
+  vehicles: {{count: {vehicles}, mix: {{car: 0.85, van: 0.1, truck: 0.05}}}}
+  pedestrians: {{count: {pedestrians}}}
+  action_step_s: 0.2
+"""
+
+
+def ego_routes(reply: MapReply) -> list[list[tuple[float, float]]]:
+    """Centre lines of 16 long road lanes spread over the town, for the egos to drive."""
+    roads = sorted((lane for lane in reply.lanes if lane.kind == "road" and not
+                    lane.id.startswith(":") and _length(lane.centerline) > 100),
+                   key=lambda lane: lane.id)  # fmt: skip
+    step = max(1, len(roads) // EGOS)
+    return [roads[i * step].centerline for i in range(EGOS)]
+
+
+def _length(line: list[tuple[float, float]]) -> float:
+    return sum(math.dist(a, b) for a, b in itertools.pairwise(line))
+
+
+def ego_pose(line: list[tuple[float, float]], t: float) -> Pose:
+    """Back and forth along a lane at EGO_SPEED (straight grid lanes: two points)."""
+    (x0, y0), (x1, y1) = line[0], line[-1]
+    span = math.dist(line[0], line[-1])
+    s = (EGO_SPEED * t) % (2 * span)
+    forward = s <= span
+    f = s / span if forward else 2 - s / span
+    yaw = math.atan2(y1 - y0, x1 - x0) + (0 if forward else math.pi)
+    v = EGO_SPEED
+    return Pose(0, t, x0 + f * (x1 - x0), y0 + f * (y1 - y0), yaw=yaw,
+                vx=v * math.cos(yaw), vy=v * math.sin(yaw))  # fmt: skip
+
+
+def timed(obj: Any, name: str, into: list[float]) -> None:
+    """Wrap one method of `obj` to record its duration [ms] per call into `into`."""
+    inner: Callable[..., Any] = getattr(obj, name)
+
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
+        began = time.perf_counter()
+        try:
+            return inner(*args, **kwargs)
+        finally:
+            into.append((time.perf_counter() - began) * 1e3)
+
+    setattr(obj, name, wrapper)
+
+
+def bench(vehicles: int, seconds: float, warmup_s: float, cache: Path) -> dict[str, Any]:
+    with tempfile.TemporaryDirectory() as tmp:
+        path = Path(tmp) / f"bench-{vehicles}.yaml"
+        path.write_text(SCENARIO.format(vehicles=vehicles, pedestrians=PEDESTRIANS))
+        domain = load_domain(path, cache_dir=cache)
+    try:
+        return _measure(domain, seconds, warmup_s)
+    finally:
+        domain.close()
+
+
+def _measure(domain: TrafficDomain, seconds: float, warmup_s: float) -> dict[str, Any]:
+    routes = ego_routes(domain.map_reply())
+    tracks = {f"ego{i:02d}": EgoTrack(EgoInfo(f"ego{i:02d}", "drive", "car", Extent(), 1500.0),
+                                      "bench", 0.0) for i in range(len(routes))}  # fmt: skip
+    out = MemoryOutbox(keep=False)
+    parts: dict[str, list[float]] = defaultdict(list)
+    t, ticks = 0.0, []
+
+    def tick() -> float:
+        for (_, track), line in zip(tracks.items(), routes, strict=True):
+            track.last_pose = ego_pose(line, t - 0.01)  # a sample 10 ms old
+        began = time.perf_counter()
+        domain.tick(t, tracks, out)
+        return (time.perf_counter() - began) * 1e3
+
+    for _ in range(round(warmup_s / TICK_S)):  # let the traffic fill the town
+        tick()
+        t += TICK_S
+    engine = domain.engine
+    timed(engine, "step", parts["sumo"])
+    timed(engine, "place_egos", parts["egos"])
+    timed(domain._collisions, "step", parts["collisions"])
+    gc.collect()
+    for _ in range(round(seconds / TICK_S)):
+        ticks.append(tick())
+        t += TICK_S
+    frame = engine.npcs()
+    kinds = frame.rows["kind"]
+    return {
+        "vehicles": int((kinds != 6).sum()),
+        "pedestrians": int((kinds == 6).sum()),
+        "egos": len(tracks),
+        "ticks": ticks,
+        "parts": {k: v for k, v in parts.items()},
+        "contacts": domain.stats.contacts,
+        "bytes_per_s": out.bytes_sent / (t or 1.0),
+    }
+
+
+def pct(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]
+
+
+def report(results: list[dict[str, Any]]) -> str:
+    rows = ["| NPC vehicles (target / present) | pedestrians | egos | ticks | p50 ms | p99 ms "
+            "| max ms | SUMO step p50 / p99 ms | collisions p50 / p99 ms | out kB/s |",
+            "|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    for r in results:
+        step, coll = r["parts"]["sumo"], r["parts"]["collisions"]
+        rows.append(
+            f"| {r['target']} / {r['vehicles']} | {r['pedestrians']} | {r['egos']} "
+            f"| {len(r['ticks'])} | {pct(r['ticks'], 0.5):.2f} | {pct(r['ticks'], 0.99):.2f} "
+            f"| {max(r['ticks']):.2f} | {pct(step, 0.5):.2f} / {pct(step, 0.99):.2f} "
+            f"| {pct(coll, 0.5):.3f} / {pct(coll, 0.99):.3f} | {r['bytes_per_s'] / 1e3:.0f} |"
+        )
+    return "\n".join(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=30.0, help="timed sim seconds per run")
+    parser.add_argument("--warmup", type=float, default=60.0, help="sim seconds to fill the town")
+    parser.add_argument("--vehicles", type=int, nargs="+", default=[100, 500, 1000])
+    parser.add_argument("--cache", type=Path, default=None, help="network cache directory")
+    parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
+    args = parser.parse_args(argv)
+    results = []
+    for n in args.vehicles:
+        r = bench(n, args.seconds, args.warmup, args.cache)
+        r["target"] = n
+        results.append(r)
+        print(f"{n} vehicles: tick p50 {pct(r['ticks'], 0.5):.2f} ms, "
+              f"p99 {pct(r['ticks'], 0.99):.2f} ms", file=sys.stderr)  # fmt: skip
+    table = report(results)
+    print(table)
+    if args.write:
+        write_section("Authority", _body(table, args), _command(argv))
+    return 0
+
+
+def _body(table: str, args: argparse.Namespace) -> str:
+    machine = f"CPython {platform.python_version()}, {platform.machine()}, 2 shared cores"
+    return (
+        f"One `TrafficDomain.tick` at 50 Hz: egos dead-reckoned and carried in SUMO, SUMO step "
+        f"(libsumo, step 0.02 s, action step 0.2 s), NPC read, collision matrix (broadphase + "
+        f"narrowphase over all actors), NPC batch at 20 Hz, lights and weather, every message "
+        f"encoded. Town: generated 8 × 8 grid, 150 m blocks, 2 lanes per direction, sidewalks "
+        f"and crossings; {PEDESTRIANS} NPC pedestrians and {EGOS} egos driving along roads at "
+        f"{EGO_SPEED:g} m/s. {args.warmup:g} s of sim to fill the town, then {args.seconds:g} s "
+        f"timed. {machine} (other work running). Target p99 ≤ 8 ms at 500 vehicles.\n\n"
+        f"{table}\n\n"
+        "Vehicles present can fall short of the target when the town's entry lanes are full "
+        "(SUMO inserts when there is room). The SUMO step column is `SumoEngine.step`: "
+        "libsumo's step plus reading every NPC back (per-object getters, about 0.9 ms for 700 "
+        "NPCs) plus the 1 Hz demand top-up; it is most of the tick. NPC departures are "
+        "staggered over one action step so their decisions spread over the 10 steps instead "
+        "of landing on one (that halved the step p99). Repeated runs at 500 vehicles gave p99 "
+        "between 5 and 7.3 ms depending on what else the two cores were doing."
+    )
+
+
+def _command(argv: list[str] | None) -> str:
+    return "python tools/bench/bench_authority.py " + " ".join(argv or sys.argv[1:])
+
+
+def write_section(title: str, body: str, command: str) -> None:
+    """Replace or append our section of docs/benchmarks.md, leaving the others intact."""
+    path = ROOT / "docs" / "benchmarks.md"
+    text = path.read_text() if path.exists() else "# Benchmarks\n"
+    header = f"## {title}"
+    section = f"{header}\n\nReproduce: `{command.replace(' --write', '').strip()}`\n\n{body}\n"
+    if header in text:
+        start = text.index(header)
+        end = text.find("\n## ", start + 1)
+        text = text[:start] + section + (text[end + 1 :] if end >= 0 else "")
+    else:
+        text = text.rstrip() + "\n\n" + section
+    path.parent.mkdir(exist_ok=True)
+    path.write_text(text)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
