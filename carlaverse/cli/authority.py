@@ -58,7 +58,12 @@ def load_domain(scenario: str, seed: int | None) -> GlobalDomain:
             f"running a scenario needs SUMO ({exc.name} is missing): "
             "pip install 'carlaverse[authority]', or pass --scenario none",
         ) from exc
-    return load_traffic_domain(scenario, seed_override=seed)
+    from carlaverse.traffic.sumo_tools import SumoMissingError, SumoToolError
+
+    try:
+        return load_traffic_domain(scenario, seed_override=seed)
+    except (SumoMissingError, SumoToolError) as exc:
+        raise ConfigError(scenario, str(exc)) from exc
 
 
 def run(args: argparse.Namespace) -> int:

@@ -314,6 +314,7 @@ def _summarise(
             "latency_p50_ms": _worst(peers, "latency_p50_ms"),
             "latency_p99_ms": _worst(peers, "latency_p99_ms"),
             "despawns": summary.get("despawns", []),
+            "npcs_now": summary.get("npcs_now", 0),
         }
     tools = {c.name: c.proc.returncode for c in children if c.role == "tool"}
     ok = all(t["exit_code"] == 0 for t in table.values()) and all(v == 0 for v in tools.values())
@@ -337,11 +338,14 @@ def _print_summary(summary: dict[str, Any], as_json: bool) -> None:
     if as_json:
         print(json.dumps(summary, indent=2, sort_keys=True))
         return
-    print(f"{'node':<14} {'joined':<7} {'saw':<5} {'p50 ms':>8} {'p99 ms':>8}  despawns  missing")
+    print(
+        f"{'node':<14} {'joined':<7} {'saw':<5} {'NPCs':>5} {'p50 ms':>8} {'p99 ms':>8}  "
+        "despawns  missing"
+    )
     for node_id, row in summary["nodes"].items():
         p50, p99 = row["latency_p50_ms"], row["latency_p99_ms"]
         print(
-            f"{node_id:<14} {row['joined']!s:<7} {len(row['actors_seen']):<5} "
+            f"{node_id:<14} {row['joined']!s:<7} {len(row['actors_seen']):<5} {row['npcs_now']:>5} "
             f"{p50 if p50 is not None else '-':>8} {p99 if p99 is not None else '-':>8}  "
             f"{len(row['despawns']):<9} {' '.join(row['missing']) or '-'}"
         )
