@@ -97,7 +97,7 @@ class NodeClient:
         self._pose_pub = session.declare_publisher(
             self.keys.pose(settings.node_id),
             congestion_control=zenoh.CongestionControl.DROP,
-            priority=zenoh.Priority.REAL_TIME,
+            priority=zenoh.Priority.REAL_TIME,  # ahead of NPC batches and bulk under load
         )
         self._state_pub = session.declare_publisher(
             self.keys.state(settings.node_id),
