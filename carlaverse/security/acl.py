@@ -1,0 +1,174 @@
+"""Zenoh `access_control` for one site router, generated from the session roster (DESIGN §11).
+
+Default deny. A router only sees its next hop, so each site's router enforces the rules for
+its own nodes, and treats the routers of other sites as one identity each that may carry
+only what nodes of *other* sites may write (defence in depth: a compromised remote router
+still cannot speak for this site's nodes, nor for the authority unless it is behind it).
+
+What each role may do (`S` = `carlaverse/<session>`), as verified against zenoh 1.10:
+
+| role             | ingress (what it may send)                                   |
+|------------------|--------------------------------------------------------------|
+| every node       | its own liveliness token `S/node/<id>`; subscriptions,        |
+|                  | liveliness subscriptions and queries on `S/**`;               |
+|                  | queries to `S/authority/**`                                   |
+| ego node         | + put/delete on `S/ego/<id>/**`                               |
+| authority        | + put/delete on `S/world/**`, `S/impulse/**`, `S/audio/**`;   |
+|                  | queryables on and replies from `S/authority/**`               |
+| observer/recorder| nothing more: read only                                      |
+| other sites      | the union of the above for the nodes not at this site        |
+
+Egress (what the router may deliver): to a node, puts on `S/**`, replies from
+`S/authority/**`, liveliness tokens and the declarations a peer-mode node needs for
+write-side filtering; queries only to the authority. To another site's router, every message
+on `S/**`: it applies its own rules to its own nodes. Nothing outside `S/**` passes.
+A `liveliness_query` is answered with `liveliness_token` messages, hence the token egress.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from carlaverse.keys import Keys
+from carlaverse.security.roster import (
+    AUTHORITY_KIND,
+    READ_ONLY_KINDS,
+    Identity,
+    LoadedRoster,
+    RosterNode,
+)
+
+ALL_MESSAGES = (
+    "put",
+    "delete",
+    "declare_subscriber",
+    "query",
+    "declare_queryable",
+    "reply",
+    "liveliness_token",
+    "declare_liveliness_subscriber",
+    "liveliness_query",
+)
+AUTHORITY_AREAS = ("world", "impulse", "audio")
+READ_MESSAGES = ("declare_subscriber", "declare_liveliness_subscriber", "liveliness_query")
+DECLARATIONS = ("declare_subscriber", "declare_queryable", "declare_liveliness_subscriber")
+
+
+@dataclass(frozen=True, slots=True)
+class Grant:
+    """An allow rule before it is named after its subject."""
+
+    tag: str
+    messages: tuple[str, ...]
+    key_exprs: tuple[str, ...]
+    flow: str  # ingress | egress
+
+    def rule(self, subject_id: str) -> dict[str, Any]:
+        return {
+            "id": f"{subject_id}/{self.tag}",
+            "permission": "allow",
+            "flows": [self.flow],
+            "messages": list(self.messages),
+            "key_exprs": list(self.key_exprs),
+        }
+
+
+def node_grants(keys: Keys, node: RosterNode) -> list[Grant]:
+    """What one node of this site may send and receive."""
+    everything = (keys.everything,)
+    grants = [
+        Grant("presence", ("liveliness_token",), (keys.node(node.id),), "ingress"),
+        Grant("read", READ_MESSAGES, everything, "ingress"),
+        Grant("ask", ("query",), (keys.subtree("authority"),), "ingress"),
+        Grant("receive", ("put", "delete"), everything, "egress"),
+        Grant("answers", ("reply",), (keys.subtree("authority"),), "egress"),
+        Grant("presence-of-others", ("liveliness_token",), (keys.subtree("node"),), "egress"),
+        Grant("declarations", DECLARATIONS, everything, "egress"),
+    ]
+    if node.kind == AUTHORITY_KIND:
+        grants += authority_grants(keys)
+    elif node.kind not in READ_ONLY_KINDS:
+        grants.append(Grant("ego", ("put", "delete"), (keys.subtree("ego", node.id),), "ingress"))
+    return grants
+
+
+def authority_grants(keys: Keys) -> list[Grant]:
+    """The authority writes the world and serves the session's queries."""
+    world = tuple(keys.subtree(area) for area in AUTHORITY_AREAS)
+    serve = (keys.subtree("authority"),)
+    return [
+        Grant("world", ("put", "delete"), world, "ingress"),
+        Grant("serve", ("declare_queryable", "reply"), serve, "ingress"),
+        Grant("queries", ("query",), serve, "egress"),
+    ]
+
+
+def peer_site_grants(keys: Keys, remote_nodes: list[RosterNode]) -> list[Grant]:
+    """What another site's router may carry into this site: only its side's nodes' writes."""
+    grants = [
+        Grant("read", READ_MESSAGES, (keys.everything,), "ingress"),
+        Grant("ask", ("query",), (keys.subtree("authority"),), "ingress"),
+        Grant("forward", ALL_MESSAGES, (keys.everything,), "egress"),
+    ]
+    if remote_nodes:
+        tokens = tuple(keys.node(n.id) for n in remote_nodes)
+        grants.append(Grant("presence", ("liveliness_token",), tokens, "ingress"))
+    writers = [n for n in remote_nodes if n.kind not in READ_ONLY_KINDS | {AUTHORITY_KIND}]
+    if writers:
+        egos = tuple(keys.subtree("ego", n.id) for n in writers)
+        grants.append(Grant("ego", ("put", "delete"), egos, "ingress"))
+    if any(n.kind == AUTHORITY_KIND for n in remote_nodes):
+        grants += [g for g in authority_grants(keys) if g.flow == "ingress"]
+    return grants
+
+
+def subject(subject_id: str, identity: Identity) -> dict[str, Any]:
+    """A Zenoh subject; lists within are OR, across are AND. An empty list would be a wildcard,
+    which the roster's validation rules out (every identity has a CN or a username)."""
+    out: dict[str, Any] = {"id": subject_id}
+    if identity.common_name:
+        out["cert_common_names"] = [identity.common_name]
+    if identity.username:
+        out["usernames"] = [identity.username]
+    if identity.interfaces:
+        out["interfaces"] = list(identity.interfaces)
+    if len(out) == 1 or set(out) == {"id", "interfaces"}:
+        raise ValueError(f"identity {identity.name!r} has no common name and no username")
+    return out
+
+
+def site_acl(loaded: LoadedRoster, site: str) -> dict[str, Any]:
+    """The `access_control` object for the router of `site`."""
+    loaded.site(site)  # raises naming the known sites
+    keys = Keys(loaded.session)
+    entries: list[tuple[str, Identity, list[Grant]]] = []
+    for node in loaded.nodes_at(site):
+        grants = node_grants(keys, node)
+        entries.append((f"node:{node.id}", loaded.node_identity(node.id), grants))
+    remote = [n for n in loaded.roster.nodes if n.site != site]
+    for other in loaded.roster.sites:
+        if other.name != site:
+            grants = peer_site_grants(keys, remote)
+            entries.append((f"site:{other.name}", loaded.site_identity(other.name), grants))
+    return _assemble(entries)
+
+
+def _assemble(entries: list[tuple[str, Identity, list[Grant]]]) -> dict[str, Any]:
+    rules: list[dict[str, Any]] = []
+    subjects: list[dict[str, Any]] = []
+    policies: list[dict[str, Any]] = []
+    for subject_id, identity, grants in entries:
+        own = [g.rule(subject_id) for g in grants]
+        rules += own
+        subjects.append(subject(subject_id, identity))
+        policies.append(
+            {"id": subject_id, "rules": [r["id"] for r in own], "subjects": [subject_id]}
+        )
+    return {
+        "enabled": True,
+        "default_permission": "deny",
+        "rules": rules,
+        "subjects": subjects,
+        "policies": policies,
+    }
