@@ -18,6 +18,7 @@ _TOKEN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$")
 # Per-node channels under ego/<node_id>/...
 EGO_CHANNELS = ("pose", "skeleton", "state", "override")
 WORLD_CHANNELS = ("npc", "lights", "weather", "events")
+KEY_AREAS = ("node", "ego", "world", "impulse", "audio", "authority")
 AUTHORITY_QUERIES = ("clock", "join", "snapshot", "map", "scenario", "configs")
 
 
@@ -101,6 +102,14 @@ class Keys:
         if query not in AUTHORITY_QUERIES:
             raise KeySpaceError(f"unknown authority query {query!r}; expected {AUTHORITY_QUERIES}")
         return f"{self.prefix}/authority/{query}"
+
+    def subtree(self, area: str, node_id: str | None = None) -> str:
+        """`<prefix>/<area>/**` or `<prefix>/<area>/<node_id>/**`: ACL rules and wide queries."""
+        if area not in KEY_AREAS:
+            raise KeySpaceError(f"unknown key area {area!r}; expected one of {KEY_AREAS}")
+        if node_id is None:
+            return f"{self.prefix}/{area}/**"
+        return f"{self.prefix}/{area}/{check_token(node_id)}/**"
 
     def with_session(self, key: str, session: str) -> str:
         """The same key under another session (replay rewrites keys this way)."""
