@@ -108,6 +108,7 @@ class SyntheticSession:
         self.keys = keys
         self.spec = spec
         self.published: Counter[str] = Counter()
+        self.queries: Counter[str] = Counter()  # authority queries answered, by name
         self.payloads: list[tuple[str, bytes]] | None = [] if keep_payloads else None
         self.configs = {
             ego_id(i): f"node_id: {ego_id(i)}\nkind: scripted\n# é\n" for i in range(spec.egos)
@@ -234,8 +235,17 @@ class SyntheticSession:
         for name, make in handlers.items():
             key = self.keys.authority(name)
             self._queryables.append(
-                self.session.declare_queryable(key, _answer(key, make), complete=True)
+                self.session.declare_queryable(key, self._answer(name, key, make), complete=True)
             )
+
+    def _answer(
+        self, name: str, key: str, make: Callable[[], bytes]
+    ) -> Callable[[zenoh.Query], None]:
+        def reply(query: zenoh.Query) -> None:
+            self.queries[name] += 1
+            query.reply(key, make())
+
+        return reply
 
     def _snapshot(self) -> bytes:
         t = self.now()
@@ -253,10 +263,3 @@ class SyntheticSession:
             p.undeclare()
         self._queryables.clear()
         self._publishers.clear()
-
-
-def _answer(key: str, make: Callable[[], bytes]) -> Callable[[zenoh.Query], None]:
-    def reply(query: zenoh.Query) -> None:
-        query.reply(key, make())
-
-    return reply

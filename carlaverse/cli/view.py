@@ -1,0 +1,148 @@
+"""`carlaverse view`: the live world (or a recording) in Rerun."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from pathlib import Path
+
+from carlaverse.fabric.session import FabricError, endpoint_settings, open_session
+from carlaverse.keys import Keys, KeySpaceError
+from carlaverse.recording.sink import RecordingError
+from carlaverse.viz.live import LiveView, ViewSettings
+from carlaverse.viz.outputs import Outputs, ViewerError, ViewOutput, wait_forever_or
+from carlaverse.viz.playback import render_recording
+from carlaverse.viz.scene import SceneLogger
+
+VIEWER_SCHEMES = ("rerun://", "rerun+http://", "rerun+https://")
+SERVE_HELP = (
+    "host a web viewer and print its URL. It binds 127.0.0.1 only (a child `rerun "
+    "--bind 127.0.0.1`); --serve-host 0.0.0.0 EXPOSES the viewer, and with it the session's "
+    "positions, to every machine that can reach this one"
+)
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "recording",
+        nargs="?",
+        type=Path,
+        metavar="FILE.mcap",
+        help="render a recording instead of a live session",
+    )
+    parser.add_argument("--session", help="live session to observe (e.g. demo)")
+    parser.add_argument(
+        "--connect",
+        action="append",
+        default=[],
+        metavar="EP|URL",
+        help="a Zenoh endpoint of the session (tcp/127.0.0.1:7447, repeatable), "
+        "or a running Rerun viewer to stream to (rerun+http://127.0.0.1:9876/proxy)",
+    )
+    parser.add_argument(
+        "--listen",
+        action="append",
+        default=[],
+        metavar="EP",
+        help="Zenoh endpoint to listen on (default tcp/127.0.0.1:0)",
+    )
+    out = parser.add_argument_group("output (at least one)")
+    out.add_argument("--spawn", action="store_true", help="open a native Rerun viewer window")
+    out.add_argument("--serve", action="store_true", help=SERVE_HELP)
+    out.add_argument(
+        "--serve-host",
+        default="127.0.0.1",
+        metavar="IP",
+        help="address --serve/--spawn bind to (default 127.0.0.1; see --serve)",
+    )
+    out.add_argument("--web-port", type=int, default=0, help="web viewer port (default: any)")
+    out.add_argument("--save", type=Path, metavar="FILE.rrd", help="write a Rerun file")
+    parser.add_argument(
+        "--rate",
+        type=float,
+        default=20.0,
+        metavar="HZ",
+        help="render rate; frames are dropped, never the fabric (default 20)",
+    )
+    parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
+    parser.add_argument("--no-trails", action="store_true", help="do not draw trajectories")
+
+
+def _split_connect(values: list[str]) -> tuple[list[str], str | None]:
+    """--connect takes Zenoh endpoints and at most one Rerun viewer URL (rerun://...)."""
+    viewers = [v for v in values if v.startswith(VIEWER_SCHEMES)]
+    return [v for v in values if v not in viewers], (viewers[-1] if viewers else None)
+
+
+def run(args: argparse.Namespace) -> int:
+    args.connect, viewer_url = _split_connect(args.connect)
+    outputs = Outputs(
+        save=args.save, connect=viewer_url, serve=args.serve, spawn=args.spawn,
+        serve_host=args.serve_host, web_port=args.web_port,
+    )  # fmt: skip
+    if not outputs.any():
+        return _fail(
+            "choose an output: --spawn, --serve, --connect rerun+http://... or --save FILE.rrd"
+        )
+    if args.recording is None and not args.session:
+        return _fail("give --session NAME to watch a live session, or a FILE.mcap to render")
+    if args.rate <= 0:
+        return _fail(f"--rate must be > 0, got {args.rate}")
+    stop = _stop_event()
+    try:
+        view = ViewOutput(outputs)
+    except ViewerError as exc:
+        return _fail(str(exc), 1)
+    try:
+        if view.web_url:
+            print(f"web viewer: {view.web_url}", file=sys.stderr, flush=True)
+        if args.recording is not None:
+            return _render_file(args, view, stop)
+        return _watch(args, view, stop)
+    except (RecordingError, FabricError, KeySpaceError) as exc:
+        return _fail(str(exc), 1)
+    finally:
+        view.close()
+
+
+def _render_file(args: argparse.Namespace, view: ViewOutput, stop: threading.Event) -> int:
+    scene = SceneLogger(view.rec, trails=not args.no_trails)
+    stats = render_recording(args.recording, scene, rate_hz=args.rate)
+    print(f"rendered {stats.samples} samples in {stats.frames} frames", file=sys.stderr)
+    if view.viewers:  # a served/spawned viewer would vanish with us: keep it until Ctrl-C
+        view.rec.flush(timeout_sec=10.0)
+        print("serving the recording; Ctrl-C to stop", file=sys.stderr, flush=True)
+        wait_forever_or(stop, view.viewers)
+    return 0
+
+
+def _watch(args: argparse.Namespace, view: ViewOutput, stop: threading.Event) -> int:
+    keys = Keys(args.session)
+    session = open_session(endpoint_settings(listen=args.listen, connect=args.connect))
+    settings = ViewSettings(rate_hz=args.rate, trails=not args.no_trails)
+    live = LiveView(session, keys, SceneLogger(view.rec, trails=settings.trails), settings)
+    try:
+        stats = live.start().run(stop, args.duration)
+    finally:
+        live.close()
+        session.close()
+    print(
+        f"viewed {stats.samples} samples in {stats.frames} frames ({stats.skipped_frames} skipped)",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _stop_event() -> threading.Event:
+    stop = threading.Event()
+    if threading.current_thread() is threading.main_thread():
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, lambda *_: stop.set())
+    return stop
+
+
+def _fail(message: str, code: int = 2) -> int:
+    print(f"carlaverse view: {message}", file=sys.stderr)
+    return code
