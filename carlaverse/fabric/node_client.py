@@ -98,6 +98,9 @@ class NodeClient:
             self.keys.pose(settings.node_id),
             congestion_control=zenoh.CongestionControl.DROP,
             priority=zenoh.Priority.REAL_TIME,  # ahead of NPC batches and bulk under load
+            # Our own `ego/*/pose` subscriber would otherwise get each put delivered in the
+            # publishing thread, running a Python callback before the sample leaves.
+            allowed_destination=zenoh.Locality.REMOTE,
         )
         self._state_pub = session.declare_publisher(
             self.keys.state(settings.node_id),
@@ -193,8 +196,9 @@ class NodeClient:
 
     def _subscribe(self) -> None:
         k, s = self.keys, self.session
+        remote = zenoh.Locality.REMOTE
         self._entities += [
-            s.declare_subscriber(k.all_ego("pose"), self._on_pose),
+            s.declare_subscriber(k.all_ego("pose"), self._on_pose, allowed_origin=remote),
             s.declare_subscriber(k.all_ego("state"), self._on_state),
             s.declare_subscriber(k.override(self.node_id), self._on_override),
             s.declare_subscriber(k.world("npc"), self._on_npc),
