@@ -123,47 +123,64 @@ def peer_site_grants(keys: Keys, remote_nodes: list[RosterNode]) -> list[Grant]:
     return grants
 
 
-def subject(subject_id: str, identity: Identity) -> dict[str, Any]:
+def subject(subject_id: str, identity: Identity, by: str = "all") -> dict[str, Any]:
     """A Zenoh subject; lists within are OR, across are AND. An empty list would be a wildcard,
-    which the roster's validation rules out (every identity has a CN or a username)."""
+    which the roster's validation rules out (every identity has a CN or a username).
+    `by`: "all" (every credential must match), "cert" or "login" (that one only)."""
     out: dict[str, Any] = {"id": subject_id}
-    if identity.common_name:
+    if identity.common_name and by in ("all", "cert"):
         out["cert_common_names"] = [identity.common_name]
-    if identity.username:
+    if identity.username and by in ("all", "login"):
         out["usernames"] = [identity.username]
+    if len(out) == 1:
+        raise ValueError(f"identity {identity.name!r} has no credential for subject {by!r}")
     if identity.interfaces:
         out["interfaces"] = list(identity.interfaces)
-    if len(out) == 1 or set(out) == {"id", "interfaces"}:
-        raise ValueError(f"identity {identity.name!r} has no common name and no username")
     return out
+
+
+def site_subjects(subject_id: str, identity: Identity) -> list[dict[str, Any]]:
+    """Another site's router, either way its link was opened. Its certificate names it on a
+    link it accepted from us (TLS always shows the server's certificate) and, with mutual TLS,
+    on a link it opened to us; its login names it on a link it opened to us."""
+    subjects = [subject(f"{subject_id}:cert", identity, "cert")]
+    if identity.username:
+        subjects.append(subject(f"{subject_id}:login", identity, "login"))
+    return subjects
 
 
 def site_acl(loaded: LoadedRoster, site: str) -> dict[str, Any]:
     """The `access_control` object for the router of `site`."""
     loaded.site(site)  # raises naming the known sites
     keys = Keys(loaded.session)
-    entries: list[tuple[str, Identity, list[Grant]]] = []
+    entries: list[tuple[str, list[dict[str, Any]], list[Grant]]] = []
     for node in loaded.nodes_at(site):
-        grants = node_grants(keys, node)
-        entries.append((f"node:{node.id}", loaded.node_identity(node.id), grants))
+        subject_id = f"node:{node.id}"
+        identity = loaded.node_identity(node.id)
+        entries.append((subject_id, [subject(subject_id, identity)], node_grants(keys, node)))
     remote = [n for n in loaded.roster.nodes if n.site != site]
     for other in loaded.roster.sites:
         if other.name != site:
-            grants = peer_site_grants(keys, remote)
-            entries.append((f"site:{other.name}", loaded.site_identity(other.name), grants))
+            subject_id = f"site:{other.name}"
+            subjects = site_subjects(subject_id, loaded.site_identity(other.name))
+            entries.append((subject_id, subjects, peer_site_grants(keys, remote)))
     return _assemble(entries)
 
 
-def _assemble(entries: list[tuple[str, Identity, list[Grant]]]) -> dict[str, Any]:
+def _assemble(entries: list[tuple[str, list[dict[str, Any]], list[Grant]]]) -> dict[str, Any]:
     rules: list[dict[str, Any]] = []
     subjects: list[dict[str, Any]] = []
     policies: list[dict[str, Any]] = []
-    for subject_id, identity, grants in entries:
-        own = [g.rule(subject_id) for g in grants]
-        rules += own
-        subjects.append(subject(subject_id, identity))
+    for policy_id, own_subjects, grants in entries:
+        own_rules = [g.rule(policy_id) for g in grants]
+        rules += own_rules
+        subjects += own_subjects
         policies.append(
-            {"id": subject_id, "rules": [r["id"] for r in own], "subjects": [subject_id]}
+            {
+                "id": policy_id,
+                "rules": [r["id"] for r in own_rules],
+                "subjects": [s["id"] for s in own_subjects],
+            }
         )
     return {
         "enabled": True,

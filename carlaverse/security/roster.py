@@ -137,7 +137,8 @@ class LoadedRoster:
     def authority(self) -> RosterNode:
         return next(n for n in self.roster.nodes if n.kind == AUTHORITY_KIND)
 
-    def identity(self, name: str, credential: Credential) -> Identity:
+    def identity(self, name: str, credential: Credential, certified: bool = False) -> Identity:
+        """`certified`: has a certificate even without mutual TLS (a router listening on TLS)."""
         security = self.roster.security
         password_file = None
         if security.usrpwd:
@@ -146,7 +147,7 @@ class LoadedRoster:
             )
         return Identity(
             name=name,
-            common_name=(credential.common_name or name) if security.mtls else None,
+            common_name=(credential.common_name or name) if security.mtls or certified else None,
             username=(credential.username or name) if security.usrpwd else None,
             password_file=password_file,
             interfaces=tuple(credential.interfaces),
@@ -156,7 +157,7 @@ class LoadedRoster:
         return self.identity(node_id, self.node(node_id).credential)
 
     def site_identity(self, site: str) -> Identity:
-        return self.identity(site, self.site(site).credential)
+        return self.identity(site, self.site(site).credential, certified=True)
 
 
 def load_roster(path: str | Path) -> LoadedRoster:

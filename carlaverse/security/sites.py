@@ -16,11 +16,13 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+from carlaverse.config import ConfigError
 from carlaverse.fabric.session import FabricSettings, Mode
 from carlaverse.security.acl import site_acl
 from carlaverse.security.certs import CertificateError, ca_file, identity_files
 from carlaverse.security.roster import Identity, LoadedRoster, load_roster
 from carlaverse.security.zenoh_entries import (
+    CredentialError,
     acl_entries,
     dictionary_text,
     read_password,
@@ -31,8 +33,18 @@ from carlaverse.security.zenoh_entries import (
 
 
 def router_settings_for_site(config_path: str | Path, site: str) -> FabricSettings:
-    """Everything `carlaverse router --site SITE --config ROSTER` needs to run that site."""
+    """Everything `carlaverse router --site SITE --config ROSTER` needs to run that site.
+
+    Raises ConfigError (naming the roster, the site and the missing file and how to make it).
+    """
     loaded = load_roster(config_path)
+    try:
+        return _router_settings(loaded, site)
+    except (CertificateError, CredentialError) as exc:
+        raise ConfigError(f"{loaded.source} (site {site})", str(exc)) from exc
+
+
+def _router_settings(loaded: LoadedRoster, site: str) -> FabricSettings:
     spec = loaded.site(site)
     identity = loaded.site_identity(site)
     entries: dict[str, Any] = dict(_tls(loaded, identity, listen=True))
@@ -60,9 +72,12 @@ def node_fabric_settings(
     """A node's fabric settings: its certificate and/or login, dialing its site's router."""
     loaded = load_roster(config_path)
     identity = loaded.node_identity(node_id)
-    entries = dict(_tls(loaded, identity, listen=False))
-    if loaded.roster.security.usrpwd:
-        entries.update(_login(identity))
+    try:
+        entries = dict(_tls(loaded, identity, listen=False))
+        if loaded.roster.security.usrpwd:
+            entries.update(_login(identity))
+    except (CertificateError, CredentialError) as exc:
+        raise ConfigError(f"{loaded.source} (node {node_id})", str(exc)) from exc
     return FabricSettings(mode=mode, connect=list(connect), zenoh=entries)
 
 
