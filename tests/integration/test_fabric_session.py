@@ -10,6 +10,7 @@ from pathlib import Path
 import yaml
 
 from carlaverse import messages as m
+from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
 from carlaverse.paths import CirclePath
 from tests.support import Cluster, wait_until
@@ -151,7 +152,11 @@ def test_garbage_on_every_subscribed_key_is_counted_and_dropped(cluster: Cluster
         bytes(range(200)),
         m.encode_pose(m.Pose(1, 1.0, 0, 0))[:-1],
     ]
-    session = cluster.sessions[0]
+    session = open_session(FabricSettings(connect=[cluster.endpoint]))  # an outsider's session
+    cluster.sessions.append(session)
+    wait_until(
+        lambda: list(session.info.peers_zid()) or list(session.info.routers_zid()), 5, "link"
+    )
     for key in targets:
         for payload in garbage:
             session.put(key, payload)
