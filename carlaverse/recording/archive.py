@@ -37,6 +37,7 @@ SCENARIO_ATTACHMENT = "scenario.yaml"
 YAML_MEDIA_TYPE = "application/yaml"
 # Queried once at start and stored as messages; configs are re-queried after each spawn.
 STARTUP_QUERIES = ("scenario", "map", "snapshot", "configs")
+RETRY_S = 1.0  # [s] between attempts while the authority has not answered a start-up query
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,26 +104,38 @@ class Archive:
         self._wake.set()
 
     def run(self, stop: threading.Event) -> None:
-        """Archiver thread body: start-up queries, then a configs refresh per request."""
+        """Archiver thread body: start-up queries (retried until the authority answers),
+        then the configs and a snapshot again after every spawn."""
         self._emit(ArchiveItem("metadata", SESSION_METADATA, values=self._session_values()))
-        for name in STARTUP_QUERIES:
-            if stop.is_set():
-                return
-            self._fetch(name)
+        pending = list(STARTUP_QUERIES)
         while not stop.is_set():
-            if self._wake.wait(timeout=0.1):
-                self._wake.clear()
+            for name in list(pending):
+                if stop.is_set():
+                    return
+                if self._fetch(name):
+                    pending.remove(name)
+            woken = self._wake.wait(timeout=RETRY_S if pending else None)
+            self._wake.clear()
+            if woken and not stop.is_set():
                 self._fetch("configs")
+                self._fetch("snapshot")
+
+    def stop(self) -> None:
+        """Wake the thread so it notices its stop event."""
+        self._wake.set()
 
     def _session_values(self) -> dict[str, str]:
         return session_metadata(self._keys.session, self._wall_ns())
 
     # ------------------------------------------------------------------ queries
 
-    def _fetch(self, name: str) -> None:
-        for key, payload in self._query(name):
+    def _fetch(self, name: str) -> bool:
+        """Query, archive the answers; False if nobody answered."""
+        answers = self._query(name)
+        for key, payload in answers:
             self._emit(ArchiveItem("message", key, self._wall_ns(), payload))
             self._absorb(name, payload)
+        return bool(answers)
 
     def _query(self, name: str) -> list[tuple[str, bytes]]:
         selector = self._keys.authority(name)

@@ -117,11 +117,13 @@ class Recorder:
             sub.undeclare()
         self._subscribers.clear()
         self._stop.set()
+        self._archive.stop()
         for thread in self._threads:
             thread.join()
         self._threads.clear()
         stats = self.stats()
         try:
+            self._drain_control()  # whatever the archive handed over after the writer ended
             self._sink.metadata("carlaverse.summary", self._summary(stats))
             self._sink.close()
         except OSError as exc:

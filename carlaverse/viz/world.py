@@ -179,6 +179,10 @@ class WorldModel:
 
     def _snapshot(self, snap: m.Snapshot, rx_t: float) -> None:
         for info in snap.egos:
+            if not info.actor_kind:
+                continue  # an observer: a member of the session without a body
+            if info.node_id not in self.egos and info.pose is None:
+                continue  # nowhere to draw it yet; its first pose will create it
             actor = self._ego(info.node_id)
             actor.extent = info.extent
             actor.kind = info.actor_kind if info.actor_kind in m.ACTOR_KINDS else "other"

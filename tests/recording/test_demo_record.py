@@ -1,0 +1,109 @@
+"""`carlaverse demo --record FILE.mcap --rrd FILE.rrd` keeps both, and both hold the session."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections import Counter
+from pathlib import Path
+
+import pytest
+import yaml
+
+from carlaverse import messages
+from carlaverse.keys import Keys, parse
+from carlaverse.recording.archive import CONFIG_ATTACHMENT, SCENARIO_ATTACHMENT
+from carlaverse.recording.reading import iter_samples, read_attachments, read_metadata
+from tests.viz.conftest import rrd_rows
+
+AUTHORITY_STREAMS = ("events", "lights", "npc", "weather")  # what the authority counts as sent
+
+
+@pytest.fixture(scope="module")
+def demo(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path, Path]:
+    tmp = tmp_path_factory.mktemp("demo")
+    mcap, rrd = tmp / "demo.mcap", tmp / "demo.rrd"
+    done = subprocess.run(
+        [sys.executable, "-m", "carlaverse", "demo", "--duration", "8", "--json", "--quiet",
+         "--record", str(mcap), "--rrd", str(rrd)],
+        capture_output=True, text=True, timeout=180,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    summary = json.loads(done.stdout)
+    assert summary["tools"] == {"recorder": 0, "viewer": 0}
+    return summary, mcap, rrd
+
+
+def test_demo_recording_has_every_key_the_counts_and_the_configs(demo: tuple) -> None:
+    summary, mcap, _ = demo
+    keys = Keys("demo")
+    samples = list(iter_samples(mcap))
+    counts = Counter(s.key for s in samples)
+    nodes = list(summary["nodes"])
+    expected = {keys.pose(n) for n in nodes} | {keys.world(c) for c in AUTHORITY_STREAMS}
+    expected |= {keys.authority(q) for q in ("map", "scenario", "snapshot", "configs")}
+    expected |= {keys.node(n) for n in nodes}
+    assert expected <= set(counts), sorted(expected - set(counts))
+    for stream, sent in summary["authority"]["sent"].items():
+        assert counts[keys.world(stream)] == sent, f"world/{stream}: sent {sent}"
+    for n in nodes:  # poses at 50 Hz for ~8 s each; DROP class, so a bound, not a count
+        assert counts[keys.pose(n)] > 8 * 50 * 0.8, n
+
+    # attachments hold the configs as the authority has them, byte for byte
+    attachments = read_attachments(mcap)
+    last_configs = [s for s in samples if s.key == keys.authority("configs")][-1]
+    reply = messages.CONFIGS.decode(last_configs.payload)
+    for n in nodes:
+        data = attachments[CONFIG_ATTACHMENT.format(node_id=n)]
+        assert data == reply.nodes[n].encode()
+        assert yaml.safe_load(data)["node"]["node_id"] == n
+    scenario = [s for s in samples if s.key == keys.authority("scenario")][-1]
+    assert (
+        attachments[SCENARIO_ATTACHMENT] == messages.SCENARIO.decode(scenario.payload).yaml.encode()
+    )
+    meta = read_metadata(mcap)
+    assert meta["carlaverse.session"]["session"] == "demo"
+    assert set(nodes) <= set(meta["carlaverse.roster"])
+
+
+def test_demo_rrd_has_the_actors_at_recorded_poses_lights_and_map(demo: tuple) -> None:
+    summary, mcap, rrd = demo
+    rows = rrd_rows(rrd)
+    poses: dict[str, dict[float, messages.Pose]] = {}
+    lights: dict[float, messages.LightsState] = {}
+    road_map = None
+    for s in iter_samples(mcap):
+        parsed = parse(s.key)
+        if parsed.channel == "pose":
+            pose = messages.POSE.decode(s.payload)
+            poses.setdefault(parsed.node_id, {})[round(pose.t, 6)] = pose
+        elif parsed.channel == "lights":
+            state = messages.LIGHTS.decode(s.payload)
+            lights[round(state.t, 6)] = state
+        elif parsed.channel == "map":
+            road_map = messages.MAP.decode(s.payload)
+    for n in summary["nodes"]:
+        boxes = [r for r in rows[f"/world/egos/{n}"] if r.get("Boxes3D:centers")]  # not Clears
+        matched = [r for r in boxes if round(r["sim_time"], 6) in poses[n]]
+        assert len(matched) > 50, f"{n}: {len(matched)} of {len(boxes)} boxes at recorded poses"
+        for row in matched:
+            pose = poses[n][round(row["sim_time"], 6)]
+            assert row["Boxes3D:centers"][0][:2] == pytest.approx((pose.x, pose.y), abs=1e-3)
+    assert road_map is not None
+    lanes = [r for path, rs in rows.items() if path.startswith("/world/map/lanes/") for r in rs]
+    assert sum(len(r["LineStrips3D:strips"]) for r in lanes) == len(road_map.lanes)
+    light_paths = [p for p in rows if p.startswith("/world/lights/")]
+    assert light_paths
+    checked = 0
+    for path in light_paths:
+        tls = path.rsplit("/", 1)[-1]
+        for row in rows[path]:
+            state = lights.get(round(row["sim_time"], 6))
+            if state is None:
+                continue  # from the authority's snapshot, not a published state
+            truth = next(x.state for x in state.lights if x.id == tls)
+            shown = "".join(label.split()[-1] for label in row["Points3D:labels"])
+            assert shown == truth, (tls, shown, truth)
+            checked += 1
+    assert checked >= len(light_paths), "every light shown at a published state"
