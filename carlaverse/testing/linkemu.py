@@ -1,0 +1,281 @@
+"""A user-space WAN link emulator: a TCP relay with delay, jitter, loss bursts and cuts.
+
+The kernel of the test machines lacks `netem`, so a site-to-site link is emulated by a relay
+between one router and the next: the dialing router connects to the relay, which connects on
+to the far router and forwards bytes both ways, each chunk held for the direction's delay.
+
+TCP semantics shape the impairments, because a TCP byte stream cannot be reordered or lose
+bytes without breaking the Zenoh framing inside it:
+- jitter: each chunk's delivery time is `now + delay ± jitter`, clamped to be no earlier
+  than the previous chunk's, as TCP delivers in order (a late chunk delays those behind it
+  — head-of-line blocking, exactly what a real TCP link does);
+- a loss burst (`stall`) holds the direction until the burst ends, as TCP's retransmission
+  would: nothing is lost, everything is late;
+- a cut (`cut`) holds every direction and refuses new connections (accept, then close at
+  once) until `restore`; a cut longer than the Zenoh lease makes the routers close the link
+  and redial, which they can once it is restored. `reset` drops every open connection.
+
+The relay runs its own asyncio loop in a thread; `netns` makes that thread enter a network
+namespace first, so every socket of the relay lives there. Timing uses the loop's monotonic
+clock with ~1 ms resolution (epoll's), which is why delays are honoured to about ±1 ms.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import logging
+import random
+import threading
+from collections import Counter
+from dataclasses import dataclass
+
+from carlaverse.testing.netns import enter_netns
+
+log = logging.getLogger(__name__)
+
+CHUNK = 65536  # [bytes] read size
+
+
+@dataclass(frozen=True, slots=True)
+class LinkProfile:
+    """One direction of a link."""
+
+    delay_s: float = 0.0  # [s] one-way delay
+    jitter_s: float = 0.0  # [s] uniform ± around the delay
+
+    def __post_init__(self) -> None:
+        if self.delay_s < 0 or self.jitter_s < 0 or self.jitter_s > self.delay_s:
+            raise ValueError(
+                f"link profile delay {self.delay_s} s, jitter {self.jitter_s} s: both must be "
+                ">= 0 and the jitter at most the delay (a chunk cannot arrive before it is sent)"
+            )
+
+
+class Direction:
+    """Delivery schedule of one direction: monotonic due times, stalls, statistics."""
+
+    def __init__(self, profile: LinkProfile, rng: random.Random) -> None:
+        self.profile = profile
+        self.rng = rng
+        self.last_due = 0.0
+        self.blocked_until = 0.0  # [s] loop time; a loss burst holds deliveries until then
+        self.bytes = 0
+        self.chunks = 0
+
+    def schedule(self, now: float) -> float:
+        p = self.profile
+        due = now + p.delay_s + (self.rng.uniform(-p.jitter_s, p.jitter_s) if p.jitter_s else 0)
+        self.last_due = max(due, self.last_due)
+        return self.last_due
+
+
+class LinkEmulator:
+    """Relay `listen` -> `target` with `forward` (dialer to target) and `backward` profiles."""
+
+    def __init__(
+        self,
+        listen: tuple[str, int],
+        target: tuple[str, int],
+        forward: LinkProfile = LinkProfile(),
+        backward: LinkProfile | None = None,
+        seed: int = 0,
+        netns: str | None = None,
+        name: str = "link",
+    ) -> None:
+        self.listen = listen
+        self.target = target
+        self.name = name
+        self.netns = netns
+        rng = random.Random(seed)
+        self.forward = Direction(forward, random.Random(rng.random()))
+        self.backward = Direction(backward or forward, random.Random(rng.random()))
+        self.counts: Counter[str] = Counter()
+        self.held = 0  # chunks waiting on a cut right now
+        self.port = 0
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._restored: asyncio.Event | None = None
+        self._cut = False
+        self._writers: set[asyncio.StreamWriter] = set()
+        self._server: asyncio.AbstractServer | None = None
+        self._ready = threading.Event()
+        self._error: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name=f"linkemu-{name}", daemon=True)
+
+    # ------------------------------------------------------------ control (any thread)
+
+    def start(self, timeout: float = 5.0) -> LinkEmulator:
+        """Start relaying; returns once listening (raises what prevented it)."""
+        self._thread.start()
+        if not self._ready.wait(timeout):
+            raise TimeoutError(f"link emulator {self.name} did not start in {timeout} s")
+        if self._error is not None:
+            raise RuntimeError(f"link emulator {self.name}: {self._error}") from self._error
+        return self
+
+    @property
+    def address(self) -> tuple[str, int]:
+        return self.listen[0], self.port
+
+    def set_profile(self, forward: LinkProfile, backward: LinkProfile | None = None) -> None:
+        def apply() -> None:
+            self.forward.profile, self.backward.profile = forward, backward or forward
+
+        self._call(apply)
+
+    def cut(self) -> None:
+        """Blackhole the link: hold every byte, refuse new connections."""
+        self._call(self._set_cut, True)
+
+    def restore(self) -> None:
+        """End a cut: held bytes flow (late), new connections are accepted again."""
+        self._call(self._set_cut, False)
+
+    def stall(self, seconds: float, backward: bool = True, forward: bool = True) -> None:
+        """A loss burst of `seconds`: the chosen directions deliver nothing until it ends."""
+
+        def apply() -> None:
+            assert self._loop is not None
+            until = self._loop.time() + seconds
+            for direction, on in ((self.forward, forward), (self.backward, backward)):
+                if on:
+                    direction.blocked_until = max(direction.blocked_until, until)
+
+        self._call(apply)
+
+    def reset(self) -> None:
+        """Drop every open connection at once (a middlebox losing its state)."""
+
+        def apply() -> None:
+            for writer in list(self._writers):
+                writer.transport.abort()
+            self.counts["reset"] += 1
+
+        self._call(apply)
+
+    def close(self) -> None:
+        loop = self._loop
+        if loop is not None and loop.is_running():
+            asyncio.run_coroutine_threadsafe(self._shutdown(), loop).result(timeout=5)
+        self._thread.join(timeout=5)
+
+    def _call(self, fn: object, *args: object) -> None:
+        loop = self._loop
+        if loop is None:
+            raise RuntimeError(f"link emulator {self.name} is not running")
+
+        async def invoke() -> None:
+            fn(*args)  # type: ignore[operator]
+
+        asyncio.run_coroutine_threadsafe(invoke(), loop).result(timeout=5)
+
+    def _set_cut(self, cut: bool) -> None:
+        assert self._restored is not None
+        self._cut = cut
+        self.counts["cut" if cut else "restore"] += 1
+        if cut:
+            self._restored.clear()
+        else:
+            self._restored.set()
+
+    # ------------------------------------------------------------ relay (loop thread)
+
+    def _run(self) -> None:
+        try:
+            if self.netns:
+                enter_netns(self.netns)
+            self._loop = asyncio.new_event_loop()
+            self._loop.run_until_complete(self._serve())
+        except BaseException as exc:  # reported to start(); the thread ends here
+            self._error = exc
+            self._ready.set()
+        finally:
+            if self._loop is not None:
+                self._loop.close()
+
+    async def _serve(self) -> None:
+        self._restored = asyncio.Event()
+        self._restored.set()
+        self._server = await asyncio.start_server(self._accept, *self.listen)
+        self.port = self._server.sockets[0].getsockname()[1]
+        self._ready.set()
+        with contextlib.suppress(asyncio.CancelledError):
+            await self._server.serve_forever()
+
+    async def _shutdown(self) -> None:
+        if self._server is not None:
+            self._server.close()
+        for writer in list(self._writers):
+            writer.transport.abort()
+        for task in asyncio.all_tasks():
+            if task is not asyncio.current_task():
+                task.cancel()
+
+    async def _accept(self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter) -> None:
+        if self._cut:
+            self.counts["refused"] += 1
+            writer.transport.abort()
+            return
+        try:
+            up_reader, up_writer = await asyncio.open_connection(*self.target)
+        except OSError as exc:
+            self.counts["target_unreachable"] += 1
+            log.debug("%s: cannot reach %s: %s", self.name, self.target, exc)
+            writer.transport.abort()
+            return
+        self.counts["accepted"] += 1
+        self._writers.update((writer, up_writer))
+        try:
+            await asyncio.gather(
+                self._pump(reader, up_writer, self.forward),
+                self._pump(up_reader, writer, self.backward),
+            )
+        finally:
+            self._writers.difference_update((writer, up_writer))
+
+    async def _pump(
+        self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, direction: Direction
+    ) -> None:
+        loop = asyncio.get_running_loop()
+        queue: asyncio.Queue[tuple[float, bytes]] = asyncio.Queue()
+        sender = asyncio.create_task(self._deliver(queue, writer, direction))
+        try:
+            while data := await reader.read(CHUNK):
+                queue.put_nowait((direction.schedule(loop.time()), data))
+        except OSError:
+            self.counts["read_error"] += 1
+        queue.put_nowait((direction.schedule(loop.time()), b""))  # end of stream, in order
+        await sender
+
+    async def _deliver(
+        self, queue: asyncio.Queue[tuple[float, bytes]], writer: asyncio.StreamWriter,
+        direction: Direction,
+    ) -> None:  # fmt: skip
+        loop = asyncio.get_running_loop()
+        try:
+            while True:
+                due, data = await queue.get()
+                await self._hold(loop, due, direction)
+                if not data:
+                    break
+                writer.write(data)
+                direction.bytes += len(data)
+                direction.chunks += 1
+                await writer.drain()
+        except OSError:
+            self.counts["write_error"] += 1
+        finally:
+            writer.close()
+
+    async def _hold(self, loop: asyncio.AbstractEventLoop, due: float, d: Direction) -> None:
+        assert self._restored is not None
+        while True:
+            if self._cut:
+                self.held += 1
+                await self._restored.wait()
+                self.held -= 1
+                continue
+            wait = max(due, d.blocked_until) - loop.time()
+            if wait <= 0:
+                return
+            await asyncio.sleep(wait)

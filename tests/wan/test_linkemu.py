@@ -1,0 +1,183 @@
+"""The WAN link emulator on 127.0.0.1: delay, jitter bounds, order, stalls, cuts, resets.
+
+Timing tolerances: the relay sleeps on epoll (1 ms resolution) and shares two cores with
+other test processes, so a chunk is never early by more than clock granularity, and late by
+a few ms typically; medians are checked tightly, maxima loosely.
+"""
+
+from __future__ import annotations
+
+import socket
+import socketserver
+import statistics
+import threading
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from carlaverse.testing.linkemu import LinkEmulator, LinkProfile
+from tests.support import wait_until
+
+GRANULARITY_S = 0.0015  # [s] how early a delivery may look: epoll ms rounding + clock reads
+
+
+class Sink(socketserver.ThreadingTCPServer):
+    """Records (arrival time, line) of every line received; echoes lines back if asked."""
+
+    daemon_threads = True
+    allow_reuse_address = True
+
+    def __init__(self, echo: bool = False) -> None:
+        self.echo = echo
+        self.lines: list[tuple[float, bytes]] = []
+        self.eofs = 0
+        super().__init__(("127.0.0.1", 0), SinkHandler)
+        threading.Thread(target=self.serve_forever, args=(0.05,), daemon=True).start()
+
+
+class SinkHandler(socketserver.StreamRequestHandler):
+    server: Sink
+
+    def handle(self) -> None:
+        for line in self.rfile:
+            self.server.lines.append((time.monotonic(), line.strip()))
+            if self.server.echo:
+                self.wfile.write(line)
+        self.server.eofs += 1
+
+
+@pytest.fixture
+def sink() -> Iterator[Sink]:
+    server = Sink()
+    yield server
+    server.shutdown()
+    server.server_close()
+
+
+def relay(target: Sink, forward: LinkProfile, backward: LinkProfile | None = None) -> LinkEmulator:
+    return LinkEmulator(("127.0.0.1", 0), target.server_address[:2], forward, backward, seed=7)
+
+
+def connect(emu: LinkEmulator) -> socket.socket:
+    sock = socket.create_connection(emu.address, timeout=5)
+    sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+    return sock
+
+
+def send_stream(sock: socket.socket, count: int, gap_s: float) -> dict[bytes, float]:
+    """Send `count` lines, one every `gap_s` (a traffic generator, not a wait)."""
+    sent = {}
+    for i in range(count):
+        line = f"m{i}".encode()
+        sent[line] = time.monotonic()
+        sock.sendall(line + b"\n")
+        threading.Event().wait(gap_s)
+    return sent
+
+
+def one_way(sink: Sink, sent: dict[bytes, float]) -> list[float]:
+    wait_until(lambda: len(sink.lines) >= len(sent), 10, "all lines through the relay")
+    return [t - sent[line] for t, line in sink.lines]
+
+
+def test_delay_is_applied_to_every_chunk(sink: Sink) -> None:
+    emu = relay(sink, LinkProfile(delay_s=0.030)).start()
+    try:
+        with connect(emu) as sock:
+            delays = one_way(sink, send_stream(sock, 40, 0.004))
+    finally:
+        emu.close()
+    assert min(delays) >= 0.030 - GRANULARITY_S
+    assert abs(statistics.median(delays) - 0.030) < 0.003
+    assert max(delays) < 0.060
+
+
+def test_jitter_stays_in_bounds_and_keeps_order(sink: Sink) -> None:
+    emu = relay(sink, LinkProfile(delay_s=0.030, jitter_s=0.010)).start()
+    try:
+        with connect(emu) as sock:
+            delays = one_way(sink, send_stream(sock, 60, 0.005))
+    finally:
+        emu.close()
+    assert [line for _, line in sink.lines] == [f"m{i}".encode() for i in range(60)]
+    assert min(delays) >= 0.020 - GRANULARITY_S
+    assert statistics.quantiles(delays, n=20)[-1] <= 0.040 + 0.005  # p95
+    assert statistics.pstdev(delays) > 0.002  # it does jitter
+
+
+def test_directions_have_their_own_delay() -> None:
+    echo = Sink(echo=True)
+    emu = relay(echo, LinkProfile(delay_s=0.010), LinkProfile(delay_s=0.040)).start()
+    try:
+        with connect(emu) as sock:
+            t0 = time.monotonic()
+            sock.sendall(b"ping\n")
+            assert sock.recv(16) == b"ping\n"
+            rtt = time.monotonic() - t0
+        forward = echo.lines[0][0] - t0
+    finally:
+        emu.close()
+        echo.shutdown()
+        echo.server_close()
+    assert 0.010 - GRANULARITY_S <= forward < 0.030
+    assert 0.050 - GRANULARITY_S <= rtt < 0.090
+
+
+def test_cut_holds_bytes_and_refuses_connections_until_restore(sink: Sink) -> None:
+    emu = relay(sink, LinkProfile(delay_s=0.005)).start()
+    try:
+        with connect(emu) as sock:
+            sock.sendall(b"before\n")
+            wait_until(lambda: len(sink.lines) == 1, 5, "the line sent before the cut")
+            emu.cut()
+            sock.sendall(b"during\n")
+            wait_until(lambda: emu.held >= 1, 5, "the relay to hold the line sent during the cut")
+            with connect(emu) as refused:
+                assert refused.recv(16) == b""  # closed at once: the far side is unreachable
+            restored_at = time.monotonic()
+            emu.restore()
+            wait_until(lambda: len(sink.lines) == 2, 5, "the held line after restore")
+        assert sink.lines[1][1] == b"during" and sink.lines[1][0] >= restored_at
+        assert emu.counts["refused"] == 1
+        with connect(emu) as again:
+            again.sendall(b"after\n")
+            wait_until(lambda: len(sink.lines) == 3, 5, "a new connection after restore")
+    finally:
+        emu.close()
+
+
+def test_a_loss_burst_delays_but_loses_nothing(sink: Sink) -> None:
+    emu = relay(sink, LinkProfile(delay_s=0.005)).start()
+    try:
+        with connect(emu) as sock:
+            started = time.monotonic()
+            emu.stall(0.15)
+            sent = send_stream(sock, 5, 0.0)
+            one_way(sink, sent)
+    finally:
+        emu.close()
+    assert [line for _, line in sink.lines] == list(sent)
+    assert sink.lines[0][0] >= started + 0.15 - GRANULARITY_S
+
+
+def test_reset_drops_open_connections_and_eof_passes_through(sink: Sink) -> None:
+    emu = relay(sink, LinkProfile(delay_s=0.002)).start()
+    try:
+        with connect(emu) as sock:
+            sock.sendall(b"x\n")
+            wait_until(lambda: sink.lines, 5, "a line")
+            emu.reset()
+            assert sock.recv(16) == b""
+        wait_until(lambda: sink.eofs == 1, 5, "the far side to see the connection end")
+        with connect(emu) as sock:
+            sock.sendall(b"y\n")
+            sock.shutdown(socket.SHUT_WR)
+            wait_until(lambda: sink.eofs == 2, 5, "end of stream relayed")
+    finally:
+        emu.close()
+
+
+def test_profiles_that_would_deliver_before_sending_are_refused() -> None:
+    with pytest.raises(ValueError, match="jitter"):
+        LinkProfile(delay_s=0.01, jitter_s=0.02)
