@@ -5,7 +5,8 @@ Entity layout (what tests and blueprints rely on):
     world/map/areas/<kind>     LineStrips3D, static: junctions and other polygons
     world/egos/<node_id>       Boxes3D, one per ego, labelled, coloured by actor kind
     world/npcs/<npc_id>        Boxes3D, one per NPC
-    world/trails/<actor_id>    LineStrips3D: where the actor has been
+    world/trails/<node_id>     LineStrips3D: where each ego has been
+    world/trails/npcs          LineStrips3D: the NPCs' recent paths, one entity for all
     world/lights/<tls_id>      Points3D: one point per controlled link at its stop line,
                                coloured and labelled by the link's state (r y g G o O s u)
     world/impulses/<node_id>   Arrows3D: collision impulse at the contact point
@@ -93,6 +94,7 @@ class SceneLogger:
         self.rec = rec
         self.trails = trails
         self.frames = 0
+        self._styles: dict[str, tuple[str, m.Extent]] = {}  # entity -> what its box last showed
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
 
     def _at(self, t: float) -> None:
@@ -104,11 +106,16 @@ class SceneLogger:
             self.log_map(world.map)
             world.map_dirty = False
             world.lights_dirty = world.lights is not None  # now they can be placed
-        for actor in [*world.egos.values(), *world.npcs.values()]:
+        self._clear_removed(world)
+        for actor in world.egos.values():
             if actor.dirty:
                 self.log_actor(actor)
-                actor.dirty = False
-        self._clear_removed(world)
+                self._log_trail(actor)
+        moved = [a for a in world.npcs.values() if a.dirty]
+        for actor in moved:
+            self.log_actor(actor)
+        if moved and self.trails:
+            self._log_npc_trails(world, max(a.t for a in moved))
         if world.lights_dirty and world.lights is not None:
             self.log_lights(world.lights, world.map)
             world.lights_dirty = False
@@ -145,31 +152,50 @@ class SceneLogger:
     # ------------------------------------------------------------------ actors
 
     def log_actor(self, actor: Actor) -> None:
+        """The actor's box at its sample's time; what does not change is logged only once."""
         self._at(actor.t)
         e = actor.extent
         x, y, z = actor.xyz
-        self.rec.log(
-            actor_path(actor),
-            rr.Boxes3D(
-                centers=[(x, y, z + e.height / 2)],
+        path = actor_path(actor)
+        style = (actor.kind, e)
+        center, rotation = [(x, y, z + e.height / 2)], [quaternion(*actor.rpy)]
+        if self._styles.get(path) == style:
+            # the hot path: rerun keeps the rest (latest-at), so only move the box
+            self.rec.log(path, rr.Boxes3D.from_fields(centers=center, quaternions=rotation))
+        else:
+            self._styles[path] = style
+            box = rr.Boxes3D(
+                centers=center,
                 half_sizes=[(e.length / 2, e.width / 2, e.height / 2)],
-                quaternions=[quaternion(*actor.rpy)],
+                quaternions=rotation,
                 labels=[actor.id],
                 colors=[actor_color(actor)],
                 fill_mode="solid" if actor.ego else None,
-            ),
-        )
-        if self.trails and len(actor.trail) > 1:
-            self.rec.log(
-                f"world/trails/{actor.id}",
-                rr.LineStrips3D([list(actor.trail)], colors=[actor_color(actor)], radii=[0.08]),
             )
+            self.rec.log(path, box)
+        actor.dirty = False
+
+    def _log_trail(self, actor: Actor) -> None:
+        if self.trails and len(actor.trail) > 1:
+            strip = rr.LineStrips3D([list(actor.trail)], colors=[actor_color(actor)], radii=[0.08])
+            self.rec.log(f"world/trails/{actor.id}", strip)
+
+    def _log_npc_trails(self, world: WorldModel, t: float) -> None:
+        """All NPC trails as one entity: one call per frame instead of one per NPC."""
+        self._at(t)
+        npcs = [a for a in world.npcs.values() if len(a.trail) > 1]
+        strips = [list(a.trail) for a in npcs]
+        colors = [actor_color(a) for a in npcs]
+        self.rec.log("world/trails/npcs", rr.LineStrips3D(strips, colors=colors, radii=[0.05]))
 
     def _clear_removed(self, world: WorldModel) -> None:
         for actor_id, ego, t in world.removed:
             self._at(t)
-            self.rec.log(f"world/{'egos' if ego else 'npcs'}/{actor_id}", rr.Clear(recursive=True))
-            self.rec.log(f"world/trails/{actor_id}", rr.Clear(recursive=True))
+            path = f"world/{'egos' if ego else 'npcs'}/{actor_id}"
+            self.rec.log(path, rr.Clear(recursive=True))
+            self._styles.pop(path, None)
+            if ego:
+                self.rec.log(f"world/trails/{actor_id}", rr.Clear(recursive=True))
         world.removed.clear()
 
     # ------------------------------------------------------------------ lights, weather

@@ -44,10 +44,13 @@ def _check_scene(rows: dict[str, list[dict]], published: dict[str, list], egos: 
             x, y, z = row["Boxes3D:centers"][0]
             assert (x, y) == pytest.approx((pose.x, pose.y), abs=1e-4)
             assert z == pytest.approx(pose.z + messages.Extent().height / 2, abs=1e-4)
-            assert row["Boxes3D:labels"] == [node_id]
+        assert boxes[0]["Boxes3D:labels"] == [node_id]  # then rerun keeps it (latest-at)
+        assert boxes[0]["Boxes3D:half_sizes"] and boxes[0]["Boxes3D:colors"]
         assert rows[f"/world/trails/{node_id}"], "a trajectory per ego"
     batches = {round(b.t, 6): b for b in published["npc"]}
+    assert rows["/world/trails/npcs"], "the NPCs' recent paths"
     for i, npc_id in enumerate(published["npc"][0].ids):
+        assert rows[f"/world/npcs/{npc_id}"][0]["Boxes3D:labels"] == [npc_id]
         for row in rows[f"/world/npcs/{npc_id}"]:
             r = batches[round(row["sim_time"], 6)].array()[i]
             assert row["Boxes3D:centers"][0][:2] == pytest.approx((r["x"], r["y"]), abs=1e-4)
