@@ -20,7 +20,7 @@ from carlaverse.cli.common import (
 from carlaverse.config import ConfigError
 from carlaverse.fabric.clock import WallAlignedClock
 from carlaverse.fabric.session import FabricError, open_session
-from carlaverse.keys import KeySpaceError, check_token
+from carlaverse.keys import AUTHORITY_ID, KeySpaceError, check_token
 
 log = logging.getLogger(__name__)
 
@@ -71,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         check_token(session_name, "session name")
         domain = load_domain(args.scenario, args.seed)
-        session = open_session(fabric_from_args(args))
+        session = open_session(fabric_from_args(args, identity=AUTHORITY_ID))
     except (ConfigError, FabricError, KeySpaceError) as exc:
         return fail("authority", str(exc))
     params = getattr(domain, "session_params", None)

@@ -34,6 +34,12 @@ def add_fabric_args(parser: argparse.ArgumentParser, session: bool = True) -> No
     )
     group.add_argument("--mode", choices=["peer", "client"], help="Zenoh mode (default peer)")
     group.add_argument(
+        "--roster",
+        metavar="FILE",
+        help="secured session roster: join with this node's certificate and login as a "
+        "client of its site router (see router/README.md)",
+    )
+    group.add_argument(
         "--lowlatency",
         action="store_true",
         help="Zenoh low-latency transport (every process on the path must use it)",
@@ -41,8 +47,10 @@ def add_fabric_args(parser: argparse.ArgumentParser, session: bool = True) -> No
 
 
 def fabric_from_args(
-    args: argparse.Namespace, base: FabricSettings | None = None
+    args: argparse.Namespace, base: FabricSettings | None = None, identity: str | None = None
 ) -> FabricSettings:
+    """Settings from a config section overridden by flags. With `--roster`, the TLS and login
+    entries of `identity` (default: `--id`) are added; raises ConfigError if they are missing."""
     base = base or FabricSettings()
     changes: dict[str, Any] = {}
     if args.connect:
@@ -53,7 +61,13 @@ def fabric_from_args(
         changes["mode"] = args.mode
     if getattr(args, "lowlatency", False):
         changes["lowlatency"] = True
-    return msgspec.structs.replace(base, **changes)
+    settings = msgspec.structs.replace(base, **changes)
+    if getattr(args, "roster", None):
+        from carlaverse.security.sites import secure_fabric
+
+        node_id = identity or getattr(args, "node_id", None)
+        settings = secure_fabric(settings, args.roster, node_id, keep_mode=bool(args.mode))
+    return settings
 
 
 def add_output_args(parser: argparse.ArgumentParser, duration: float | None = None) -> None:

@@ -71,7 +71,10 @@ def run(args: argparse.Namespace) -> int:
     except KeySpaceError as exc:
         return fail("join", str(exc))
     config = msgspec.structs.replace(config, node=node_settings)
-    fabric = fabric_from_args(args, config.fabric)
+    try:
+        fabric = fabric_from_args(args, config.fabric, identity=node_settings.node_id)
+    except ConfigError as exc:
+        return fail("join", str(exc))
     config = msgspec.structs.replace(config, fabric=fabric)
     stop = stop_on_signals()
     try:

@@ -16,6 +16,8 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import msgspec
+
 from carlaverse.config import ConfigError
 from carlaverse.fabric.session import FabricSettings, Mode
 from carlaverse.security.acl import site_acl
@@ -79,6 +81,20 @@ def node_fabric_settings(
     except (CertificateError, CredentialError) as exc:
         raise ConfigError(f"{loaded.source} (node {node_id})", str(exc)) from exc
     return FabricSettings(mode=mode, connect=list(connect), zenoh=entries)
+
+
+def secure_fabric(
+    base: FabricSettings, roster_path: str | Path, node_id: str | None, keep_mode: bool = False
+) -> FabricSettings:
+    """`base` plus the TLS and login entries of `node_id` (`--roster` of join and authority).
+
+    The node becomes a `client` unless `keep_mode` (an explicit `--mode`): see the module doc.
+    """
+    if not node_id:
+        raise ConfigError(str(roster_path), "--roster needs the node's id: pass --id NODE_ID")
+    entries = node_fabric_settings(roster_path, node_id, connect=[]).zenoh
+    mode = base.mode if keep_mode else "client"
+    return msgspec.structs.replace(base, mode=mode, zenoh={**base.zenoh, **entries})
 
 
 def node_zenoh_entries(config_path: str | Path, node_id: str) -> dict[str, Any]:
