@@ -85,6 +85,7 @@ class Recorder:
         self._n_received = 0
         self._n_dropped = 0
         self._known_keys: set[str] = set()
+        self._max_queued = 0  # deepest backlog seen: how close the writer came to dropping
         self._events_key = keys.world("events")
         self._stop = threading.Event()
         self._failure = ""
@@ -165,19 +166,19 @@ class Recorder:
             self._failure = f"writing {self._sink.path}: {exc}"
             log.error("recorder stopped: %s", self._failure)
 
-    def _drain_once(self) -> None:
+    def _drain_once(self, batch_max: int = 4096) -> None:
+        """Write up to `batch_max` queued samples, then archive items and a due chunk flush."""
         try:
-            item = self._queue.get(timeout=0.05)
+            self._write_sample(*self._queue.get(timeout=0.05))
         except queue.Empty:
-            item = None
-        batch = 0
-        while item is not None and batch < 4096:
-            self._write_sample(*item)
-            batch += 1
+            pass
+        self._max_queued = max(self._max_queued, self._queue.qsize())
+        for _ in range(batch_max - 1):
             try:
                 item = self._queue.get_nowait()
             except queue.Empty:
-                item = None
+                break
+            self._write_sample(*item)
         self._drain_control()
         self._sink.maybe_flush()
 
@@ -217,6 +218,7 @@ class Recorder:
             "messages": str(stats.written),
             "received": str(stats.received),
             "dropped": str(stats.dropped),
+            "max_queued": str(self._max_queued),
             "decode_errors": str(stats.decode_errors),
             "archive_errors": str(self._archive.errors),
         }

@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import json
+import threading
 import time
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
+import zenoh
 from mcap.reader import make_reader
 
 from carlaverse import messages
@@ -116,3 +119,41 @@ def test_json_view_is_readable_and_names_fields(world: World, tmp_path: Path) ->
     assert len(npc["msg"]["rows"]) == 6 and "length" in npc["msg"]["rows"][0]
     _, skeleton = views["carlaverse/rec/ego/ego-0/skeleton"]
     assert "error" in skeleton and "msg" not in skeleton
+
+
+class _GatedSink(McapSink):
+    """A real sink whose first write waits for the test: the queue fills meanwhile."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__(path, monotonic=time.monotonic)
+        self.gate = threading.Event()
+
+    def write(self, *args: Any, **kwargs: Any) -> None:
+        self.gate.wait(timeout=30)
+        super().write(*args, **kwargs)
+
+
+def test_writer_loses_nothing_across_batches(world: World, tmp_path: Path) -> None:
+    """A backlog longer than one writer batch (4096): every sample is written, in order."""
+    path = tmp_path / "burst.mcap"
+    session = world.connect()
+    sink = _GatedSink(path)
+    recorder = Recorder(session, Keys("rec"), sink, archive=False)
+    key = Keys("rec").pose("ego-0")
+    payloads = [messages.POSE.encode(messages.Pose(i, i * 1e-3, 0.0, 0.0)) for i in range(10_000)]
+    block = zenoh.CongestionControl.BLOCK
+    publisher = world.session.declare_publisher(key, congestion_control=block)
+    try:
+        recorder.start()
+        wait_until(lambda: publisher.matching_status.matching, 10, "the recorder listening")
+        for payload in payloads:
+            publisher.put(payload)
+        wait_until(lambda: recorder.stats().received >= len(payloads), 20, "10 000 queued")
+        sink.gate.set()
+        stats = recorder.stop()
+    finally:
+        sink.gate.set()
+        publisher.undeclare()
+        session.close()
+    assert stats.dropped == 0
+    assert [s.payload for s in iter_samples(path) if s.key == key] == payloads
