@@ -191,7 +191,17 @@ class LinkEmulator:
             self._ready.set()
         finally:
             if self._loop is not None:
+                self._finish_tasks(self._loop)
                 self._loop.close()
+
+    @staticmethod
+    def _finish_tasks(loop: asyncio.AbstractEventLoop) -> None:
+        """Let cancelled connection tasks unwind before the loop closes."""
+        pending = asyncio.all_tasks(loop)
+        for task in pending:
+            task.cancel()
+        if pending:
+            loop.run_until_complete(asyncio.gather(*pending, return_exceptions=True))
 
     async def _serve(self) -> None:
         self._restored = asyncio.Event()

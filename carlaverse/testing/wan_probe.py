@@ -59,7 +59,8 @@ class Probe:
         }
         self.last: dict[str, m.Pose] = {}
         self.inbox: deque[tuple[str, m.Pose, float]] = deque(maxlen=100_000)
-        self.samples: list[list[Any]] = []  # [mono_t, target, adaptive, fixed, naive, present]
+        # [monotonic t, target, adaptive, fixed, naive error [m], present, adaptive delay [ms]]
+        self.samples: list[list[Any]] = []
         self.present: dict[str, bool] = dict.fromkeys(targets, False)
         self.bad = 0
 
@@ -87,7 +88,8 @@ class Probe:
         for target, path in self.targets.items():
             errors = [self._error(target, path, v, now) for v in VARIANTS]
             present = target in self.client.world.egos
-            self.samples.append([round(mono, 4), target, *errors, present])
+            delay_ms = round(self.actors[target]["adaptive"].delay_s * 1e3, 2)
+            self.samples.append([round(mono, 4), target, *errors, present, delay_ms])
             if present != self.present[target]:
                 self.present[target] = present
                 print(f"presence {target} {int(present)} {mono:.4f}", file=sys.stderr, flush=True)

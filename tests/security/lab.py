@@ -36,6 +36,7 @@ class Lab:
     nodes: list[tuple[str, str, str]]
     mtls: bool = True
     usrpwd: bool = False
+    scheme: str = "tls"  # or "quic": same certificates, same rules
     ports: dict[str, int] = field(default_factory=dict)
     opened: list[Any] = field(default_factory=list)
 
@@ -64,7 +65,7 @@ class Lab:
         return self.root / "session.yaml"
 
     def endpoint(self, site: str) -> str:
-        return f"tls/localhost:{self.ports[site]}"
+        return f"{self.scheme}/localhost:{self.ports[site]}"
 
     def router(self, site: str) -> zenoh.Session:
         return self.track(open_session(router_settings_for_site(self.roster_path, site)))

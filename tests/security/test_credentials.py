@@ -147,3 +147,28 @@ def test_a_compromised_remote_router_cannot_speak_for_this_site(lab: Lab) -> Non
 
     wait_until(own_pose_arrived, 10, "the bike's own pose across sites", poll=0.1)
     assert b"forged" not in inbox.payloads()
+
+
+def test_quic_sites_enforce_the_same_identities_and_rules(tmp_path: Path) -> None:
+    lab = Lab(tmp_path, NODES, scheme="quic")
+    lab.write()
+    try:
+        lab.router("a")
+        lab.router("b")
+        watcher = lab.node("authority", "a")
+        bike = lab.node("b-bike", "b")
+        inbox = Inbox()
+        watcher.declare_subscriber(K.everything, inbox)
+
+        def own_pose_arrived() -> bool:
+            bike.put(K.pose("a-drive"), b"forged")
+            bike.put(K.pose("b-bike"), b"own")
+            return b"own" in inbox.payloads()
+
+        wait_until(own_pose_arrived, 10, "the bike's own pose across QUIC sites", poll=0.1)
+        assert b"forged" not in inbox.payloads()
+        _admitted(lab, lab.node_settings("a-drive", "a"))
+        ca = lab.roster_path.parent / "certs" / "ca.pem"
+        _refused(lab, _bare(lab), **tls_entries(ca, mtls=True))  # no certificate
+    finally:
+        lab.close()
