@@ -14,6 +14,7 @@ from carlaverse.cli.common import (
     print_json,
     stop_on_signals,
 )
+from carlaverse.config import ConfigError
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
 from carlaverse.fabric.session import FabricError, open_session
@@ -45,6 +46,8 @@ def run(args: argparse.Namespace) -> int:
         session = open_session(fabric_from_args(args))
     except FabricError as exc:
         return fail("stats", str(exc), 3)
+    except ConfigError as exc:  # --roster: not in it, or certificate files missing
+        return fail("stats", str(exc))
     stop = stop_on_signals()
     client = NodeClient(session, settings, MonotonicClock()).start()
     started = next_print = time.monotonic()
