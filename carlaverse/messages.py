@@ -355,6 +355,7 @@ class ConfigsReply(msgspec.Struct, frozen=True):
     schema: int
     nodes: dict[str, str]  # node id -> config YAML as the node sent it at join
     scenario_yaml: str = ""
+    hostnames: dict[str, str] = {}  # node id -> host it joined from
 
 
 # --------------------------------------------------------------------------- codecs

@@ -262,8 +262,10 @@ class Authority:
     def _on_configs(self, query: zenoh.Query) -> None:
         with self._lock:
             nodes = {n: t.config_yaml for n, t in self.roster.tracks.items()}
+            hosts = {n: str(t.extra.get("hostname", "")) for n, t in self.roster.tracks.items()}
         scenario = self.domain.scenario_reply()
-        reply = m.ConfigsReply(m.SCHEMA_VERSION, nodes, scenario.yaml if scenario else "")
+        yaml = scenario.yaml if scenario else ""
+        reply = m.ConfigsReply(m.SCHEMA_VERSION, nodes, yaml, hostnames=hosts)
         query.reply(query.key_expr, m.CONFIGS.encode(reply))
 
     def _on_map(self, query: zenoh.Query) -> None:

@@ -315,6 +315,7 @@ def _summarise(
             "latency_p99_ms": _worst(peers, "latency_p99_ms"),
             "despawns": summary.get("despawns", []),
             "npcs_now": summary.get("npcs_now", 0),
+            "poses_sent": summary.get("poses_sent", 0),
         }
     tools = {c.name: c.proc.returncode for c in children if c.role == "tool"}
     ok = all(t["exit_code"] == 0 for t in table.values()) and all(v == 0 for v in tools.values())

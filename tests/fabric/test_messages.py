@@ -76,7 +76,7 @@ def examples() -> list[tuple[m.Codec, object]]:
             ),
         ),
         (m.SCENARIO, m.ScenarioReply(m.SCHEMA_VERSION, "town", "map: {}\n", 42)),
-        (m.CONFIGS, m.ConfigsReply(m.SCHEMA_VERSION, {"n": "a: 1\n"}, "map: {}\n")),
+        (m.CONFIGS, m.ConfigsReply(m.SCHEMA_VERSION, {"n": "a: 1\n"}, "map: {}\n", {"n": "h"})),
     ]
 
 
