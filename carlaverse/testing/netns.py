@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import ctypes
 import os
+import re
 import shutil
 import subprocess
 from dataclasses import dataclass, field
@@ -104,6 +105,33 @@ class Veth:
             ns.ip("addr", "add", f"{addr}/{self.prefix}", "dev", ifname)
             ns.ip("link", "set", ifname, "up")
         return self
+
+
+def owner_prefix(pid: int) -> str:
+    """Namespace name prefix of the harness run by process `pid`: `cvw<pid>`."""
+    return f"cvw{pid}"
+
+
+def remove_orphans() -> list[str]:
+    """Delete namespaces left by harness runs whose process is gone (a killed test run)."""
+    removed = []
+    for line in _ip("netns", "list").splitlines():
+        name = line.split()[0] if line.strip() else ""
+        match = re.fullmatch(r"cvw(\d+)-[\w.-]+", name)
+        if match and not _alive(int(match.group(1))):
+            NetNamespace(name).delete()
+            removed.append(name)
+    return removed
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
 
 
 @dataclass

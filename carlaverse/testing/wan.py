@@ -32,7 +32,7 @@ from typing import Any
 import yaml
 
 from carlaverse.testing.linkemu import LinkEmulator, LinkProfile
-from carlaverse.testing.netns import NamespaceSet, NetNamespace, Veth
+from carlaverse.testing.netns import NamespaceSet, NetNamespace, Veth, owner_prefix, remove_orphans
 
 ROUTER_PORT = 7447
 DEFAULT_ROUTER_LEASE_MS = 5000
@@ -128,7 +128,7 @@ class WanLab:
         self.profile = profile
         self.router_lease_ms = router_lease_ms
         self.seed = seed
-        self.namespaces = NamespaceSet(f"cvw{os.getpid() % 100000}")
+        self.namespaces = NamespaceSet(owner_prefix(os.getpid()))
         self.links: dict[str, LinkEmulator] = {}
         self.processes: list[SiteProcess] = []
         self.routers: dict[str, SiteProcess] = {}
@@ -136,6 +136,7 @@ class WanLab:
     # ------------------------------------------------------------ lifecycle
 
     def start(self, timeout: float = 30.0) -> WanLab:
+        remove_orphans()
         try:
             core = self.namespaces.add("core")
             for plan in self.plans.values():
