@@ -23,6 +23,12 @@ Egress (what the router may deliver): to a node, puts on `S/**`, replies from
 write-side filtering; queries only to the authority. To another site's router, every message
 on `S/**`: it applies its own rules to its own nodes. Nothing outside `S/**` passes.
 A `liveliness_query` is answered with `liveliness_token` messages, hence the token egress.
+
+Subjects: a node is matched by everything the session uses (its certificate's common name
+and/or its username, AND-ed). Another site's router is matched by its certificate *or* its
+login, because of how zenoh 1.10 authenticates links: the dialer of a TLS link always sees
+the listener's certificate, the listener sees the dialer's certificate only with mutual TLS,
+and a login is only ever presented by the dialer.
 """
 
 from __future__ import annotations
