@@ -134,3 +134,15 @@ def test_unknown_site_is_named(tmp_path: Path) -> None:
     loaded = load_roster(_write(tmp_path, BASE))
     with pytest.raises(RosterError, match=r"no site 'mit'.*tum, kth"):
         site_acl(loaded, "mit")
+
+
+def test_interfaces_narrow_a_subject(tmp_path: Path) -> None:
+    nodes = [*BASE["nodes"], {"id": "kth-sim", "kind": "drive", "site": "kth",
+                              "credential": {"interfaces": ["eth1"]}}]  # fmt: skip
+    loaded = load_roster(_write(tmp_path, _with(nodes=nodes)))
+    subject = next(s for s in site_acl(loaded, "kth")["subjects"] if s["id"] == "node:kth-sim")
+    assert subject == {
+        "id": "node:kth-sim",
+        "cert_common_names": ["kth-sim"],
+        "interfaces": ["eth1"],
+    }
