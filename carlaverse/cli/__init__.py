@@ -56,6 +56,15 @@ def _command_parser(name: str) -> tuple[argparse.ArgumentParser, object]:
     return parser, module
 
 
+def _zenoh_logs() -> None:
+    """Zenoh's own log (a failed TLS handshake is otherwise silent); RUST_LOG overrides."""
+    try:
+        import zenoh
+    except ModuleNotFoundError:
+        return
+    zenoh.init_log_from_env_or("info")
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     argv = list(sys.argv[1:] if argv is None else argv)
     top = build_parser()
@@ -83,6 +92,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     verbosity = max(top_args.verbose, args.verbose)
     level = logging.WARNING if verbosity == 0 else logging.INFO if verbosity == 1 else logging.DEBUG
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
+    if verbosity >= 2:
+        _zenoh_logs()
     try:
         return int(module.run(args) or 0)
     except KeyboardInterrupt:
