@@ -28,12 +28,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from benchdoc import write_section
+
 from carlaverse.authority.domain import EgoTrack
 from carlaverse.authority.memory_outbox import MemoryOutbox
 from carlaverse.authority.world import TrafficDomain, load_domain
 from carlaverse.messages import EgoInfo, Extent, MapReply, Pose
 
-ROOT = Path(__file__).resolve().parents[2]
 TICK_S = 0.02  # [s] 50 Hz
 EGOS = 16
 PEDESTRIANS = 200
@@ -208,22 +209,6 @@ def _body(table: str, args: argparse.Namespace) -> str:
 
 def _command(argv: list[str] | None) -> str:
     return "python tools/bench/bench_authority.py " + " ".join(argv or sys.argv[1:])
-
-
-def write_section(title: str, body: str, command: str) -> None:
-    """Replace or append our section of docs/benchmarks.md, leaving the others intact."""
-    path = ROOT / "docs" / "benchmarks.md"
-    text = path.read_text() if path.exists() else "# Benchmarks\n"
-    header = f"## {title}"
-    section = f"{header}\n\nReproduce: `{command.replace(' --write', '').strip()}`\n\n{body}\n"
-    if header in text:
-        start = text.index(header)
-        end = text.find("\n## ", start + 1)
-        text = text[:start] + section + (text[end + 1 :] if end >= 0 else "")
-    else:
-        text = text.rstrip() + "\n\n" + section
-    path.parent.mkdir(exist_ok=True)
-    path.write_text(text)
 
 
 if __name__ == "__main__":

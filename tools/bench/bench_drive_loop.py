@@ -23,6 +23,7 @@ import sys
 import time
 from pathlib import Path
 
+from benchdoc import write_section
 from carlaverse_nodes.drive.config import load_drive_config
 from carlaverse_nodes.drive.vehicle_loop import DriveLoop
 
@@ -142,22 +143,6 @@ def main(argv: list[str] | None = None) -> int:
         command = "python tools/bench/bench_drive_loop.py " + " ".join(argv or sys.argv[1:])
         write_section("Drive loop step cost", body, command.strip())
     return 0
-
-
-def write_section(title: str, body: str, command: str) -> None:
-    """Replace or append our section of docs/benchmarks.md, leaving the others intact."""
-    path = ROOT / "docs" / "benchmarks.md"
-    text = path.read_text() if path.exists() else "# Benchmarks\n"
-    header = f"## {title}"
-    section = f"{header}\n\nReproduce: `{command.replace(' --write', '')}`\n\n{body}\n"
-    if header in text:
-        start = text.index(header)
-        end = text.find("\n## ", start + 1)
-        text = text[:start] + section + (text[end + 1 :] if end >= 0 else "")
-    else:
-        text = text.rstrip() + "\n\n" + section
-    path.parent.mkdir(exist_ok=True)
-    path.write_text(text)
 
 
 if __name__ == "__main__":

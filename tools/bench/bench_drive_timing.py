@@ -19,7 +19,8 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_fabric import _port, write_section
+from bench_fabric import _port
+from benchdoc import write_section
 
 
 def peers(endpoint: str, first: int, count: int, stop: mp.synchronize.Event) -> None:

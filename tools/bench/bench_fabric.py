@@ -24,11 +24,11 @@ import statistics
 import struct
 import sys
 import time
-from pathlib import Path
 from typing import Any
 
+from benchdoc import write_section
+
 STAMP = struct.Struct("<d56x")  # padded to the pose's 64 bytes: same payload size everywhere
-ROOT = Path(__file__).resolve().parents[2]
 NOTE = (
     "All paths are stamped with the host's CLOCK_MONOTONIC and carry 64-byte payloads; the bare "
     "key has the same subscribers as the pose key (receiver + authority), because every extra "
@@ -260,25 +260,6 @@ def main(argv: list[str] | None = None) -> int:
             " ".join(["python tools/bench/bench_fabric.py", *(argv or sys.argv[1:])]),
         )
     return 0
-
-
-def write_section(title: str, body: str, command: str) -> None:
-    path = ROOT / "docs" / "benchmarks.md"
-    text = (
-        path.read_text()
-        if path.exists()
-        else "# Benchmarks\n\nMeasured on the project's 2-core CI-class machine unless noted.\n"
-    )
-    header = f"## {title}"
-    section = f"{header}\n\nReproduce: `{command.replace(' --write', '')}`\n\n{body}\n"
-    if header in text:
-        start = text.index(header)
-        end = text.find("\n## ", start + 1)
-        text = text[:start] + section + (text[end + 1 :] if end >= 0 else "")
-    else:
-        text = text.rstrip() + "\n\n" + section
-    path.parent.mkdir(exist_ok=True)
-    path.write_text(text)
 
 
 if __name__ == "__main__":

@@ -19,12 +19,12 @@ import subprocess
 import sys
 import threading
 import time
-from pathlib import Path
+
+from benchdoc import write_section
 
 from carlaverse.hal import ffb_packet, open_ffb
 from carlaverse.hal.ffb_packet import FfbCommand
 
-ROOT = Path(__file__).resolve().parents[2]
 COMMAND = FfbCommand(
     spring_stiffness=4000, spring_offset=-120, spring_deadband=50, spring_saturation=9000,
     constant_force=-1500, damper=800, friction=300, inertia=100, vibration_magnitude=400,
@@ -163,22 +163,6 @@ def main(argv: list[str] | None = None) -> int:
         command = "python tools/bench/bench_ffb.py " + " ".join(argv or sys.argv[1:])
         write_section("Hardware layer", body, command.strip())
     return 0
-
-
-def write_section(title: str, body: str, command: str) -> None:
-    """Replace or append our section of docs/benchmarks.md, leaving the others intact."""
-    path = ROOT / "docs" / "benchmarks.md"
-    text = path.read_text() if path.exists() else "# Benchmarks\n"
-    header = f"## {title}"
-    section = f"{header}\n\nReproduce: `{command.replace(' --write', '')}`\n\n{body}\n"
-    if header in text:
-        start = text.index(header)
-        end = text.find("\n## ", start + 1)
-        text = text[:start] + section + (text[end + 1 :] if end >= 0 else "")
-    else:
-        text = text.rstrip() + "\n\n" + section
-    path.parent.mkdir(exist_ok=True)
-    path.write_text(text)
 
 
 if __name__ == "__main__":

@@ -31,19 +31,17 @@ from pathlib import Path
 import numpy as np
 import rerun as rr
 import zenoh
+from benchdoc import write_section
 
-ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT))  # a script run from a checkout, not an installed package
-
-from carlaverse import messages as m  # noqa: E402
-from carlaverse.fabric.session import FabricSettings, open_session  # noqa: E402
-from carlaverse.keys import Keys  # noqa: E402
-from carlaverse.recording.reading import iter_samples, read_metadata  # noqa: E402
-from carlaverse.recording.sink import McapSink  # noqa: E402
-from carlaverse.recording.synthetic import ego_pose, npc_rows  # noqa: E402
-from carlaverse.viz.scene import SceneLogger  # noqa: E402
-from carlaverse.viz.store import SampleStore  # noqa: E402
-from carlaverse.viz.world import WorldModel  # noqa: E402
+from carlaverse import messages as m
+from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.keys import Keys
+from carlaverse.recording.reading import iter_samples, read_metadata
+from carlaverse.recording.sink import McapSink
+from carlaverse.recording.synthetic import ego_pose, npc_rows
+from carlaverse.viz.scene import SceneLogger
+from carlaverse.viz.store import SampleStore
+from carlaverse.viz.world import WorldModel
 
 KEYS = Keys("bench")
 
@@ -249,21 +247,6 @@ def _machine() -> str:
 
 def _command(argv: list[str] | None) -> str:
     return "python tools/bench/bench_recording.py " + " ".join(argv or sys.argv[1:])
-
-
-def write_section(title: str, body: str, command: str) -> None:
-    """Replace or append our section of docs/benchmarks.md, leaving the others intact."""
-    path = ROOT / "docs" / "benchmarks.md"
-    text = path.read_text() if path.exists() else "# Benchmarks\n"
-    header = f"## {title}"
-    section = f"{header}\n\nReproduce: `{command.replace(' --write', '').strip()}`\n\n{body}\n"
-    if header in text:
-        start = text.index(header)
-        end = text.find("\n## ", start + 1)
-        text = text[:start] + section + (text[end + 1 :] if end >= 0 else "")
-    else:
-        text = text.rstrip() + "\n\n" + section
-    path.write_text(text)
 
 
 if __name__ == "__main__":

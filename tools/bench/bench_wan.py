@@ -22,7 +22,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-ROOT = Path(__file__).resolve().parents[2]
+from benchdoc import write_section
+
 SESSION = "bench"
 DELAYS_MS = (0, 10, 25, 50, 100)
 JITTERS_MS = (0, 10)
@@ -152,21 +153,6 @@ def main(argv: list[str] | None = None) -> int:
             command += f" --settle {args.settle:g} --measure {args.measure:g}"
         write_section("WAN", text, command)
     return 0
-
-
-def write_section(title: str, body_text: str, command: str) -> None:
-    """Replace or append our section of docs/benchmarks.md, leaving the others intact."""
-    path = ROOT / "docs" / "benchmarks.md"
-    text = path.read_text() if path.exists() else "# Benchmarks\n"
-    header = f"## {title}"
-    section = f"{header}\n\nReproduce: `{command}`\n\n{body_text}\n"
-    if header + "\n" in text:
-        start = text.index(header + "\n")
-        end = text.find("\n## ", start + 1)
-        text = text[:start] + section + (text[end + 1 :] if end >= 0 else "")
-    else:
-        text = text.rstrip() + "\n\n" + section
-    path.write_text(text)
 
 
 if __name__ == "__main__":
