@@ -144,3 +144,50 @@ class UdpServer:
 
     def __exit__(self, *exc_info: object) -> None:
         self.stop()
+
+
+class WatchdogUdpServer(UdpServer):
+    """A UdpServer whose device is made safe when valid input stops for `watchdog_s`.
+
+    The FFB and motion servers differ in what "safe" means (zero every force, platform to
+    neutral), not in when: subclasses arm the watchdog on valid input and implement `_trip`.
+    """
+
+    stats: object  # the subclass's counters; must have `received`
+
+    def __init__(
+        self, bind: str, port: int, *, watchdog_s: float, clock: Callable[[], float],
+        poll_interval_s: float,
+    ) -> None:  # fmt: skip
+        super().__init__(bind, port, clock=clock, poll_interval_s=poll_interval_s)
+        self.watchdog_s = watchdog_s  # [s]
+        self.armed = False  # the device is doing something the watchdog must undo
+        self.last_valid_t: float | None = None  # [s] server clock of the last valid input
+
+    def _on_datagram(self, data: bytes, now: float) -> None:
+        try:
+            self._handle(data, now)
+        finally:
+            self.stats.received += 1  # type: ignore[attr-defined]  # counted once handled
+
+    def _handle(self, data: bytes, now: float) -> None:
+        raise NotImplementedError
+
+    def _accept(self, now: float, armed: bool = True) -> None:
+        """Valid input arrived: restart the watchdog (or disarm it for an explicit rest)."""
+        self.last_valid_t = now
+        self.armed = armed
+
+    def _next_deadline(self, now: float) -> float | None:
+        if not self.armed or self.last_valid_t is None:
+            return None
+        return self.last_valid_t + self.watchdog_s
+
+    def _on_tick(self, now: float) -> None:
+        deadline = self._next_deadline(now)
+        if deadline is not None and now >= deadline:
+            self._trip(now, (now - (self.last_valid_t or now)) * 1000)
+
+    def _trip(self, now: float, gap_ms: float) -> None:
+        """Make the device safe after `gap_ms` of silence; disarm."""
+        raise NotImplementedError

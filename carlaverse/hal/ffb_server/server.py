@@ -17,7 +17,7 @@ from carlaverse.hal import ffb_packet
 from carlaverse.hal.ffb_packet import FfbPacketError
 from carlaverse.hal.ffb_server.actuator import ForceActuator
 from carlaverse.hal.ratelimit import RateLimitedLog
-from carlaverse.hal.udp_server import UdpServer
+from carlaverse.hal.udp_server import WatchdogUdpServer
 
 log = logging.getLogger(__name__)
 
@@ -38,7 +38,7 @@ class FfbServerStats:
         return self.wrong_size + self.out_of_range
 
 
-class FfbServer(UdpServer):
+class FfbServer(WatchdogUdpServer):
     """UDP -> validated FfbCommand -> actuator, with the safety watchdog."""
 
     def __init__(
@@ -52,19 +52,12 @@ class FfbServer(UdpServer):
         log_interval_s: float = 1.0,
         poll_interval_s: float = 0.005,
     ) -> None:
-        super().__init__(bind, port, clock=clock, poll_interval_s=poll_interval_s)
+        super().__init__(
+            bind, port, watchdog_s=watchdog_s, clock=clock, poll_interval_s=poll_interval_s
+        )
         self.actuator = actuator
-        self.watchdog_s = watchdog_s  # [s]
         self.stats = FfbServerStats()
-        self.forces_live = False  # a valid non-zero command is in effect
-        self.last_valid_t: float | None = None  # [s] server clock
         self._warn = RateLimitedLog(log, clock, log_interval_s)
-
-    def _on_datagram(self, data: bytes, now: float) -> None:
-        try:
-            self._handle(data, now)
-        finally:
-            self.stats.received += 1  # counted once fully handled, so readers see the outcome
 
     def _handle(self, data: bytes, now: float) -> None:
         try:
@@ -72,8 +65,7 @@ class FfbServer(UdpServer):
         except FfbPacketError as exc:
             self._reject(exc)
             return
-        self.last_valid_t = now
-        self.forces_live = not command.is_zero()  # a client's own zero needs no watchdog
+        self._accept(now, armed=not command.is_zero())  # a client's own zero needs no watchdog
         if self._device_call(self.actuator.apply, command, "apply"):
             self.stats.applied += 1
 
@@ -84,24 +76,21 @@ class FfbServer(UdpServer):
             self.stats.out_of_range += 1
         self._warn.warning(exc.reason.value, "FFB packet rejected, nothing applied: %s", exc)
 
-    def _next_deadline(self, now: float) -> float | None:
-        if not self.forces_live or self.last_valid_t is None:
-            return None
-        return self.last_valid_t + self.watchdog_s
+    @property
+    def forces_live(self) -> bool:
+        """A valid non-zero command is in effect."""
+        return self.armed
 
-    def _on_tick(self, now: float) -> None:
-        deadline = self._next_deadline(now)
-        if deadline is not None and now >= deadline:
-            self.stats.watchdog_trips += 1
-            gap_ms = (now - (self.last_valid_t or now)) * 1000
-            self._zero(f"watchdog: no valid packet for {gap_ms:.0f} ms")
+    def _trip(self, now: float, gap_ms: float) -> None:
+        self.stats.watchdog_trips += 1
+        self._zero(f"watchdog: no valid packet for {gap_ms:.0f} ms")
 
     def _on_stop(self, now: float) -> None:
         self._zero("server stopping", resumes=False)
         self.actuator.close()
 
     def _zero(self, why: str, resumes: bool = True) -> None:
-        self.forces_live = False
+        self.armed = False
         self._device_call(self.actuator.zero, None, "zero")
         after = "; they resume with the next valid packet" if resumes else ""
         log.warning("all forces zeroed (%s)%s", why, after)

@@ -22,7 +22,7 @@ from carlaverse.hal.motion_packet import (
 )
 from carlaverse.hal.motion_server.platform import MotionPlatform
 from carlaverse.hal.ratelimit import RateLimitedLog
-from carlaverse.hal.udp_server import UdpServer
+from carlaverse.hal.udp_server import WatchdogUdpServer
 
 log = logging.getLogger(__name__)
 
@@ -53,7 +53,7 @@ class MotionServerStats:
         return self.short + self.long + self.unknown_command + self.invalid_value
 
 
-class MotionServer(UdpServer):
+class MotionServer(WatchdogUdpServer):
     """UDP -> validated MotionFrame -> platform, with the neutral-on-silence watchdog."""
 
     def __init__(
@@ -68,20 +68,13 @@ class MotionServer(UdpServer):
         log_interval_s: float = 1.0,
         poll_interval_s: float = 0.005,
     ) -> None:
-        super().__init__(bind, port, clock=clock, poll_interval_s=poll_interval_s)
+        super().__init__(
+            bind, port, watchdog_s=watchdog_s, clock=clock, poll_interval_s=poll_interval_s
+        )
         self.platform = platform
         self.limits = limits
-        self.watchdog_s = watchdog_s  # [s]
         self.stats = MotionServerStats()
-        self.moving = False  # True from a valid frame until the platform goes neutral
-        self.last_frame_t: float | None = None  # [s] server clock
         self._warn = RateLimitedLog(log, clock, log_interval_s)
-
-    def _on_datagram(self, data: bytes, now: float) -> None:
-        try:
-            self._handle(data, now)
-        finally:
-            self.stats.received += 1  # counted once fully handled, so readers see the outcome
 
     def _handle(self, data: bytes, now: float) -> None:
         try:
@@ -91,29 +84,25 @@ class MotionServer(UdpServer):
             setattr(self.stats, counter, getattr(self.stats, counter) + 1)
             self._warn.warning(counter, "motion packet ignored: %s", exc)
             return
-        self.last_frame_t = now
-        self.moving = True
+        self._accept(now)
         if self._device_call(self.platform.apply, frame, now):
             self.stats.frames += 1
 
-    def _next_deadline(self, now: float) -> float | None:
-        if not self.moving or self.last_frame_t is None:
-            return None
-        return self.last_frame_t + self.watchdog_s
+    @property
+    def moving(self) -> bool:
+        """True from a valid frame until the platform goes neutral."""
+        return self.armed
 
-    def _on_tick(self, now: float) -> None:
-        deadline = self._next_deadline(now)
-        if deadline is not None and now >= deadline:
-            self.stats.neutral_events += 1
-            gap_ms = (now - (self.last_frame_t or now)) * 1000
-            self._neutral(now, f"watchdog: no frame for {gap_ms:.0f} ms")
+    def _trip(self, now: float, gap_ms: float) -> None:
+        self.stats.neutral_events += 1
+        self._neutral(now, f"watchdog: no frame for {gap_ms:.0f} ms")
 
     def _on_stop(self, now: float) -> None:
         self._neutral(now, "server stopping")
         self.platform.close()
 
     def _neutral(self, now: float, why: str) -> None:
-        self.moving = False
+        self.armed = False
         self._device_call(self.platform.neutral, None, now)
         log.warning("motion platform to neutral (%s)", why)
 
