@@ -9,7 +9,8 @@ import threading
 import time
 from pathlib import Path
 
-from carlaverse.fabric.session import FabricError, endpoint_settings, open_session
+from carlaverse.cli.common import add_fabric_args, fabric_from_args
+from carlaverse.fabric.session import FabricError, open_session
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.recorder import DEFAULT_QUEUE_SIZE, Recorder, RecorderStats
 from carlaverse.recording.recover import recover
@@ -19,20 +20,6 @@ from carlaverse.recording.sink import DEFAULT_CHUNK_SIZE, McapSink, RecordingErr
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--session", help="session name to record (e.g. demo)")
     parser.add_argument("-o", "--output", required=True, type=Path, help="MCAP file to write")
-    parser.add_argument(
-        "--connect",
-        action="append",
-        default=[],
-        metavar="EP",
-        help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)",
-    )
-    parser.add_argument(
-        "--listen",
-        action="append",
-        default=[],
-        metavar="EP",
-        help="Zenoh endpoint to listen on (default tcp/127.0.0.1:0)",
-    )
     parser.add_argument(
         "--duration",
         type=float,
@@ -65,6 +52,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default=1.0,
         help="progress line interval on stderr [s]; 0 turns it off",
     )
+    parser.add_argument(
+        "--id",
+        dest="node_id",
+        default="recorder",
+        help="identity in a --roster session (default recorder)",
+    )
+    add_fabric_args(parser, session=False)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -97,7 +91,7 @@ def _recover(args: argparse.Namespace) -> int:
 
 def _record(args: argparse.Namespace) -> int:
     keys = Keys(args.session)
-    session = open_session(endpoint_settings(listen=args.listen, connect=args.connect))
+    session = open_session(fabric_from_args(args))
     try:
         sink = McapSink(
             args.output,

@@ -8,7 +8,8 @@ import sys
 import threading
 from pathlib import Path
 
-from carlaverse.fabric.session import FabricError, endpoint_settings, open_session
+from carlaverse.cli.common import add_fabric_args, fabric_from_args
+from carlaverse.fabric.session import FabricError, open_session
 from carlaverse.keys import KeySpaceError, check_token
 from carlaverse.recording.reading import iter_samples, read_channels
 from carlaverse.recording.replay import Replayer, ReplayStats, wait_for_peers
@@ -27,25 +28,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--loop", action="store_true", help="start over at the end until Ctrl-C")
     parser.add_argument(
-        "--connect",
-        action="append",
-        default=[],
-        metavar="EP",
-        help="Zenoh endpoint to connect to, e.g. tcp/127.0.0.1:7447 (repeatable)",
-    )
-    parser.add_argument(
-        "--listen",
-        action="append",
-        default=[],
-        metavar="EP",
-        help="Zenoh endpoint to listen on (default tcp/127.0.0.1:0)",
-    )
-    parser.add_argument(
         "--no-queries",
         action="store_true",
         help="do not answer authority/map|scenario|snapshot|configs from the "
         "recording (use when a live authority runs in the target session)",
     )
+    parser.add_argument(
+        "--id",
+        dest="node_id",
+        default="replay",
+        help="identity in a --roster session (default replay)",
+    )
+    add_fabric_args(parser, session=False)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -72,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
 
 def _replay(args: argparse.Namespace) -> ReplayStats:
     stop = _stop_event()
-    session = open_session(endpoint_settings(listen=args.listen, connect=args.connect))
+    session = open_session(fabric_from_args(args))
     replayer = Replayer(session, args.session, speed=args.speed, serve_queries=not args.no_queries)
     try:
         if args.connect and not wait_for_peers(session, stop):

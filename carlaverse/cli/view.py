@@ -8,7 +8,8 @@ import sys
 import threading
 from pathlib import Path
 
-from carlaverse.fabric.session import FabricError, endpoint_settings, open_session
+from carlaverse.cli.common import add_fabric_args, fabric_from_args
+from carlaverse.fabric.session import FabricError, open_session
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.sink import RecordingError
 from carlaverse.viz.live import LiveView, ViewSettings
@@ -33,21 +34,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="render a recording instead of a live session",
     )
     parser.add_argument("--session", help="live session to observe (e.g. demo)")
-    parser.add_argument(
-        "--connect",
-        action="append",
-        default=[],
-        metavar="EP|URL",
-        help="a Zenoh endpoint of the session (tcp/127.0.0.1:7447, repeatable), "
-        "or a running Rerun viewer to stream to (rerun+http://127.0.0.1:9876/proxy)",
-    )
-    parser.add_argument(
-        "--listen",
-        action="append",
-        default=[],
-        metavar="EP",
-        help="Zenoh endpoint to listen on (default tcp/127.0.0.1:0)",
-    )
     out = parser.add_argument_group("output (at least one)")
     out.add_argument("--spawn", action="store_true", help="open a native Rerun viewer window")
     out.add_argument("--serve", action="store_true", help=SERVE_HELP)
@@ -68,6 +54,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     parser.add_argument("--no-trails", action="store_true", help="do not draw trajectories")
+    parser.add_argument(
+        "--id",
+        dest="node_id",
+        default="viewer",
+        help="identity in a --roster session (default viewer)",
+    )
+    add_fabric_args(parser, session=False)
+    parser.epilog = (
+        "--connect also takes the rerun+http://... URL of a running viewer to stream into; "
+        "every other --connect is a Zenoh endpoint of the session."
+    )
 
 
 def _split_connect(values: list[str]) -> tuple[list[str], str | None]:
@@ -120,7 +117,7 @@ def _render_file(args: argparse.Namespace, view: ViewOutput, stop: threading.Eve
 
 def _watch(args: argparse.Namespace, view: ViewOutput, stop: threading.Event) -> int:
     keys = Keys(args.session)
-    session = open_session(endpoint_settings(listen=args.listen, connect=args.connect))
+    session = open_session(fabric_from_args(args))
     settings = ViewSettings(rate_hz=args.rate, trails=not args.no_trails)
     live = LiveView(session, keys, SceneLogger(view.rec, trails=settings.trails), settings)
     try:

@@ -92,19 +92,3 @@ def open_session(settings: FabricSettings) -> zenoh.Session:
             f"(listen={settings.listen or default_listen(settings.mode)}, "
             f"connect={settings.connect}): {exc}"
         ) from exc
-
-
-def endpoint_settings(
-    mode: Mode = "peer",
-    listen: list[str] | None = None,
-    connect: list[str] | None = None,
-    base: FabricSettings | None = None,
-) -> FabricSettings:
-    """Settings from a config section overridden by command-line endpoints."""
-    base = base or FabricSettings()
-    return msgspec.structs.replace(
-        base,
-        mode=mode if mode != base.mode and mode != "peer" else base.mode,
-        listen=list(listen) if listen else base.listen,
-        connect=list(connect) if connect else base.connect,
-    )
