@@ -1,11 +1,14 @@
 #!/usr/bin/env bash
-# Debian packages some tests use: Chromium (web-viewer screenshot test) and iproute2
-# (network namespaces for the WAN tests). Installs only what is missing, only as root;
+# Debian packages some tests use: Chromium (web-viewer screenshot test), iproute2
+# (network namespaces for the WAN tests), EGL and Mesa's GL drivers (the renderer's
+# offscreen tests draw through EGL; llvmpipe when there is no GPU). Installs only what is missing, only as root;
 # otherwise says what it skipped — those tests then skip with the reason.
 set -euo pipefail
 need=()
 command -v chromium >/dev/null 2>&1 || need+=(chromium)
 command -v ip >/dev/null 2>&1 || need+=(iproute2)
+ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' || need+=(libegl1)
+[ -n "$(ls /usr/lib/*/dri/swrast_dri.so 2>/dev/null)" ] || need+=(libgl1-mesa-dri)
 if [ ${#need[@]} -eq 0 ]; then
   echo "install-test-deps: nothing to install"
   exit 0

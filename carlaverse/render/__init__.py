@@ -1,0 +1,20 @@
+"""First-person rendering of the shared world (Panda3D), fed only through the world view.
+
+Rooms, each with one job (Panda3D is imported only inside this package, and only by the
+modules that draw; `rig`, `frame` and `weather.lighting` maths need no GPU):
+
+    rig              camera rigs from YAML: simple / physical (the paper's f and o_i) / manual
+    frame            what one frame shows, taken from a WorldView at one time
+    graphics         the Panda3D engine: windows or offscreen buffers, pixels out
+    cameras          the rig in the scene: anchor, head, one camera per display region
+    meshes           triangle meshes: ribbons, polygons, prisms, boxes
+    scene_roads      lanes, markings, sidewalks, bike lanes, zebra crossings, stop lines
+    scene_areas      ground, junctions, buildings, vegetation with trees, water
+    traffic_lights   a signal head per controlled link, lit from the lights' state
+    actors           egos and NPCs by kind at their extents, brake lamps and blinkers
+    weather          sun, sky, fog, clouds, wet roads
+    renderer         ties the rooms together: build once, draw a frame, read images
+    recording        a world view fed from an MCAP recording, for stills and clips
+    video            MP4 clips through ffmpeg (imageio-ffmpeg)
+    carla_bridge     CARLA as a second backend: actors and cameras mirrored into a server
+"""

@@ -1,0 +1,192 @@
+"""The actor layer: egos and NPCs drawn by kind at their extents, with brake and turn lamps.
+
+Each kind has one prototype mesh in a unit frame (x across −0.5..0.5, y along −0.5..0.5 with
++y forward, z up 0..1); an actor instances it and scales it to its extent, so 200 cars share
+one mesh. Lamps are separate small boxes per actor, coloured each frame from the light bits
+(`LIGHT_BRAKE`, `LIGHT_LEFT_BLINKER`, `LIGHT_RIGHT_BLINKER`). Blinkers flash at 1.5 Hz
+(UN ECE R48: 90 ± 30 flashes per minute) off the render time, so a frame is reproducible.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from panda3d.core import NodePath
+
+from carlaverse.messages import LIGHT_BRAKE, LIGHT_LEFT_BLINKER, LIGHT_RIGHT_BLINKER
+from carlaverse.render import palette
+from carlaverse.render.frame import ActorDraw
+from carlaverse.render.meshes import Color, MeshBuilder
+
+BLINK_HZ = 1.5  # [Hz]
+LAMP_KINDS = {"car", "van", "truck", "bus", "motorcycle"}
+# unit-frame lamp boxes: (x, y, z) bottom centre and (sx, sy, sz); they sit within ±0.505 of the
+# unit frame so an actor's picture never reaches beyond its extent by more than a few mm.
+BRAKE_LAMPS = (
+    ((-0.36, -0.495, 0.42), (0.18, 0.02, 0.1)),
+    ((0.36, -0.495, 0.42), (0.18, 0.02, 0.1)),
+)
+LEFT_BLINKERS = (
+    ((-0.44, 0.495, 0.38), (0.1, 0.02, 0.07)),
+    ((-0.455, -0.495, 0.56), (0.08, 0.02, 0.07)),
+)
+RIGHT_BLINKERS = (
+    ((0.44, 0.495, 0.38), (0.1, 0.02, 0.07)),
+    ((0.455, -0.495, 0.56), (0.08, 0.02, 0.07)),
+)
+
+_Box = tuple[tuple[float, float, float], tuple[float, float, float]]
+
+
+def _shape(kind: str, body: Color) -> list[tuple[_Box, Color]]:
+    """The boxes that make up one kind, in the unit frame."""
+    g, skin, tyre = palette.GLASS, palette.SKIN, palette.TYRE
+    shapes: dict[str, list[tuple[_Box, Color]]] = {
+        "car": [
+            (((0, 0, 0.12), (1.0, 1.0, 0.45)), body),
+            (((0, -0.05, 0.57), (0.86, 0.5, 0.43)), g),
+            (((0, 0.3, 0), (0.95, 0.16, 0.14)), tyre),
+            (((0, -0.3, 0), (0.95, 0.16, 0.14)), tyre),
+        ],
+        "van": [(((0, 0, 0.1), (1.0, 1.0, 0.9)), body), (((0, 0.46, 0.55), (0.9, 0.09, 0.3)), g)],
+        "truck": [
+            (((0, 0.38, 0.08), (1.0, 0.24, 0.8)), body),
+            (((0, 0.48, 0.5), (0.9, 0.05, 0.25)), g),
+            (((0, -0.13, 0.1), (1.0, 0.74, 0.9)), palette.BUILDING),
+        ],
+        "bus": [(((0, 0, 0.08), (0.98, 1.0, 0.92)), body), (((0, 0, 0.55), (1.0, 0.94, 0.25)), g)],
+        "motorcycle": [
+            (((0, 0, 0.12), (0.35, 1.0, 0.4)), body),
+            (((0, -0.1, 0.5), (0.8, 0.3, 0.35)), g),
+            (((0, -0.1, 0.85), (0.5, 0.2, 0.15)), skin),
+        ],
+        "bicycle": [
+            (((0, 0, 0.1), (0.2, 1.0, 0.45)), body),
+            (((0, -0.05, 0.5), (0.8, 0.25, 0.35)), body),
+            (((0, -0.05, 0.85), (0.45, 0.2, 0.15)), skin),
+        ],
+        "pedestrian": [
+            (((0, 0, 0), (0.6, 0.6, 0.45)), tyre),
+            (((0, 0, 0.45), (1.0, 0.8, 0.4)), body),
+            (((0, 0, 0.86), (0.5, 0.5, 0.14)), skin),
+        ],
+    }
+    return shapes.get(kind, [(((0, 0, 0), (1.0, 1.0, 1.0)), body)])
+
+
+def prototype(kind: str, ego: bool) -> NodePath:
+    body = palette.ACTOR_COLORS.get(kind, palette.ACTOR_COLORS["other"])
+    if ego:
+        body = (*(min(1.0, c * palette.EGO_TINT) for c in body[:3]), 1.0)
+    mesh = MeshBuilder(f"actor/{kind}")
+    for (center, size), color in _shape(kind, body):
+        mesh.box(center, size, color)
+    return NodePath(mesh.node())
+
+
+def _lamp_proto() -> NodePath:
+    mesh = MeshBuilder("lamp")
+    mesh.box((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (1.0, 1.0, 1.0, 1.0))
+    return NodePath(mesh.node())
+
+
+@dataclass(slots=True)
+class _Drawn:
+    node: NodePath
+    kind: str
+    brake: list[NodePath]
+    left: list[NodePath]
+    right: list[NodePath]
+    shown: tuple[bool, bool, bool] | None = None
+
+
+class ActorLayer:
+    """Keeps one node per visible actor in step with the frames it is given."""
+
+    def __init__(self, parent: NodePath) -> None:
+        self.root = parent.attach_new_node("actors")
+        self._protos: dict[tuple[str, bool], NodePath] = {}
+        self._lamp = _lamp_proto()
+        self._drawn: dict[str, _Drawn] = {}
+
+    def __len__(self) -> int:
+        return len(self._drawn)
+
+    def update(self, actors: Iterable[ActorDraw], t: float, hide: str | None = None) -> None:
+        """Draw `actors` at render time `t` [s]; `hide` is the actor the camera sits in."""
+        seen = set()
+        for actor in actors:
+            if actor.actor_id == hide:
+                continue
+            seen.add(actor.actor_id)
+            drawn = self._drawn.get(actor.actor_id)
+            if drawn is None or drawn.kind != actor.kind:
+                if drawn is not None:
+                    drawn.node.remove_node()
+                drawn = self._drawn[actor.actor_id] = self._make(actor)
+            _place(drawn.node, actor)
+            _light(drawn, actor.lights, t)
+        for gone in [i for i in self._drawn if i not in seen]:
+            self._drawn.pop(gone).node.remove_node()
+
+    def _make(self, actor: ActorDraw) -> _Drawn:
+        node = self.root.attach_new_node(actor.actor_id)
+        key = (actor.kind, actor.ego)
+        if key not in self._protos:
+            self._protos[key] = prototype(*key)
+        self._protos[key].instance_to(node)
+        if actor.kind not in LAMP_KINDS:
+            return _Drawn(node, actor.kind, [], [], [])
+        lamps = [[self._lamp_at(node, box) for box in boxes]
+                 for boxes in (BRAKE_LAMPS, LEFT_BLINKERS, RIGHT_BLINKERS)]  # fmt: skip
+        return _Drawn(node, actor.kind, *lamps)
+
+    def _lamp_at(self, node: NodePath, box: _Box) -> NodePath:
+        (x, y, z), size = box
+        lamp = node.attach_new_node("lamp")
+        lamp.set_pos(x, y, z)
+        lamp.set_scale(*size)
+        lamp.set_light_off(1)
+        self._lamp.instance_to(lamp)
+        return lamp
+
+
+def _place(node: NodePath, a: ActorDraw) -> None:
+    node.set_pos_hpr_scale(
+        a.x,
+        a.y,
+        a.z,
+        math.degrees(a.yaw) - 90.0,
+        -math.degrees(a.pitch),
+        math.degrees(a.roll),
+        a.width,
+        a.length,
+        a.height,
+    )
+
+
+def blink_on(t: float) -> bool:
+    """Whether a flashing blinker is lit at render time `t` [s]."""
+    return (t * BLINK_HZ) % 1.0 < 0.5
+
+
+def _light(drawn: _Drawn, bits: int, t: float) -> None:
+    flash = blink_on(t)
+    state = (
+        bool(bits & LIGHT_BRAKE),
+        bool(bits & LIGHT_LEFT_BLINKER) and flash,
+        bool(bits & LIGHT_RIGHT_BLINKER) and flash,
+    )
+    if state == drawn.shown:
+        return
+    drawn.shown = state
+    for lamps, on, (bright, dark) in zip(
+        (drawn.brake, drawn.left, drawn.right),
+        state,
+        (palette.BRAKE_LAMP, palette.BLINKER_LAMP, palette.BLINKER_LAMP),
+        strict=True,
+    ):
+        for lamp in lamps:
+            lamp.set_color(*(bright if on else dark))

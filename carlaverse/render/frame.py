@@ -1,0 +1,131 @@
+"""What one rendered frame shows, taken from the fabric's world view at one time.
+
+The renderer never reads raw samples: `frame_from_view` asks the `WorldView` for every ego and
+NPC at `now` (the view decides the render time), adds each ego's lamps from its `EgoState`,
+and hands the layers plain data. No Panda3D here, so this is testable without a GPU.
+
+An actor's reference point is the centre of its footprint on the ground; its box spans
+z .. z + height. Extents come from the caller (the map reply, a join reply, a recording's
+NPC rows) and default to a typical size per kind.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from carlaverse.fabric.world_view import WorldView
+from carlaverse.messages import (
+    LIGHT_LEFT_BLINKER,
+    LIGHT_RIGHT_BLINKER,
+    EgoState,
+    Extent,
+    LightsState,
+    NpcBatch,
+    Weather,
+)
+
+# Typical extents per kind [m]: length, width, height.
+KIND_EXTENTS: dict[str, Extent] = {
+    "car": Extent(4.5, 1.8, 1.5),
+    "van": Extent(5.2, 2.0, 2.3),
+    "truck": Extent(9.0, 2.5, 3.4),
+    "bus": Extent(12.0, 2.55, 3.1),
+    "motorcycle": Extent(2.1, 0.8, 1.5),
+    "bicycle": Extent(1.8, 0.6, 1.7),
+    "pedestrian": Extent(0.5, 0.6, 1.75),
+    "other": Extent(4.0, 1.8, 1.6),
+}
+INDICATOR_BITS = {
+    "off": 0,
+    "left": LIGHT_LEFT_BLINKER,
+    "right": LIGHT_RIGHT_BLINKER,
+    "hazard": LIGHT_LEFT_BLINKER | LIGHT_RIGHT_BLINKER,
+}
+
+
+@dataclass(frozen=True, slots=True)
+class ActorDraw:
+    actor_id: str
+    kind: str
+    x: float  # [m] world frame, centre of the footprint
+    y: float
+    z: float
+    yaw: float  # [rad] counter-clockwise from +x
+    length: float  # [m]
+    width: float
+    height: float
+    pitch: float = 0.0  # [rad] nose down positive (ISO 8855)
+    roll: float = 0.0  # [rad] right side down positive
+    lights: int = 0  # LIGHT_* bits
+    ego: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class SceneFrame:
+    t: float  # [s] the session time the frame shows
+    actors: tuple[ActorDraw, ...] = ()
+    lights: LightsState | None = None
+    weather: Weather | None = None
+
+    def actor(self, actor_id: str) -> ActorDraw | None:
+        return next((a for a in self.actors if a.actor_id == actor_id), None)
+
+
+def ego_lamps(state: EgoState | None) -> int:
+    """Light bits of an ego, with the indicator folded into the blinker bits."""
+    if state is None:
+        return 0
+    return state.lights | INDICATOR_BITS.get(state.indicator, 0)
+
+
+def extent_of(kind: str, extents: Mapping[str, Extent], actor_id: str) -> Extent:
+    return extents.get(actor_id) or KIND_EXTENTS.get(kind) or KIND_EXTENTS["other"]
+
+
+def frame_from_view(
+    view: WorldView,
+    now: float,
+    *,
+    kinds: Mapping[str, str] | None = None,
+    extents: Mapping[str, Extent] | None = None,
+    npc_lights: Mapping[str, int] | None = None,
+) -> SceneFrame:
+    """Everything `view` (a WorldView) shows at session time `now`.
+
+    `kinds`, `extents` and `npc_lights` map actor ids to what the view itself does not keep;
+    a kind missing there is taken from the view's actor record when it has one.
+    """
+    kinds, extents, npc_lights = kinds or {}, extents or {}, npc_lights or {}
+    states: Mapping[str, EgoState] = view.ego_states
+    actors = []
+    for ego, views in ((True, view.ego_views(now)), (False, view.npc_views(now))):
+        for v in views:
+            kind = kinds.get(v.actor_id) or _view_kind(view, v.actor_id, ego) or "car"
+            size = extent_of(kind, extents, v.actor_id)
+            lamps = ego_lamps(states.get(v.actor_id)) if ego else npc_lights.get(v.actor_id, 0)
+            actors.append(
+                ActorDraw(
+                    v.actor_id, kind, v.x, v.y, v.z, v.yaw, size.length, size.width,
+                    size.height, v.pitch, v.roll, lamps, ego,
+                )
+            )  # fmt: skip
+    return SceneFrame(now, tuple(actors), view.lights, view.weather)
+
+
+def _view_kind(view: WorldView, actor_id: str, ego: bool) -> str:
+    table = getattr(view, "egos" if ego else "npcs", None)
+    actor = table.get(actor_id) if isinstance(table, Mapping) else None
+    return getattr(actor, "kind", "") if actor is not None else ""
+
+
+def npc_attributes(batch: NpcBatch) -> tuple[dict[str, Extent], dict[str, int]]:
+    """Extents and light bits per NPC id from a batch: what the world view does not keep."""
+    rows = batch.array()
+    extents, lights = {}, {}
+    for npc_id, row in zip(batch.ids, rows, strict=False):
+        length, width, height = float(row["length"]), float(row["width"]), float(row["height"])
+        if length > 0 and width > 0 and height > 0:
+            extents[npc_id] = Extent(length, width, height)
+        lights[npc_id] = int(row["lights"])
+    return extents, lights

@@ -1,0 +1,135 @@
+"""The renderer: a Panda3D world built from the map, drawn from a camera rig each frame.
+
+    renderer = Renderer(config, road_map)            # builds the static scene once
+    renderer.draw(frame, follow="car-1")             # or eye=Eye(...) for a free camera
+    images = renderer.camera_images()                # one (h, w, 3) array per camera
+
+The scene is in rooms: `scene_roads` and `scene_areas` build the static map meshes,
+`traffic_lights` the signal heads, `actors` the moving layer, `weather` light and fog,
+`cameras` the rig, `graphics` the engine and its outputs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from panda3d.core import NodePath
+
+from carlaverse.messages import MapReply
+from carlaverse.render.actors import ActorLayer
+from carlaverse.render.cameras import CameraRig, Eye, overview_eye
+from carlaverse.render.frame import ActorDraw, SceneFrame
+from carlaverse.render.graphics import Graphics
+from carlaverse.render.meshes import MeshBuilder
+from carlaverse.render.rig import RenderConfig, RigLayout, layout
+from carlaverse.render.scene_areas import build_areas, build_ground
+from carlaverse.render.scene_roads import build_lanes, stop_line
+from carlaverse.render.traffic_lights import TrafficLightLayer
+from carlaverse.render.weather import WeatherLayer
+
+EMPTY_BOUNDS = (-100.0, -100.0, 100.0, 100.0)
+
+
+class FollowError(LookupError):
+    """The actor a camera should follow is not in the frame."""
+
+
+class Renderer:
+    def __init__(
+        self, config: RenderConfig, road_map: MapReply | None, title: str = "carlaverse"
+    ) -> None:
+        self.config = config
+        self.layout: RigLayout = layout(config.camera)
+        self.graphics = Graphics(self.layout.outputs, config.output == "offscreen", title)
+        self.world = NodePath("world")
+        self.bounds = road_map.bounds if road_map else EMPTY_BOUNDS
+        road = self._build_map(road_map)
+        self.lights = TrafficLightLayer(
+            self.world, road_map.lights if road_map else [], road_map.lanes if road_map else []
+        )
+        self.actors = ActorLayer(self.world)
+        self.weather = WeatherLayer(self.world, road)
+        self.rig = CameraRig(self.world, self.graphics, self.layout, config.draw_distance_m)
+        self.rig.set_sky(self.weather.sky)
+        self.frames = 0
+
+    def _build_map(self, road_map: MapReply | None) -> NodePath:
+        """Static meshes, flattened: the whole map costs a handful of draw calls."""
+        static = self.world.attach_new_node("map")
+        road = static.attach_new_node("road")  # kept apart: wetness darkens it alone
+        meshes = [build_ground(self.bounds)]
+        road_meshes: list[MeshBuilder] = []
+        if road_map is not None:
+            junctions = [a for a in road_map.areas if a.kind == "junction"]
+            road_meshes = [build_areas(junctions), build_lanes(road_map.lanes)]
+            road_meshes.append(_stop_lines(road_map))
+            meshes.append(build_areas([a for a in road_map.areas if a.kind != "junction"]))
+        for parent, group in ((static, meshes), (road, road_meshes)):
+            for mesh in group:
+                if not mesh.empty:
+                    parent.attach_new_node(mesh.node())
+        road.flatten_strong()
+        return road
+
+    @property
+    def gl_renderer(self) -> str:
+        return self.graphics.gl_renderer()
+
+    def draw(self, frame: SceneFrame, follow: str | None = None, eye: Eye | None = None) -> None:
+        """Draw `frame` from the rig, anchored at actor `follow` or at `eye` (else overview)."""
+        self.rig.place(self._eye(frame, follow, eye))
+        if self.weather.update(frame.weather):
+            self.rig.set_sky(self.weather.sky)
+        self.lights.update(frame.lights, frame.t)
+        self.actors.update(frame.actors, frame.t, hide=follow)
+        self.graphics.render()
+        self.frames += 1
+
+    def _eye(self, frame: SceneFrame, follow: str | None, eye: Eye | None) -> Eye:
+        if follow is not None:
+            actor = frame.actor(follow)
+            if actor is None:
+                known = ", ".join(sorted(a.actor_id for a in frame.actors if a.ego)) or "none"
+                raise FollowError(f"no actor {follow!r} at t = {frame.t:.3f} s (egos: {known})")
+            return actor_eye(actor)
+        return eye or overview_eye(self.bounds)
+
+    def images(self) -> list[np.ndarray]:
+        """The last frame of every output (window or buffer)."""
+        return [self.graphics.image(i) for i in range(len(self.graphics.outputs))]
+
+    def camera_images(self) -> list[np.ndarray]:
+        """The last frame cut per camera of the rig, in the rig's order."""
+        outputs = self.images()
+        crops = []
+        for view in self.layout.cameras:
+            img = outputs[view.output]
+            h, w = img.shape[:2]
+            left, right, bottom, top = view.viewport
+            rows = slice(round(h * (1 - top)), round(h * (1 - bottom)))
+            crops.append(img[rows, round(w * left) : round(w * right)])
+        return crops
+
+    def close(self) -> None:
+        self.graphics.close()
+        self.world.remove_node()
+
+    def __enter__(self) -> Renderer:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def actor_eye(actor: ActorDraw) -> Eye:
+    return Eye(actor.x, actor.y, actor.z, actor.yaw, actor.pitch, actor.roll)
+
+
+def _stop_lines(road_map: MapReply) -> MeshBuilder:
+    lanes = {lane.id: lane for lane in road_map.lanes}
+    mesh = MeshBuilder("stop_lines")
+    controlled = {lane_id for light in road_map.lights for lane_id in light.controlled_lanes}
+    for lane_id in sorted(controlled):
+        lane = lanes.get(lane_id)
+        if lane is not None and lane.kind in ("road", "bike") and len(lane.centerline) >= 2:
+            stop_line(mesh, lane)
+    return mesh
