@@ -1,19 +1,36 @@
-"""Clocks: a monotonic source, a manual one for tests, and the session-clock estimator.
+"""Clocks: a monotonic source, a manual one for tests, and the session clock (DESIGN §4).
 
-The authority's clock is the session's (DESIGN §4). A node measures the offset between its own
-monotonic clock and the session clock by querying `authority/clock`: for each exchange it
-knows when it asked (t0) and heard back (t1) on its own clock and what the authority said (ts);
-assuming symmetric paths, offset = ts − (t0 + t1) / 2, with an error bound of RTT / 2. The
-sample with the smallest RTT in a sliding window has the tightest bound, so that is the one
-kept (NTP's clock filter does the same).
+The authority's clock is the session's. A node measures the offset between its own monotonic
+clock and the session clock by querying `authority/clock`: for each exchange it knows when it
+asked (t0) and heard back (t1) on its own clock and what the authority said (ts); assuming
+symmetric paths, offset = ts − (t0 + t1) / 2, with an error bound of RTT / 2. The sample with
+the smallest RTT in a sliding window has the tightest bound, so that is the estimate (NTP's
+clock filter does the same); the slope of the estimates over time is the skew between the
+two oscillators.
+
+Session time must never step back: published `pose.t` inherits every step, and a receiver
+interpolating between samples would see time run backwards. So, as NTP's discipline does, a
+new estimate is not applied at once: the applied offset follows the skew and *slews* toward
+the estimate at most `max_slew` seconds per second (1 %: a 20 ms correction takes 2 s, and
+time never runs slower than 0.99× or faster than 1.01× real time). It steps only at the first
+exchange, or forward when the error exceeds `step_threshold_s` (logged); a large backward
+error is slewed too, never stepped, unless a new authority (`reset`) brings a new timeline.
 """
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from collections import deque
-from typing import Protocol
+from typing import NamedTuple, Protocol
+
+log = logging.getLogger(__name__)
+
+MAX_SLEW = 0.01  # [s/s] largest rate of offset correction
+STEP_THRESHOLD_S = 0.25  # [s] a forward error beyond this is stepped, not slewed
+SKEW_LIMIT = 500e-6  # [s/s] largest believable oscillator skew (quartz: < 100 ppm)
+SKEW_MIN_SPAN_S = 30.0  # [s] estimates spread over less than this give no skew
 
 
 class Clock(Protocol):
@@ -61,38 +78,143 @@ class WallAlignedClock:
         return time.monotonic() + self._offset
 
 
-class SessionClock:
-    """Session time for a node: its local clock plus the estimated offset to the authority."""
+class Exchange(NamedTuple):
+    rtt: float  # [s]
+    offset: float  # [s] session − local, assuming symmetric paths
+    local_t: float  # [s] local time of the exchange's midpoint
 
-    def __init__(self, local: Clock, window: int = 16) -> None:
+
+class SessionClock:
+    """Session time for a node: its local clock plus a disciplined offset to the authority."""
+
+    def __init__(
+        self,
+        local: Clock,
+        window: int = 16,
+        max_slew: float = MAX_SLEW,
+        step_threshold_s: float = STEP_THRESHOLD_S,
+    ) -> None:
         self.local = local
+        self.max_slew = max_slew
+        self.step_threshold_s = step_threshold_s
         # Until the first exchange, assume the hosts' wall clocks agree (NTP-synced lab hosts):
         # far better than zero, and replaced by a measurement within a second of joining.
-        self._offset = time.time() - time.monotonic() if isinstance(local, MonotonicClock) else 0.0
-        self._samples: deque[tuple[float, float]] = deque(maxlen=window)  # (rtt, offset)
+        guess = time.time() - time.monotonic() if isinstance(local, MonotonicClock) else 0.0
+        self._samples: deque[Exchange] = deque(maxlen=window)
+        self._history: deque[Exchange] = deque(maxlen=256)  # ~3 min of syncs, for the skew
+        self._estimate = Exchange(0.0, guess, local.now())
+        self.skew = 0.0  # [s/s] session clock rate − local clock rate
+        self._applied = guess
+        self._applied_at = self._estimate.local_t
+        self._lock = threading.Lock()
         self.synced = False
+        self._new_timeline = True  # the next exchange may step (first sync, or after reset)
+        self.steps = 0
 
     def now(self) -> float:
-        return self.local.now() + self._offset
+        with self._lock:
+            t = self.local.now()
+            self._advance(t)
+            return t + self._applied
 
     @property
     def offset(self) -> float:
-        return self._offset
+        """The offset applied now [s]: session time − local time."""
+        with self._lock:
+            self._advance(self.local.now())
+            return self._applied
 
     @property
     def uncertainty_s(self) -> float:
         """Half the best RTT in the window: the bound on the offset error."""
-        return min(r for r, _ in self._samples) / 2 if self._samples else float("inf")
+        return min(s.rtt for s in self._samples) / 2 if self._samples else float("inf")
+
+    def target(self, local_t: float) -> float:
+        """The estimated offset at local time `local_t` [s]."""
+        return self._estimate.offset + self.skew * (local_t - self._estimate.local_t)
 
     def add_exchange(self, t0: float, ts: float, t1: float) -> None:
         """Record one clock query: sent at local t0, answered with session ts, heard at t1."""
         rtt = t1 - t0
         if rtt < 0:
             return
-        self._samples.append((rtt, ts - (t0 + t1) / 2))
-        self._offset = min(self._samples)[1]
-        self.synced = True
+        sample = Exchange(rtt, ts - (t0 + t1) / 2, (t0 + t1) / 2)
+        with self._lock:
+            self._advance(self.local.now())  # up to now at the old estimate and skew
+            if self._samples and not self._consistent(sample):
+                self._samples.clear()  # the timeline moved: older samples would hold it back
+                self._history.clear()
+            self._samples.append(sample)
+            self._history.append(sample)
+            self._estimate = min(self._samples)
+            self.skew = _skew(self._history, self.skew)
+            self._discipline(self.local.now())
+            self.synced = True
 
     def reset(self) -> None:
-        """Forget the window (the authority restarted and may have a new timeline)."""
-        self._samples.clear()
+        """Forget the window: a new authority may bring a new timeline (a step is allowed)."""
+        with self._lock:
+            self._samples.clear()
+            self._history.clear()
+            self._new_timeline = True
+
+    def _consistent(self, sample: Exchange) -> bool:
+        """Can `sample` and the estimate both be right? Each exchange bounds the true offset
+        to its offset ± RTT/2 (whatever the path asymmetry); if the two intervals, carried to
+        the same time with any believable skew, do not overlap, the authority's timeline moved
+        (or the path changed) and the older samples are no longer evidence."""
+        est = self._estimate
+        drift = SKEW_LIMIT * abs(sample.local_t - est.local_t)
+        bound = (sample.rtt + est.rtt) / 2 + drift
+        return abs(sample.offset - self.target(sample.local_t)) <= bound
+
+    def _advance(self, t: float) -> None:
+        """Move the applied offset to local time `t`: follow the skew, slew toward the target."""
+        dt = t - self._applied_at
+        if dt <= 0:
+            return
+        predicted = self._applied + self.skew * dt
+        error = self.target(t) - predicted
+        bound = self.max_slew * dt
+        self._applied = predicted + max(-bound, min(bound, error))
+        self._applied_at = t
+
+    def _discipline(self, t: float) -> None:
+        self._advance(t)
+        error = self.target(t) - self._applied
+        first = not self.synced
+        if first or (self._new_timeline and abs(error) > self.step_threshold_s):
+            self._step(t, error, "first sync" if first else "new authority timeline")
+        elif error > self.step_threshold_s:
+            self._step(t, error, "error beyond the step threshold")
+        elif error < -self.step_threshold_s:
+            log.warning("session clock %.3f s ahead; slewing back, never stepping", -error)
+        self._new_timeline = False
+
+    def _step(self, t: float, error: float, why: str) -> None:
+        self._applied += error
+        self._applied_at = t
+        self.steps += 1
+        level = logging.INFO if why == "first sync" else logging.WARNING
+        log.log(level, "session clock stepped by %+.6f s (%s)", error, why)
+
+
+def _skew(history: deque[Exchange], previous: float) -> float:
+    """Least-squares slope of the tight offset estimates over time, clamped to SKEW_LIMIT;
+    `previous` while the history is too short to tell.
+
+    Only exchanges whose RTT is near the best take part: a slow exchange's offset is off by up
+    to half its RTT, which over a short span would read as a large skew.
+    """
+    if len(history) < 4:
+        return previous
+    best = min(s.rtt for s in history)
+    tight = [s for s in history if s.rtt <= 2 * best + 0.0005]
+    span = tight[-1].local_t - tight[0].local_t if len(tight) > 1 else 0.0
+    if len(tight) < 4 or span < SKEW_MIN_SPAN_S:
+        return previous
+    mt = sum(s.local_t for s in tight) / len(tight)
+    mo = sum(s.offset for s in tight) / len(tight)
+    num = sum((s.local_t - mt) * (s.offset - mo) for s in tight)
+    den = sum((s.local_t - mt) ** 2 for s in tight)
+    return max(-SKEW_LIMIT, min(SKEW_LIMIT, num / den))
