@@ -1,13 +1,16 @@
 """Remote actors: turning a jittery stream of pose samples into smooth motion (DESIGN §6).
 
-A `RemoteActor` keeps the recent samples of one peer or NPC and answers "where is it now?".
-It renders the past, at `now − delay`, so that there is usually a sample on either side of the
-render time to interpolate between (Hermite for position, using the sampled velocities;
-shortest arc for angles). The delay tracks what the stream needs: the sender's interval plus
-the one-way latency plus a few deviations of both, starting at two send intervals as game
-engines do. When samples are late it dead-reckons forward for a bounded time, then holds.
-When a late sample shows the extrapolation was off, the error is blended out over
-`blend_time_s` instead of teleporting the actor — unless it exceeds `snap_distance_m`.
+A `RemoteActor` keeps the recent samples of one peer and answers "where to draw it?" in one
+of two ways (`InterpolationSettings.render_mode`, chosen per node; the world view asks every
+actor of a view at one common time, see `world_view`):
+
+- `past(render_t, now)`: interpolate at a render time behind now, so that there is usually a
+  sample on either side (Hermite for position with the sampled velocities, shortest arc for
+  angles). The world view picks the render time: now minus the largest delay any stream
+  needs, `StreamTiming.target_delay()` — interval + latency + a few deviations of both.
+  When samples are late it dead-reckons for a bounded time, then holds; a correction a late
+  sample reveals is blended out over `blend_time_s`, one over `snap_distance_m` snaps.
+- `present(now)`: project the newest sample to now (see `present.Projector`).
 
 All times here are session seconds; nothing in this module reads a clock by itself.
 """
@@ -18,14 +21,21 @@ import bisect
 import math
 from dataclasses import dataclass
 from enum import Enum
+from typing import Literal
 
 from carlaverse.config import StrictStruct
+from carlaverse.fabric.kinematics import wrap_angle
+from carlaverse.fabric.present import Projector
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
 
 _Vec4 = tuple[float, float, float, float]  # x, y, z [m], yaw [rad]
+RenderMode = Literal["past", "present"]
 
 
 class InterpolationSettings(StrictStruct):
+    # `present` draws remote actors where they are now (measured default: docs/benchmarks.md
+    # "## WAN"); `past` draws them, all at one time, where they were a delay ago.
+    render_mode: RenderMode = "present"
     initial_interval_s: float = 0.02  # assumed send interval before two samples are seen
     initial_intervals: float = 2.0  # the starting delay, in send intervals
     min_delay_s: float = 0.005
@@ -34,12 +44,15 @@ class InterpolationSettings(StrictStruct):
     margin_s: float = 0.002
     delay_slew: float = 0.1  # max change of the delay per second of time (avoids time warps)
     adaptive: bool = True  # False: keep the starting delay (benchmarks compare both)
-    max_extrapolation_s: float = 0.25
+    max_extrapolation_s: float = 0.25  # past mode: dead reckoning beyond the newest sample
+    max_projection_s: float = 0.5  # present mode: projection beyond the newest sample
+    present_blend_s: float = 0.05  # present mode: a correction is blended in over this
     snap_distance_m: float = 4.0
     blend_time_s: float = 0.1
     stale_after_s: float = 1.0
     despawn_timeout_s: float = 3.0
     history_s: float = 2.0  # samples older than render time minus this are dropped
+    implausible_s: float = 5.0  # a pose this far from session time is rejected
 
 
 class Phase(Enum):
@@ -68,12 +81,7 @@ class ActorView:
     render_t: float  # [s] session time shown
 
 
-def wrap_angle(a: float) -> float:
-    """Map an angle to (−π, π]."""
-    return a - 2 * math.pi * math.floor((a + math.pi) / (2 * math.pi))
-
-
-def _hermite(p0: float, v0: float, p1: float, v1: float, s: float, h: float) -> float:
+def hermite(p0: float, v0: float, p1: float, v1: float, s: float, h: float) -> float:
     s2, s3 = s * s, s * s * s
     return (
         (2 * s3 - 3 * s2 + 1) * p0
@@ -88,8 +96,68 @@ def _ewma(mean: float, dev: float, value: float, gain: float) -> tuple[float, fl
     return mean + gain * err, dev + gain * (abs(err) - dev)
 
 
+class StreamTiming:
+    """Send interval and one-way latency of one stream, and the render delay it needs."""
+
+    def __init__(self, s: InterpolationSettings) -> None:
+        self.s = s
+        self.interval_s = s.initial_interval_s
+        self._interval_dev = 0.0
+        self._latency = 0.0
+        self._latency_dev = 0.0
+        self._seeded = False
+        self._last_t = -math.inf
+        self.last_rx_t = -math.inf
+
+    def observe(self, sent_t: float, rx_t: float) -> None:
+        latency = rx_t - sent_t
+        if sent_t > self._last_t > -math.inf:
+            interval = sent_t - self._last_t
+            if not self._seeded:
+                self.interval_s, self._latency, self._seeded = interval, latency, True
+            else:
+                self.interval_s, self._interval_dev = _ewma(
+                    self.interval_s, self._interval_dev, interval, 0.05
+                )
+        if self._seeded:
+            self._latency, self._latency_dev = _ewma(
+                self._latency, self._latency_dev, latency, 0.05
+            )
+        else:
+            self._latency = latency
+        self._last_t = max(self._last_t, sent_t)
+        self.last_rx_t = max(self.last_rx_t, rx_t)
+
+    def target_delay(self) -> float:
+        """Interval + latency + deviations: how far behind now samples are on both sides."""
+        s = self.s
+        if not s.adaptive:
+            return s.initial_intervals * s.initial_interval_s
+        if not self._seeded:
+            return s.initial_intervals * self.interval_s
+        spread = s.deviations * (self._latency_dev + self._interval_dev)
+        target = self.interval_s + self._latency + spread + s.margin_s
+        return min(s.max_delay_s, max(s.min_delay_s, target))
+
+
+class DelaySlew:
+    """A render delay that follows a target at a bounded rate, so motion never jumps."""
+
+    def __init__(self, s: InterpolationSettings) -> None:
+        self.s = s
+        self.delay_s = s.initial_intervals * s.initial_interval_s
+        self._t: float | None = None
+
+    def follow(self, target: float, now: float) -> float:
+        if self._t is not None:
+            step = self.s.delay_slew * max(0.0, now - self._t)
+            self.delay_s += max(-step, min(step, target - self.delay_s))
+        self._t = now
+        return self.delay_s
+
+
 class RemoteActor:
-    """The sample buffer and renderer for one remote actor. Not thread-safe: one owner."""
+    """The sample buffer and renderers for one remote actor. Not thread-safe: one owner."""
 
     def __init__(self, actor_id: str, settings: InterpolationSettings, kind: str = "") -> None:
         self.actor_id = actor_id
@@ -97,19 +165,30 @@ class RemoteActor:
         self.s = settings
         self._t: list[float] = []
         self._poses: list[Pose] = []
-        self.interval_s = settings.initial_interval_s
-        self._interval_dev = 0.0
-        self._latency = 0.0
-        self._latency_dev = 0.0
-        self._stats_seeded = False
-        self.delay_s = settings.initial_intervals * settings.initial_interval_s
-        self._delay_t: float | None = None
-        self.last_rx_t = -math.inf
+        self.timing = StreamTiming(settings)
+        self._own_delay = DelaySlew(settings)  # for `view(now)` on a lone actor
+        self.projector = Projector(settings)
         self._last_render_t: float | None = None
         self._corr = (0.0, 0.0, 0.0, 0.0)  # x, y, z, yaw error still to blend out
         self._corr_t = 0.0
         self.samples_received = 0
-        self.snaps = 0
+        self._snaps = 0
+
+    @property
+    def snaps(self) -> int:
+        return self._snaps + self.projector.snaps
+
+    @property
+    def last_rx_t(self) -> float:
+        return self.timing.last_rx_t
+
+    @property
+    def delay_s(self) -> float:
+        return self._own_delay.delay_s
+
+    @property
+    def newest(self) -> Pose | None:
+        return self._poses[-1] if self._poses else None
 
     # ------------------------------------------------------------------ input
 
@@ -118,30 +197,14 @@ class RemoteActor:
         if self._t and pose.t <= self._t[-1] and (pose.t in self._t or pose.t < self._t[0]):
             return  # duplicate or too old to matter
         self.samples_received += 1
-        self._observe(pose, rx_t)
+        self.timing.observe(pose.t, rx_t)
         before = self._raw_at_last_render()
         i = bisect.bisect_right(self._t, pose.t)
         self._t.insert(i, pose.t)
         self._poses.insert(i, pose)
+        if i == len(self._t) - 1:
+            self.projector.update(pose)
         self._correct(before, pose, rx_t)
-
-    def _observe(self, pose: Pose, rx_t: float) -> None:
-        latency = rx_t - pose.t
-        if self._t and pose.t > self._t[-1]:
-            interval = pose.t - self._t[-1]
-            if not self._stats_seeded:
-                self.interval_s, self._latency, self._stats_seeded = interval, latency, True
-            else:
-                self.interval_s, self._interval_dev = _ewma(
-                    self.interval_s, self._interval_dev, interval, 0.05
-                )
-        if self._stats_seeded:
-            self._latency, self._latency_dev = _ewma(
-                self._latency, self._latency_dev, latency, 0.05
-            )
-        else:
-            self._latency = latency
-        self.last_rx_t = max(self.last_rx_t, rx_t)
 
     def _raw_at_last_render(self) -> _Vec4 | None:
         t = self._last_render_t
@@ -152,7 +215,7 @@ class RemoteActor:
 
     def _correct(self, before: _Vec4 | None, pose: Pose, now: float) -> None:
         if pose.flags & POSE_FLAG_TELEPORT:
-            self._corr, self.snaps = (0.0, 0.0, 0.0, 0.0), self.snaps + 1
+            self._corr, self._snaps = (0.0, 0.0, 0.0, 0.0), self._snaps + 1
             return
         if before is None or self._last_render_t is None:
             return
@@ -162,7 +225,7 @@ class RemoteActor:
         cx, cy, cz, cyaw = self._correction(now)
         total = (cx + err[0], cy + err[1], cz + err[2], cyaw + err[3])
         if math.hypot(total[0], total[1], total[2]) > self.s.snap_distance_m:
-            self._corr, self.snaps = (0.0, 0.0, 0.0, 0.0), self.snaps + 1
+            self._corr, self._snaps = (0.0, 0.0, 0.0, 0.0), self._snaps + 1
         else:
             self._corr = total
         self._corr_t = now
@@ -173,36 +236,27 @@ class RemoteActor:
         k = math.exp(-max(0.0, now - self._corr_t) / self.s.blend_time_s)
         return (self._corr[0] * k, self._corr[1] * k, self._corr[2] * k, self._corr[3] * k)
 
-    # ------------------------------------------------------------------ delay
-
-    def target_delay(self) -> float:
-        if not self._stats_seeded or not self.s.adaptive:
-            return self.s.initial_intervals * self.interval_s if self.s.adaptive else self.delay_s
-        spread = self.s.deviations * (self._latency_dev + self._interval_dev)
-        target = self.interval_s + self._latency + spread + self.s.margin_s
-        return min(self.s.max_delay_s, max(self.s.min_delay_s, target))
-
-    def _update_delay(self, now: float) -> None:
-        if self._delay_t is not None:
-            step = self.s.delay_slew * max(0.0, now - self._delay_t)
-            target = self.target_delay()
-            self.delay_s += max(-step, min(step, target - self.delay_s))
-        self._delay_t = now
-
     # ------------------------------------------------------------------ output
 
+    def target_delay(self) -> float:
+        return self.timing.target_delay()
+
     def is_stale(self, now: float) -> bool:
-        return now - self.last_rx_t > self.s.stale_after_s
+        return now - self.timing.last_rx_t > self.s.stale_after_s
 
     def is_expired(self, now: float) -> bool:
-        return now - self.last_rx_t > self.s.despawn_timeout_s
+        return now - self.timing.last_rx_t > self.s.despawn_timeout_s
 
     def view(self, now: float) -> ActorView | None:
-        """Where to draw the actor at session time `now`; None before the first sample."""
+        """This actor alone, in the past at its own delay (the world view renders a view's
+        actors at one common time instead: `past` or `present`)."""
+        delay = self._own_delay.follow(self.timing.target_delay(), now)
+        return self.past(now - delay, now)
+
+    def past(self, render_t: float, now: float) -> ActorView | None:
+        """Where it was at `render_t` (drawn at session time `now`); None before a sample."""
         if not self._t:
             return None
-        self._update_delay(now)
-        render_t = now - self.delay_s
         self._prune(render_t)
         p, phase = self._raw(render_t)
         self._last_render_t = render_t
@@ -210,6 +264,18 @@ class RemoteActor:
         return ActorView(
             self.actor_id, p.x + cx, p.y + cy, p.z + cz, p.roll, p.pitch,
             wrap_angle(p.yaw + cyaw), p.vx, p.vy, p.vz, phase, self.is_stale(now), render_t,
+        )  # fmt: skip
+
+    def present(self, now: float) -> ActorView | None:
+        """Where it is at `now`, projected from the newest sample; None before a sample."""
+        if not self._t:
+            return None
+        self._prune(now - self.s.max_projection_s)
+        p, holding = self.projector.at(now)
+        phase = Phase.HOLDING if holding else Phase.EXTRAPOLATING
+        return ActorView(
+            self.actor_id, p.x, p.y, p.z, p.roll, p.pitch, p.yaw, p.vx, p.vy, p.vz,
+            phase, self.is_stale(now), now,
         )  # fmt: skip
 
     def _prune(self, render_t: float) -> None:
@@ -247,8 +313,8 @@ def _interpolate(a: Pose, b: Pose, t: float) -> Pose:
     arc = lambda u, v: wrap_angle(u + wrap_angle(v - u) * s)  # noqa: E731
     return Pose(
         b.seq, t,
-        _hermite(a.x, a.vx, b.x, b.vx, s, h), _hermite(a.y, a.vy, b.y, b.vy, s, h),
-        _hermite(a.z, a.vz, b.z, b.vz, s, h),
+        hermite(a.x, a.vx, b.x, b.vx, s, h), hermite(a.y, a.vy, b.y, b.vy, s, h),
+        hermite(a.z, a.vz, b.z, b.vz, s, h),
         arc(a.roll, b.roll), arc(a.pitch, b.pitch), arc(a.yaw, b.yaw),
         lin(a.vx, b.vx), lin(a.vy, b.vy), lin(a.vz, b.vz),
         lin(a.wx, b.wx), lin(a.wy, b.wy), lin(a.wz, b.wz),

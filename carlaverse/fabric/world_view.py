@@ -4,10 +4,16 @@ Zenoh callbacks only push into `inbox` (a deque append is atomic under the GIL, 
 wait); the owner of the view drains it in `update(now)` on its own thread. That keeps every
 `RemoteActor` single-threaded and the callbacks cheap.
 
+One render time per view: every actor of a view, egos and NPCs, is drawn at the same session
+time, so that their relative positions are true (two actors drawn at different times are
+misplaced by the difference times their speeds). In `present` mode that time is now; in
+`past` mode it is now minus the largest delay any live stream needs, slewed (`DelaySlew`).
+
 No ghosts: an actor is removed when its presence token goes, when the authority announces its
 despawn, or when it has been silent for the despawn timeout. A removed id is tombstoned so
 that samples still in flight cannot resurrect it; its next appearance (token or spawn event)
-lifts the tombstone.
+lifts the tombstone. Poses count only from present ids, never from the reserved `authority`
+id, and only with a time near session time; state per sender is kept for present ids only.
 """
 
 from __future__ import annotations
@@ -18,23 +24,23 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
-from carlaverse.fabric.remote_actor import ActorView, InterpolationSettings, RemoteActor
-from carlaverse.fabric.stats import StreamStats
-from carlaverse.messages import (
-    ACTOR_KINDS,
-    EgoState,
-    LightsState,
-    NpcBatch,
-    Pose,
-    Snapshot,
-    Weather,
+from carlaverse.fabric.npc_table import NpcFrame, NpcTable
+from carlaverse.fabric.remote_actor import (
+    ActorView,
+    DelaySlew,
+    InterpolationSettings,
+    Phase,
+    RemoteActor,
 )
+from carlaverse.fabric.stats import StreamStats
+from carlaverse.keys import AUTHORITY_ID
+from carlaverse.messages import EgoState, LightsState, NpcBatch, Pose, Snapshot, Weather
 
 log = logging.getLogger(__name__)
 
 INBOX_LIMIT = 100_000  # beyond this the owner is not draining; oldest input is dropped
+TOMBSTONE_S = 30.0  # [s] a tombstone outlives any sample still in flight by far
+STATS_LIMIT = 1024  # per-sender statistics kept at most (present senders first)
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,7 +56,7 @@ class WorldView:
         self.settings = settings
         self.inbox: deque[tuple[Any, ...]] = deque(maxlen=INBOX_LIMIT)
         self.egos: dict[str, RemoteActor] = {}
-        self.npcs: dict[str, RemoteActor] = {}
+        self.npcs = NpcTable(settings)
         self.ego_states: dict[str, EgoState] = {}
         self.lights: LightsState | None = None
         self.weather: Weather | None = None
@@ -62,6 +68,17 @@ class WorldView:
         # a well-formed pose from a node that never joined is an intruder, not an actor.
         self.present: set[str] = set()
         self.rejected: Counter[str] = Counter()
+        self._delay = DelaySlew(settings)
+        self._render: tuple[float, float] | None = None  # (now, render time) last computed
+
+    @property
+    def render_mode(self) -> str:
+        return self.settings.render_mode
+
+    @property
+    def delay_s(self) -> float:
+        """How far behind now this view draws [s] (0 in present mode)."""
+        return 0.0 if self.render_mode == "present" else self._delay.delay_s
 
     # ------------------------------------------------------------ called from callbacks
 
@@ -89,35 +106,40 @@ class WorldView:
         for actor_id, actor in list(self.egos.items()):
             if actor.is_expired(now):
                 self._remove(actor_id, "timeout", now)
-        for npc_id, actor in list(self.npcs.items()):
-            if actor.is_expired(now):
-                del self.npcs[npc_id]
+        if self.npcs.is_expired(now):
+            self.npcs.clear()
+        self._forget_tombstones(now)
 
     def _on_pose(self, node_id: str, pose: Pose, rx_t: float) -> None:
-        stats = self.stats.get(node_id)
-        if stats is None:
-            stats = self.stats[node_id] = StreamStats()
-        stats.add(pose.seq, pose.t, rx_t)
         if node_id in self._tombstones or node_id not in self.present:
             self.rejected["pose_from_absent_node"] += 1
             return
+        if not abs(pose.t - rx_t) <= self.settings.implausible_s:
+            self.rejected["pose_time_implausible"] += 1
+            return
+        stats = self.stats.get(node_id)
+        if stats is None:
+            self._bound_stats()
+            stats = self.stats[node_id] = StreamStats()
+        stats.add(pose.seq, pose.t, rx_t)
         actor = self.egos.get(node_id)
         if actor is None:
             actor = self.egos[node_id] = RemoteActor(node_id, self.settings)
             self.seen.add(node_id)
         actor.add(pose, rx_t)
 
+    def _bound_stats(self) -> None:
+        """Keep statistics of departed senders only while there is room."""
+        if len(self.stats) < STATS_LIMIT:
+            return
+        for node_id in [n for n in self.stats if n not in self.present]:
+            del self.stats[node_id]
+            if len(self.stats) < STATS_LIMIT:
+                return
+
     def _on_npc(self, batch: NpcBatch, rx_t: float) -> None:
-        rows = batch.array()
-        present = set(batch.ids)
-        for npc_id in [i for i in self.npcs if i not in present]:
-            del self.npcs[npc_id]
-        for npc_id, row in zip(batch.ids, rows, strict=False):
-            actor = self.npcs.get(npc_id)
-            if actor is None:
-                kind = ACTOR_KINDS[row["kind"]] if row["kind"] < len(ACTOR_KINDS) else "other"
-                actor = self.npcs[npc_id] = RemoteActor(npc_id, self.settings, kind)
-            actor.add(_npc_pose(batch, row), rx_t)
+        if not self.npcs.add(batch, rx_t):
+            self.rejected["npc_batch"] += 1
 
     def _on_snapshot(self, snapshot: Snapshot, rx_t: float) -> None:
         self.lights = self.lights or snapshot.lights
@@ -125,20 +147,19 @@ class WorldView:
         if snapshot.npc is not None and not self.npcs:
             self._on_npc(snapshot.npc, rx_t)
         for ego in snapshot.egos:
-            if ego.node_id == self.own_id or ego.node_id in self._tombstones:
+            node_id = ego.node_id
+            if node_id in (self.own_id, AUTHORITY_ID) or node_id in self._tombstones:
                 continue
-            self.present.add(ego.node_id)
+            self.present.add(node_id)
             if ego.state is not None:
-                self.ego_states.setdefault(ego.node_id, ego.state)
-            if ego.pose is not None and ego.node_id not in self.egos:
-                actor = self.egos[ego.node_id] = RemoteActor(
-                    ego.node_id, self.settings, ego.actor_kind
-                )
-                self.seen.add(ego.node_id)
-                actor.add(ego.pose, rx_t)
+                self.ego_states.setdefault(node_id, ego.state)
+            if ego.pose is not None and node_id not in self.egos:
+                self._on_pose(node_id, ego.pose, rx_t)
+                if node_id in self.egos:
+                    self.egos[node_id].kind = ego.actor_kind
 
     def _on_state(self, node_id: str, state: EgoState) -> None:
-        if node_id not in self._tombstones:
+        if node_id in self.present:
             self.ego_states[node_id] = state
 
     def _on_gone(self, node_id: str, reason: str, t: float) -> None:
@@ -147,6 +168,9 @@ class WorldView:
         self._remove(node_id, reason, t)
 
     def _on_present(self, node_id: str) -> None:
+        if node_id == AUTHORITY_ID:  # the authority is never an actor, whoever says so
+            self.rejected["reserved_id"] += 1
+            return
         self._tombstones.pop(node_id, None)
         self.present.add(node_id)
 
@@ -156,24 +180,52 @@ class WorldView:
             log.info("despawned %s (%s)", node_id, reason)
         self.ego_states.pop(node_id, None)
 
+    def _forget_tombstones(self, now: float) -> None:
+        if self._tombstones:
+            for node_id in [n for n, t in self._tombstones.items() if now - t > TOMBSTONE_S]:
+                del self._tombstones[node_id]
+
     # ------------------------------------------------------------ queries
 
+    def render_time(self, now: float) -> float:
+        """The one session time every actor of this view is drawn at, for a frame at `now`."""
+        if self._render is not None and self._render[0] == now:
+            return self._render[1]
+        if self.render_mode == "present":
+            render_t = now
+        else:
+            needs = [a.target_delay() for a in self.egos.values() if not a.is_stale(now)]
+            if self.npcs and not self.npcs.is_stale(now):
+                needs.append(self.npcs.timing.target_delay())
+            target = max(needs) if needs else self._delay.delay_s
+            render_t = now - self._delay.follow(target, now)
+        self._render = (now, render_t)
+        return render_t
+
     def ego_views(self, now: float) -> Iterator[ActorView]:
+        render_t = self.render_time(now)
+        present = self.render_mode == "present"
         for actor in self.egos.values():
-            view = actor.view(now)
+            view = actor.present(now) if present else actor.past(render_t, now)
             if view is not None:
                 yield view
+
+    def npc_frame(self, now: float) -> NpcFrame | None:
+        """Every NPC at this view's render time, as arrays; None before the first batch."""
+        s = self.settings
+        limit = s.max_projection_s if self.render_mode == "present" else s.max_extrapolation_s
+        return self.npcs.frame(self.render_time(now), limit)
 
     def npc_views(self, now: float) -> Iterator[ActorView]:
-        for actor in self.npcs.values():
-            view = actor.view(now)
-            if view is not None:
-                yield view
-
-
-def _npc_pose(batch: NpcBatch, row: np.void) -> Pose:
-    return Pose(
-        batch.seq, batch.t, float(row["x"]), float(row["y"]), float(row["z"]),
-        0.0, 0.0, float(row["yaw"]), float(row["vx"]), float(row["vy"]), 0.0,
-        0.0, 0.0, float(row["yaw_rate"]),
-    )  # fmt: skip
+        """The NPCs one by one (an object each: prefer `npc_frame` for many)."""
+        frame = self.npc_frame(now)
+        if frame is None:
+            return
+        stale = self.npcs.is_stale(now)
+        for i, npc_id in enumerate(frame.ids):
+            phase = Phase.EXTRAPOLATING if frame.extrapolated[i] else Phase.INTERPOLATING
+            yield ActorView(
+                npc_id, float(frame.x[i]), float(frame.y[i]), float(frame.z[i]), 0.0, 0.0,
+                float(frame.yaw[i]), float(frame.vx[i]), float(frame.vy[i]), 0.0, phase,
+                stale, frame.t,
+            )  # fmt: skip

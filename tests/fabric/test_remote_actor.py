@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import random
 
@@ -167,3 +168,156 @@ def test_poses_from_nodes_without_presence_are_rejected() -> None:
     world.push_pose("me", Pose(1, 0.0, 0, 0), 0.0)  # our own echo
     world.update(0.0)
     assert not world.egos and world.rejected["pose_from_absent_node"] == 1
+
+
+# ---------------------------------------------------------------- one render time per view
+
+PAST = msgspec.structs.replace(S, render_mode="past")
+PRESENT = msgspec.structs.replace(S, render_mode="present")
+
+
+def parallel_world(settings: InterpolationSettings, far_latency: float) -> list[float]:
+    """Two actors 3 m apart on concentric circles, one over a slow link: rendered gaps."""
+    inner, outer = CirclePath(radius=20.0, speed_mps=14.0), CirclePath(radius=23.0, speed_mps=16.1)
+    world = WorldView("me", settings)
+    for n in ("near", "far"):
+        world.push_present(n)
+    arrivals = sorted(
+        [(k * 0.02 + 0.001, "near", k * 0.02) for k in range(300)]
+        + [(k * 0.02 + far_latency, "far", k * 0.02) for k in range(300)]
+    )
+    gaps, j = [], 0
+    for step in range(600):
+        now = step * 0.01
+        while j < len(arrivals) and arrivals[j][0] <= now:
+            rx, node, t = arrivals[j]
+            world.push_pose(node, (inner if node == "near" else outer).pose_at(t), rx)
+            j += 1
+        world.update(now)
+        views = {v.actor_id: v for v in world.ego_views(now)}
+        if len(views) == 2 and now > 2.0:
+            assert views["near"].render_t == views["far"].render_t
+            gaps.append(math.dist((views["near"].x, views["near"].y),
+                                  (views["far"].x, views["far"].y)))  # fmt: skip
+    return gaps
+
+
+@pytest.mark.parametrize("settings", [PAST, PRESENT], ids=["past", "present"])
+def test_every_actor_of_a_view_is_drawn_at_one_time(settings: InterpolationSettings) -> None:
+    gaps = parallel_world(settings, far_latency=0.060)
+    assert len(gaps) > 300
+    assert max(abs(g - 3.0) for g in gaps) < 0.01
+
+
+def test_past_view_delay_covers_the_slowest_stream() -> None:
+    world = WorldView("me", PAST)
+    parallel_world(PAST, far_latency=0.060)
+    world = WorldView("me", PAST)
+    world.push_present("a")
+    for k in range(200):
+        world.push_pose("a", CIRCLE.pose_at(k * 0.02), k * 0.02 + 0.06)
+        world.update(k * 0.02 + 0.06)
+        world.render_time(k * 0.02 + 0.06)
+    assert 0.08 < world.delay_s < 0.12  # interval + latency + margin, reached by slewing
+
+
+def test_present_mode_projects_to_now_and_blends_corrections() -> None:
+    actor = RemoteActor("a", PRESENT)
+    line = PolylinePath(points=[(0, 0), (1000, 0)], speed_mps=10.0)
+    for k in range(5):
+        actor.add(line.pose_at(k * 0.02), k * 0.02 + 0.05)
+    view = actor.present(0.2)
+    assert view.render_t == 0.2 and view.x == pytest.approx(2.0, abs=1e-6)
+    # a sample 0.5 m to the side: blended in, continuous, done within the blend time
+    actor.add(msgspec.structs.replace(line.pose_at(0.1), y=0.5), 0.2)
+    ys = [actor.present(0.2 + k * 0.01).y for k in range(30)]
+    spread = 0.5 * 0.01 / PRESENT.present_blend_s  # the correction spread over the frames
+    assert max(abs(b - a) for a, b in itertools.pairwise(ys)) < 1.5 * spread
+    assert ys[0] == pytest.approx(0.0, abs=1e-9) and ys[-1] == pytest.approx(0.5, abs=1e-9)
+    actor.add(msgspec.structs.replace(line.pose_at(0.5), y=10.5), 0.5)
+    assert actor.present(0.55).y == pytest.approx(10.5) and actor.snaps == 1
+
+
+def test_present_mode_holds_after_the_projection_limit_and_never_reverses() -> None:
+    actor = RemoteActor("a", PRESENT)
+    braking = Pose(1, 0.0, 0.0, 0.0, vx=2.0, ax=-4.0)  # stops after 0.5 s, 0.5 m on
+    actor.add(braking, 0.0)
+    assert actor.present(0.45).x == pytest.approx(2.0 * 0.45 - 2.0 * 0.45**2)
+    held = actor.present(2.0)
+    assert held.phase is Phase.HOLDING and held.x == pytest.approx(0.5) and held.vx == 0.0
+
+
+# ---------------------------------------------------------------- hostile input (issue 20)
+
+
+def test_the_authority_id_never_becomes_an_actor() -> None:
+    world = WorldView("me", S)
+    world.push_present("authority")
+    world.push_pose("authority", Pose(1, 0.0, 0, 0), 0.0)
+    world.update(0.0)
+    assert not world.egos and "authority" not in world.present
+    assert world.rejected["reserved_id"] == 1 and world.rejected["pose_from_absent_node"] == 1
+
+
+def test_pose_times_far_from_session_time_are_rejected() -> None:
+    world = WorldView("me", S)
+    world.push_present("a")
+    world.push_pose("a", Pose(1, 100.0 + 3600, 0, 0), 100.0)
+    world.push_pose("a", Pose(2, 100.0 - 6, 0, 0), 100.0)
+    world.update(100.0)
+    assert not world.egos and world.rejected["pose_time_implausible"] == 2
+    assert not world.stats  # nothing kept for a rejected sender
+
+
+def test_statistics_only_for_present_senders_and_bounded() -> None:
+    from carlaverse.fabric import world_view
+
+    world = WorldView("me", S)
+    for k in range(world_view.STATS_LIMIT + 50):
+        node = f"n{k}"
+        world.push_present(node)
+        world.push_pose(node, Pose(1, 0.0, 0, 0), 0.0)
+        world.push_gone(node, "left", 0.0)
+    world.push_pose("ghost", Pose(1, 0.0, 0, 0), 0.0)
+    world.update(0.0)
+    assert len(world.stats) <= world_view.STATS_LIMIT and "ghost" not in world.stats
+
+
+# ---------------------------------------------------------------- NPCs as arrays
+
+
+def npc_batch(t: float, ids: list[str], paths: dict[str, CirclePath]):  # type: ignore[no-untyped-def]
+    import numpy as np
+
+    from carlaverse.messages import NPC_DTYPE, NpcBatch
+
+    rows = np.zeros(len(ids), dtype=NPC_DTYPE)
+    for i, npc_id in enumerate(ids):
+        p = paths[npc_id].pose_at(t)
+        rows[i] = (p.x, p.y, 0.0, p.yaw, p.vx, p.vy, p.wz, 4.5, 1.8, 1.5, 0, 0, 0)
+    return NpcBatch.pack(int(t * 20), t, ids, rows)
+
+
+def test_npcs_interpolate_as_arrays_at_the_views_render_time() -> None:
+    paths = {f"v{k}": CirclePath(radius=30.0 + k, speed_mps=10.0, phase_deg=7.0 * k)
+             for k in range(20)}  # fmt: skip
+    world = WorldView("me", PAST)
+    errors = []
+    for k in range(60):
+        t = k * 0.05
+        ids = sorted(paths) if k < 40 else sorted(paths)[5:]  # five NPCs leave at 2 s
+        world.push_npc(npc_batch(t, ids, paths), t + 0.01)
+        for sub in range(5):
+            now = t + 0.01 + sub * 0.01
+            world.update(now)
+            frame = world.npc_frame(now)
+            assert frame is not None and frame.t == world.render_time(now)
+            if now > 1.0:
+                for i, npc_id in enumerate(frame.ids):
+                    true = paths[npc_id].pose_at(frame.t)
+                    errors.append(math.hypot(frame.x[i] - true.x, frame.y[i] - true.y))
+    assert len(world.npcs) == 15 and "v0" not in world.npcs
+    assert max(errors) < 0.01  # f32 rows, Hermite with sampled velocities
+    views = list(world.npc_views(3.0))
+    assert len(views) == 15 and views[0].render_t == world.render_time(3.0)
+    assert set(world.npc_frame(3.0).kinds()) == {"car"}

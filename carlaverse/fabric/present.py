@@ -1,0 +1,120 @@
+"""Present mode: draw a remote actor where it is now, not where it was (DESIGN §6).
+
+The newest sample is projected to now with its velocity and acceleration (`kinematics.project`,
+DIS dead reckoning). A new sample usually disagrees a little with the projection that was on
+screen; jumping to the new projection would show as a twitch every sample, so the change is
+blended in *projectively* (Murphy's projective velocity blending, the scheme Fiedler's
+networked-physics articles and DIS smoothing describe): from the moment the sample is first
+drawn (T0), with the shown position P0 and velocity V0 then,
+
+    λ = min(1, (t − T0) / present_blend_s)
+    Vb = V0 + (V' − V0) λ                      V' = the new projection's velocity at T0
+    Pb = P0 + Vb (t − T0) + ½ A' (t − T0)²     the old motion, its velocity turning into the new
+    shown = Pb + (P'(t) − Pb) λ                P'(t) = the new sample projected to t
+
+so position and velocity both stay continuous and the shown track converges onto the new
+projection within the blend time. A disagreement over `snap_distance_m` (or a teleport flag)
+snaps. Beyond `max_projection_s` without a new sample the actor is held where it got to.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING
+
+from carlaverse.fabric.kinematics import project, wrap_angle
+from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
+
+if TYPE_CHECKING:
+    from carlaverse.fabric.remote_actor import InterpolationSettings
+
+_Vec3 = tuple[float, float, float]
+
+
+class Projector:
+    """The present-mode renderer of one actor. Not thread-safe: one owner."""
+
+    def __init__(self, settings: InterpolationSettings) -> None:
+        self.s = settings
+        self._sample: Pose | None = None
+        self._pending = False  # a sample not yet drawn: the next frame starts its blend
+        self._t0 = 0.0
+        self._p0: _Vec3 = (0.0, 0.0, 0.0)
+        self._v0: _Vec3 = (0.0, 0.0, 0.0)
+        self._yaw0 = 0.0
+        # what was drawn last: t, position, velocity, acceleration, yaw
+        self._shown: tuple[float, _Vec3, _Vec3, _Vec3, float] | None = None
+        self.snaps = 0
+
+    def update(self, newest: Pose) -> None:
+        """A sample newer than any before arrived."""
+        self._sample = newest
+        self._pending = True
+
+    def at(self, now: float) -> tuple[Pose, bool]:
+        """The pose to draw at `now`, and whether it is held (no sample for too long)."""
+        s = self._sample
+        assert s is not None, "at() before the first sample"
+        dt = now - s.t
+        holding = dt > self.s.max_projection_s
+        target = project(s, min(dt, self.s.max_projection_s))
+        if self._pending:
+            self._start_blend(now, s)
+        tau = max(0.0, now - self._t0)
+        lam = min(1.0, tau / self.s.present_blend_s) if self.s.present_blend_s > 0 else 1.0
+        pose = target if lam >= 1.0 else self._blend(target, s, tau, lam)
+        if holding:
+            pose = _still(pose)
+        self._shown = (now, (pose.x, pose.y, pose.z), (pose.vx, pose.vy, pose.vz),
+                       (pose.ax, pose.ay, pose.az), pose.yaw)  # fmt: skip
+        return pose, holding
+
+    def _start_blend(self, now: float, s: Pose) -> None:
+        self._pending = False
+        at_t0 = project(s, min(now - s.t, self.s.max_projection_s))
+        shown = self._shown_at(now)
+        if (
+            shown is None
+            or s.flags & POSE_FLAG_TELEPORT
+            or math.dist(shown[0], (at_t0.x, at_t0.y, at_t0.z)) > self.s.snap_distance_m
+        ):
+            if shown is not None:
+                self.snaps += 1
+            shown = ((at_t0.x, at_t0.y, at_t0.z), (at_t0.vx, at_t0.vy, at_t0.vz), at_t0.yaw)
+        self._t0 = now
+        self._p0, self._v0, self._yaw0 = shown
+
+    def _shown_at(self, now: float) -> tuple[_Vec3, _Vec3, float] | None:
+        """What was on screen, carried on to `now` (frames are ms apart)."""
+        if self._shown is None:
+            return None
+        t, p, v, a, yaw = self._shown
+        dt = now - t
+        h = 0.5 * dt * dt
+        position = (p[0] + v[0] * dt + a[0] * h, p[1] + v[1] * dt + a[1] * h,
+                    p[2] + v[2] * dt + a[2] * h)  # fmt: skip
+        return position, (v[0] + a[0] * dt, v[1] + a[1] * dt, v[2] + a[2] * dt), yaw
+
+    def _blend(self, target: Pose, s: Pose, tau: float, lam: float) -> Pose:
+        at_t0 = project(s, min(self._t0 - s.t, self.s.max_projection_s))
+        v1 = (at_t0.vx, at_t0.vy, at_t0.vz)
+        acc = (s.ax, s.ay, s.az)
+        p_t = (target.x, target.y, target.z)
+        shown, vel = [], []
+        for i in range(3):
+            vb = self._v0[i] + (v1[i] - self._v0[i]) * lam
+            pb = self._p0[i] + vb * tau + 0.5 * acc[i] * tau * tau
+            shown.append(pb + (p_t[i] - pb) * lam)
+            vel.append(vb + acc[i] * tau)
+        old_yaw = self._yaw0 + s.wz * tau
+        yaw = wrap_angle(old_yaw + wrap_angle(target.yaw - old_yaw) * lam)
+        tv = (target.vx, target.vy, target.vz)
+        v = [vel[i] + (tv[i] - vel[i]) * lam for i in range(3)]
+        return Pose(
+            s.seq, target.t, shown[0], shown[1], shown[2], target.roll, target.pitch, yaw,
+            v[0], v[1], v[2], s.wx, s.wy, s.wz, s.ax, s.ay, s.az,
+        )  # fmt: skip
+
+
+def _still(p: Pose) -> Pose:
+    return Pose(p.seq, p.t, p.x, p.y, p.z, p.roll, p.pitch, p.yaw)
