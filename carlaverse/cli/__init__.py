@@ -29,6 +29,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "record": ("carlaverse.cli.record", "record every key of a session to MCAP"),
     "replay": ("carlaverse.cli.replay", "republish an MCAP recording into a live session"),
     "view": ("carlaverse.cli.view", "live Rerun view of a session or a recording"),
+    "render": ("carlaverse.cli.render", "render a recorded moment (PNG) or clip (MP4) in 3D"),
     "certs": ("carlaverse.cli.certs", "generate a test CA and certificates for a lab"),
     "roster": ("carlaverse.cli.roster", "session roster tools: generate router ACLs"),
 }
