@@ -99,28 +99,53 @@ def frame_from_view(
     kinds, extents, npc_lights = kinds or {}, extents or {}, npc_lights or {}
     states: Mapping[str, EgoState] = view.ego_states
     actors = []
-    for ego, views in ((True, view.ego_views(now)), (False, view.npc_views(now))):
-        for v in views:
-            kind = kinds.get(v.actor_id) or _view_kind(view, v.actor_id, ego) or "car"
-            size = extent_of(kind, extents, v.actor_id)
-            lamps = ego_lamps(states.get(v.actor_id)) if ego else npc_lights.get(v.actor_id, 0)
-            actors.append(
-                ActorDraw(
-                    v.actor_id, kind, v.x, v.y, v.z, v.yaw, size.length, size.width,
-                    size.height, v.pitch, v.roll, lamps, ego,
-                )
-            )  # fmt: skip
+    for v in view.ego_views(now):
+        kind = kinds.get(v.actor_id) or _view_kind(view, v.actor_id) or "car"
+        size = extent_of(kind, extents, v.actor_id)
+        actors.append(
+            ActorDraw(
+                v.actor_id, kind, v.x, v.y, v.z, v.yaw, size.length, size.width,
+                size.height, v.pitch, v.roll, ego_lamps(states.get(v.actor_id)), True,
+            )
+        )  # fmt: skip
+    actors.extend(_npcs(view, now, extents, npc_lights))
     return SceneFrame(now, tuple(actors), view.lights, view.weather)
 
 
-def _view_kind(view: WorldView, actor_id: str, ego: bool) -> str:
-    table = getattr(view, "egos" if ego else "npcs", None)
-    actor = table.get(actor_id) if isinstance(table, Mapping) else None
+def _npcs(
+    view: WorldView, now: float, extents: Mapping[str, Extent], npc_lights: Mapping[str, int]
+) -> list[ActorDraw]:
+    """NPCs from the view's array frame: kind, extent and lamps travel in its rows."""
+    frame = view.npc_frame(now)
+    if frame is None:
+        return []
+    rows, kinds = frame.rows, frame.kinds()
+    out = []
+    for i, npc_id in enumerate(frame.ids):
+        kind = str(kinds[i])
+        size = extents.get(npc_id)
+        if size is None and rows["length"][i] > 0:
+            size = Extent(
+                float(rows["length"][i]), float(rows["width"][i]), float(rows["height"][i])
+            )
+        size = size or extent_of(kind, {}, npc_id)
+        lamps = npc_lights.get(npc_id, int(rows["lights"][i]))
+        out.append(
+            ActorDraw(
+                npc_id, kind, float(frame.x[i]), float(frame.y[i]), float(frame.z[i]),
+                float(frame.yaw[i]), size.length, size.width, size.height, lights=lamps,
+            )
+        )  # fmt: skip
+    return out
+
+
+def _view_kind(view: WorldView, actor_id: str) -> str:
+    actor = view.egos.get(actor_id)
     return getattr(actor, "kind", "") if actor is not None else ""
 
 
 def npc_attributes(batch: NpcBatch) -> tuple[dict[str, Extent], dict[str, int]]:
-    """Extents and light bits per NPC id from a batch: what the world view does not keep."""
+    """Extents and light bits per NPC id from a batch."""
     rows = batch.array()
     extents, lights = {}, {}
     for npc_id, row in zip(batch.ids, rows, strict=False):
