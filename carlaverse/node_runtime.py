@@ -28,6 +28,7 @@ from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.fabric.stats import StreamSummary
+from carlaverse.security.redact import redact_yaml
 
 log = logging.getLogger(__name__)
 
@@ -96,7 +97,9 @@ def run_node(
 ) -> NodeSummary:
     """Join, run the node's loop until `duration_s` or `stop`, leave cleanly, summarise."""
     session = open_session(fabric)
-    client = NodeClient(session, node_settings, MonotonicClock(), config_yaml=to_yaml(config))
+    client = NodeClient(
+        session, node_settings, MonotonicClock(), config_yaml=redact_yaml(to_yaml(config))
+    )
     started = time.monotonic()
     try:
         try:
