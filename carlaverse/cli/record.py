@@ -12,7 +12,12 @@ from pathlib import Path
 from carlaverse.cli.common import add_fabric_args, fabric_from_args
 from carlaverse.fabric.session import FabricError, open_session
 from carlaverse.keys import Keys, KeySpaceError
-from carlaverse.recording.recorder import DEFAULT_QUEUE_SIZE, Recorder, RecorderStats
+from carlaverse.recording.recorder import (
+    DEFAULT_QUEUE_BYTES,
+    DEFAULT_QUEUE_SIZE,
+    Recorder,
+    RecorderStats,
+)
 from carlaverse.recording.recover import recover
 from carlaverse.recording.sink import DEFAULT_CHUNK_SIZE, McapSink, RecordingError
 
@@ -45,6 +50,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=int,
         default=DEFAULT_QUEUE_SIZE,
         help="samples buffered for the writer before drops are counted",
+    )
+    parser.add_argument(
+        "--queue-mib",
+        type=int,
+        default=DEFAULT_QUEUE_BYTES // 2**20,
+        help="payload MiB buffered for the writer before drops are counted (bounds memory)",
     )
     parser.add_argument(
         "--progress-s",
@@ -99,7 +110,9 @@ def _record(args: argparse.Namespace) -> int:
             chunk_size=args.chunk_kib * 1024,
             monotonic=time.monotonic,
         )
-        recorder = Recorder(session, keys, sink, queue_size=args.queue_size)
+        recorder = Recorder(
+            session, keys, sink, queue_size=args.queue_size, queue_bytes=args.queue_mib * 2**20
+        )
         recorder.start()
         _wait(recorder, args.duration, args.progress_s)
         stats = recorder.stop()
@@ -107,7 +120,7 @@ def _record(args: argparse.Namespace) -> int:
         session.close()
     print(f"recorded {_describe(stats)} into {args.output}", file=sys.stderr)
     if stats.failure:
-        print(f"carlaverse record: {stats.failure}", file=sys.stderr)
+        print(f"carlaverse record: RECORDING FAILED: {stats.failure}", file=sys.stderr)
         return 1
     return 0
 
@@ -155,4 +168,6 @@ def _describe(stats: RecorderStats) -> str:
     )
     if stats.decode_errors:
         text += f", {stats.decode_errors} undecodable (kept raw)"
+    if stats.rejected:
+        text += f", {stats.rejected} rejected"
     return text

@@ -26,6 +26,7 @@ import zenoh
 
 from carlaverse import __version__, messages
 from carlaverse.keys import Keys
+from carlaverse.recording.encoding import UNDECODABLE
 
 log = logging.getLogger(__name__)
 
@@ -50,6 +51,12 @@ class ArchiveItem:
     data: bytes = b""
     media_type: str = ""
     values: Mapping[str, str] = field(default_factory=dict)
+
+
+def error_text(err: zenoh.ReplyError, limit: int = 300) -> str:
+    """The reason an error reply carries, as text (not the ReplyError's byte dump)."""
+    reason = err.payload.to_bytes()[:limit].decode("utf-8", errors="replace").strip()
+    return reason or "error reply without a reason"
 
 
 def _version(dist: str) -> str:
@@ -98,6 +105,7 @@ class Archive:
         self._hostnames: dict[str, str] = {"recorder": socket.gethostname()}
         self._last_roster: tuple[dict[str, str], dict[str, str]] | None = None
         self.errors = 0
+        self._last_error: dict[str, str] = {}  # query name -> last error logged
 
     def request_refresh(self) -> None:
         """Ask for the configs again (a node spawned); safe from any thread."""
@@ -143,27 +151,32 @@ class Archive:
         try:
             for reply in self._session.get(selector, timeout=self._timeout_s):
                 if reply.ok is None:
-                    self._count_error(f"{selector} answered with an error: {reply.err}")
+                    self._count_error(name, f"{selector}: {error_text(reply.err)}")
                     continue
                 out.append((str(reply.ok.key_expr), reply.ok.payload.to_bytes()))
         except zenoh.ZError as exc:
-            self._count_error(f"query {selector} failed: {exc}")
+            self._count_error(name, f"query {selector} failed: {exc}")
         if not out:
-            log.info(
-                "no answer to %s (no authority yet?); will archive on the next spawn", selector
-            )
+            log.debug("no answer to %s (no authority yet?); asking again", selector)
         return out
 
-    def _count_error(self, message: str) -> None:
+    def _count_error(self, query: str, message: str) -> None:
+        """Count every error; log one only when it differs from the last for that query.
+
+        Start-up queries are retried every second, and an authority without a scenario
+        refuses `map` each time for the same reason: that is one fact, logged once.
+        """
         self.errors += 1
-        log.warning("%s", message)
+        if self._last_error.get(query) != message:
+            self._last_error[query] = message
+            log.warning("%s", message)
 
     def _absorb(self, name: str, payload: bytes) -> None:
         codec = messages.CHANNEL_CODECS[("authority", name)]
         try:
             reply = codec.decode(payload)
-        except messages.MessageError as exc:
-            self._count_error(f"authority/{name} reply did not decode: {exc}")
+        except UNDECODABLE as exc:
+            self._count_error(name, f"authority/{name} reply did not decode: {exc}"[:500])
             return
         if isinstance(reply, messages.ConfigsReply):
             self._absorb_configs(reply)

@@ -19,6 +19,7 @@ so a new message type registered there is picked up without touching this module
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -39,6 +40,11 @@ _RAW_PROPERTY = {
     "description": "the payload exactly as published on the fabric",
 }
 _ERROR_PROPERTY = {"type": "string", "description": "why the payload did not decode"}
+
+# What decoding or viewing a hostile payload can raise besides MessageError: bad UTF-8
+# (a ValueError), deep nesting (RecursionError), integers no JSON encoder takes
+# (OverflowError, msgspec.EncodeError). Any of them means "keep it raw", never "stop".
+UNDECODABLE = (ValueError, ArithmeticError, RecursionError, TypeError, msgspec.MsgspecError)
 
 
 class _Envelope(msgspec.Struct):
@@ -258,17 +264,32 @@ class KeyFormat:
             return EncodedMessage(self._encoder.encode(envelope), None, None)
         try:
             msg = self.codec.decode(payload)
-        except messages.MessageError as exc:
-            envelope["error"] = str(exc)
-            return EncodedMessage(self._encoder.encode(envelope), None, None, str(exc))
-        envelope["msg"] = to_view(msg)
-        seq = getattr(msg, "seq", None)
-        return EncodedMessage(self._encoder.encode(envelope), _time_of(msg), seq)
+            envelope["msg"] = to_view(msg)
+            data = self._encoder.encode(envelope)
+        except UNDECODABLE as exc:
+            reason = _reason(exc)
+            raw_only = {k: v for k, v in envelope.items() if k != "msg"} | {"error": reason}
+            return EncodedMessage(self._encoder.encode(raw_only), None, None, reason)
+        return EncodedMessage(data, _time_of(msg), _seq_of(msg))
+
+
+def _reason(exc: BaseException) -> str:
+    # Bounded: a hostile payload must not make every error string megabytes long.
+    return f"{type(exc).__name__}: {exc}"[:500]
+
+
+def _seq_of(msg: Any) -> int | None:
+    seq = getattr(msg, "seq", None)
+    return seq if isinstance(seq, int) and not isinstance(seq, bool) else None
 
 
 def _time_of(msg: Any) -> float | None:
+    """The session time a message carries [s], if it is a finite number."""
     t = getattr(msg, "t", None)
-    return float(t) if isinstance(t, int | float) else None
+    if isinstance(t, bool) or not isinstance(t, int | float):
+        return None
+    t = float(t) if -1e300 < t < 1e300 else math.nan  # ints beyond float range: not a time
+    return t if math.isfinite(t) else None
 
 
 def _codec_for(key: str) -> messages.Codec[Any] | None:

@@ -1,11 +1,15 @@
 """Record every key of a session into an MCAP file (DESIGN §10).
 
 Threads and why:
-- Zenoh callbacks only stamp the receive time and push the sample into a bounded queue;
-  they never touch the file, so a slow disk cannot stall the fabric. A full queue drops the
-  sample and counts it (`RecorderStats.dropped`).
+- Zenoh callbacks only stamp the receive time and push the sample into a queue bounded in
+  samples and in payload bytes; they never touch the file, so a slow disk cannot stall the
+  fabric, and a storm of large payloads cannot grow memory. A full queue drops the sample
+  and counts it (`RecorderStats.dropped`).
 - One writer thread owns the `McapSink`: it drains the queue, encodes, writes, and closes
-  chunks on time so a crash loses at most `flush_interval_s`.
+  chunks on time so a crash loses at most `flush_interval_s`. No sample can stop it: the
+  sink writes what does not decode raw and rejects (counts) what it cannot write. If the
+  thread stops anyway (a full disk, a bug), `stats().failure` says why, so the CLI exits
+  non-zero instead of reporting a count that no longer moves.
 - One archiver thread queries the authority (configs, scenario, map, snapshot) at start and
   again whenever `world/events` announces a spawn, and hands the replies to the writer as
   attachments, metadata and messages on the `authority/<query>` channels.
@@ -28,11 +32,13 @@ import zenoh
 from carlaverse import messages
 from carlaverse.keys import Keys
 from carlaverse.recording.archive import Archive, ArchiveItem
+from carlaverse.recording.encoding import UNDECODABLE
 from carlaverse.recording.sink import McapSink
 
 log = logging.getLogger(__name__)
 
 DEFAULT_QUEUE_SIZE = 200_000  # samples; ~20 s of a busy session (10k msg/s)
+DEFAULT_QUEUE_BYTES = 256 * 1024 * 1024  # [B] of queued payloads, whatever their count
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,8 +50,29 @@ class RecorderStats:
     channels: int
     attachments: int
     decode_errors: int  # payloads of a known type that did not decode (recorded raw)
+    rejected: int  # samples the sink could not write (too many keys, bad receive time)
     queued: int
     failure: str  # why the writer stopped early, "" while healthy
+
+
+class ByteBudget:
+    """Payload bytes the queue may hold; taken by Zenoh threads, given back by the writer."""
+
+    def __init__(self, limit: int) -> None:
+        self._limit = limit
+        self._used = 0
+        self._lock = threading.Lock()  # held for one addition: never blocks a callback long
+
+    def take(self, size: int) -> bool:
+        with self._lock:
+            if self._used + size > self._limit:
+                return False
+            self._used += size
+            return True
+
+    def give_back(self, size: int) -> None:
+        with self._lock:
+            self._used -= size
 
 
 def _channel_metadata(sample: zenoh.Sample) -> dict[str, str]:
@@ -68,6 +95,7 @@ class Recorder:
         sink: McapSink,
         *,
         queue_size: int = DEFAULT_QUEUE_SIZE,
+        queue_bytes: int = DEFAULT_QUEUE_BYTES,
         wall_ns: Callable[[], int] = time.time_ns,
         query_timeout_s: float = 2.0,
         archive: bool = True,
@@ -77,6 +105,7 @@ class Recorder:
         self._sink = sink
         self._wall_ns = wall_ns
         self._queue: queue.Queue[tuple[int, Any]] = queue.Queue(maxsize=queue_size)
+        self._queue_bytes = ByteBudget(queue_bytes)
         self._control: deque[ArchiveItem] = deque()
         self._archive = Archive(session, keys, self._control.append, wall_ns, query_timeout_s)
         self._archive_enabled = archive
@@ -84,7 +113,6 @@ class Recorder:
         self._dropped = itertools.count(1)
         self._n_received = 0
         self._n_dropped = 0
-        self._known_keys: set[str] = set()
         self._max_queued = 0  # deepest backlog seen: how close the writer came to dropping
         self._events_key = keys.world("events")
         self._stop = threading.Event()
@@ -127,7 +155,7 @@ class Recorder:
             self._drain_control()  # whatever the archive handed over after the writer ended
             self._sink.metadata("carlaverse.summary", self._summary(stats))
             self._sink.close()
-        except OSError as exc:
+        except Exception as exc:  # an unfinished file must be reported
             self._failure = self._failure or f"closing {self._sink.path}: {exc}"
         return self.stats()
 
@@ -141,18 +169,31 @@ class Recorder:
             channels=s.channels,
             attachments=s.attachments,
             decode_errors=s.decode_errors,
+            rejected=s.rejected,
             queued=self._queue.qsize(),
-            failure=self._failure,
+            failure=self._failure or self._writer_gone(),
         )
+
+    def _writer_gone(self) -> str:
+        """A reason if the writer thread has ended while the recorder still runs."""
+        writer = self._threads[0] if self._threads else None
+        if writer is None or writer.is_alive() or self._stop.is_set():
+            return ""
+        return "the writer thread stopped; nothing received since is in the file"
 
     # ------------------------------------------------------------------ Zenoh side
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         """Runs on a Zenoh thread: stamp and hand over, nothing else."""
+        size = len(sample.payload)
+        if not self._queue_bytes.take(size):
+            self._n_dropped = next(self._dropped)
+            return
         try:
             self._queue.put_nowait((self._wall_ns(), sample))
             self._n_received = next(self._received)
         except queue.Full:
+            self._queue_bytes.give_back(size)
             self._n_dropped = next(self._dropped)
 
     # ------------------------------------------------------------------ writer thread
@@ -162,9 +203,9 @@ class Recorder:
             while not (self._stop.is_set() and self._queue.empty() and not self._control):
                 self._drain_once()
             self._drain_control()
-        except OSError as exc:
-            self._failure = f"writing {self._sink.path}: {exc}"
-            log.error("recorder stopped: %s", self._failure)
+        except Exception as exc:  # whatever stops the writer must be reported
+            self._failure = f"writing {self._sink.path} failed: {type(exc).__name__}: {exc}"
+            log.error("recorder stopped: %s", self._failure, exc_info=not isinstance(exc, OSError))
 
     def _drain_once(self, batch_max: int = 4096) -> None:
         """Write up to `batch_max` queued samples, then archive items and a due chunk flush."""
@@ -185,19 +226,17 @@ class Recorder:
     def _write_sample(self, recv_ns: int, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)
         payload = sample.payload.to_bytes()
+        self._queue_bytes.give_back(len(payload))
         kind = "delete" if sample.kind == zenoh.SampleKind.DELETE else "put"
-        metadata = None
-        if key not in self._known_keys:
-            self._known_keys.add(key)
-            metadata = _channel_metadata(sample)
-        self._sink.write(key, payload, recv_ns, kind, metadata)
-        if key == self._events_key and kind == "put":
+        metadata = None if self._sink.has_channel(key) else _channel_metadata(sample)
+        written = self._sink.write(key, payload, recv_ns, kind, metadata)
+        if written and key == self._events_key and kind == "put":
             self._watch_event(payload)
 
     def _watch_event(self, payload: bytes) -> None:
         try:
             event = messages.WORLD_EVENT.decode(payload)
-        except messages.MessageError:
+        except UNDECODABLE:
             return  # already recorded raw with its error by the sink
         if isinstance(event, messages.Spawned):
             self._archive.request_refresh()
@@ -220,5 +259,6 @@ class Recorder:
             "dropped": str(stats.dropped),
             "max_queued": str(self._max_queued),
             "decode_errors": str(stats.decode_errors),
+            "rejected": str(stats.rejected),
             "archive_errors": str(self._archive.errors),
         }

@@ -20,16 +20,37 @@ from typing import Literal
 from mcap.writer import CompressionType, Writer
 
 from carlaverse.recording.encoding import MESSAGE_ENCODING, SCHEMA_ENCODING, KeyFormat
+from carlaverse.recording.scrub import (
+    holds_configs,
+    scrub_attachment,
+    scrub_configs,
+    scrub_metadata,
+)
 
 Compression = Literal["zstd", "lz4", "none"]
 PROFILE = "carlaverse"
 DEFAULT_CHUNK_SIZE = 256 * 1024  # [B] uncompressed; small enough to lose little on a crash
+# Distinct keys a recording takes: ~600 nodes' worth of channels. A bound, because every key
+# costs a channel record and index entries, and anyone in an open session can invent keys.
+DEFAULT_MAX_CHANNELS = 4096
+_U64_END = 1 << 64
 
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
     "lz4": CompressionType.LZ4,
     "none": CompressionType.NONE,
 }
+
+
+def _fits_u64(value: int) -> bool:
+    return isinstance(value, int) and 0 <= value < _U64_END
+
+
+def _publish_ns(t: float | None, log_time_ns: int) -> int:
+    """The message's own session time [ns] if it is one MCAP can hold, else the receive time."""
+    if t is None or not 0.0 <= t < 1.8e10:  # [s] past year 2500 is not a session time
+        return log_time_ns
+    return round(t * 1e9)
 
 
 class RecordingError(OSError):
@@ -48,12 +69,16 @@ class UnbufferedFile:
             self._fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         except OSError as exc:
             raise RecordingError(f"cannot create recording {path}: {exc.strerror}") from exc
+        self._path = path
         self._pos = 0
 
     def write(self, data: bytes | bytearray | memoryview) -> int:
         view = memoryview(data)
         while view:
-            written = os.write(self._fd, view)
+            try:
+                written = os.write(self._fd, view)
+            except OSError as exc:  # a full disk or a file size limit: name the file
+                raise RecordingError(f"cannot write {self._path}: {exc.strerror}") from exc
             view = view[written:]
         self._pos += len(data)
         return len(data)
@@ -74,6 +99,7 @@ class UnbufferedFile:
 class _Channel:
     id: int
     format: KeyFormat
+    scrub: bool = False  # payloads carry node configs: redact before writing
     messages: int = 0
     errors: int = 0
 
@@ -83,6 +109,7 @@ class SinkStats:
     messages: int = 0
     bytes_in: int = 0  # [B] payload bytes as received
     decode_errors: int = 0
+    rejected: int = 0  # samples not written: a key beyond max_channels or a bad receive time
     channels: int = 0
     attachments: int = 0
     per_key: dict[str, int] = field(default_factory=dict)
@@ -99,8 +126,10 @@ class McapSink:
         chunk_size: int = DEFAULT_CHUNK_SIZE,
         flush_interval_s: float = 1.0,
         monotonic: Callable[[], float],
+        max_channels: int = DEFAULT_MAX_CHANNELS,
     ) -> None:
         self.path = Path(path)
+        self._max_channels = max_channels
         self._file = UnbufferedFile(self.path)
         self._writer = Writer(
             self._file, chunk_size=chunk_size, compression=_COMPRESSION[compression]
@@ -122,30 +151,50 @@ class McapSink:
         log_time_ns: int,
         kind: str = "put",
         channel_metadata: Mapping[str, str] | None = None,
-    ) -> None:
-        """Append one sample; `log_time_ns` is when it was received [ns since the epoch]."""
+    ) -> bool:
+        """Append one sample; `log_time_ns` is when it was received [ns since the epoch].
+
+        Never raises for what a sample holds: a payload that does not decode is written raw
+        with its error; a sample that cannot be written at all (a key beyond `max_channels`,
+        a receive time outside MCAP's range) is counted in `stats.rejected` and False returned.
+        Everything handed to the MCAP writer is checked first, because a value it refuses
+        half-way through a record would leave a corrupt chunk behind.
+        """
         channel = self._channels.get(key) or self._add_channel(key, channel_metadata or {})
+        if channel is None or not _fits_u64(log_time_ns):
+            self.stats.rejected += 1
+            return False
+        if channel.scrub and kind == "put":
+            payload = scrub_configs(payload)
         encoded = channel.format.encode(payload, kind)
-        publish_ns = log_time_ns if encoded.t is None or encoded.t < 0 else round(encoded.t * 1e9)
-        sequence = channel.messages if encoded.seq is None else encoded.seq & 0xFFFFFFFF
+        publish_ns = _publish_ns(encoded.t, log_time_ns)
+        sequence = (channel.messages if encoded.seq is None else encoded.seq) & 0xFFFFFFFF
         self._writer.add_message(channel.id, log_time_ns, encoded.data, publish_ns, sequence)
+        self._count(key, channel, len(payload), bool(encoded.error))
+        return True
+
+    def _count(self, key: str, channel: _Channel, size: int, undecodable: bool) -> None:
         channel.messages += 1
         self.stats.messages += 1
-        self.stats.bytes_in += len(payload)
+        self.stats.bytes_in += size
         self.stats.per_key[key] = channel.messages
-        if encoded.error:
+        if undecodable:
             channel.errors += 1
             self.stats.decode_errors += 1
         self._unflushed += 1
 
+    def has_channel(self, key: str) -> bool:
+        return key in self._channels
+
     def attach(self, name: str, media_type: str, data: bytes, log_time_ns: int) -> None:
         """Store a file (a node's config, the scenario) verbatim in the recording."""
+        data = scrub_attachment(name, media_type, data)
         self._writer.add_attachment(log_time_ns, log_time_ns, name, media_type, data)
         self.stats.attachments += 1
 
     def metadata(self, name: str, values: Mapping[str, str]) -> None:
-        """A named string map (MCAP metadata values must be strings)."""
-        self._writer.add_metadata(name, {str(k): str(v) for k, v in values.items()})
+        """A named string map (MCAP metadata values must be strings), secrets blanked."""
+        self._writer.add_metadata(name, scrub_metadata(values))
 
     def maybe_flush(self) -> bool:
         """Close the open chunk if it has aged `flush_interval_s`; True if it did."""
@@ -169,7 +218,9 @@ class McapSink:
         finally:
             self._file.close()
 
-    def _add_channel(self, key: str, metadata: Mapping[str, str]) -> _Channel:
+    def _add_channel(self, key: str, metadata: Mapping[str, str]) -> _Channel | None:
+        if len(self._channels) >= self._max_channels:
+            return None  # a storm of made-up keys must not grow the file's index without end
         fmt = KeyFormat(key)
         schema_id = self._schemas.get(fmt.schema_name)
         if schema_id is None:
@@ -178,7 +229,7 @@ class McapSink:
             )
             self._schemas[fmt.schema_name] = schema_id
         channel_id = self._writer.register_channel(key, MESSAGE_ENCODING, schema_id, dict(metadata))
-        channel = _Channel(channel_id, fmt)
+        channel = _Channel(channel_id, fmt, scrub=holds_configs(key))
         self._channels[key] = channel
         self.stats.channels = len(self._channels)
         return channel
