@@ -6,19 +6,30 @@ import argparse
 import signal
 import sys
 import threading
+from collections.abc import Mapping
 from pathlib import Path
 
 from carlaverse.cli.common import add_fabric_args, fabric_from_args
 from carlaverse.fabric.session import FabricError, open_session
-from carlaverse.keys import KeySpaceError, check_token
+from carlaverse.keys import KeySpaceError, check_token, parse
 from carlaverse.recording.reading import iter_samples, read_channels
-from carlaverse.recording.replay import Replayer, ReplayStats, wait_for_peers
+from carlaverse.recording.replay import Replayer, ReplayStats, default_target, wait_for_peers
 from carlaverse.recording.sink import RecordingError
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", type=Path, metavar="FILE.mcap", help="recording to replay")
-    parser.add_argument("--session", help="target session (default: the recorded one)")
+    parser.add_argument(
+        "--session",
+        help="target session (default: <recorded>-replay, a new one; to replay into the "
+        "recorded session itself, name it here explicitly)",
+    )
+    parser.add_argument(
+        "--with-commands",
+        action="store_true",
+        help="also republish impulse/* and ego/*/override (off by default: they move real "
+        "wheels and motion platforms of a live rig)",
+    )
     parser.add_argument(
         "--speed",
         type=float,
@@ -55,10 +66,11 @@ def run(args: argparse.Namespace) -> int:
     except (RecordingError, FabricError, KeySpaceError) as exc:
         print(f"carlaverse replay: {exc}", file=sys.stderr)
         return 1
+    withheld = f", {stats.withheld} commands withheld" if stats.withheld else ""
     print(
         f"replayed {stats.published} samples on {len(stats.per_key)} keys in {stats.passes} "
         f"pass(es); {stats.late} late (worst {stats.max_late_s * 1e3:.1f} ms), "
-        f"{stats.skipped} skipped",
+        f"{stats.skipped} skipped{withheld}",
         file=sys.stderr,
     )
     return 0
@@ -66,17 +78,36 @@ def run(args: argparse.Namespace) -> int:
 
 def _replay(args: argparse.Namespace) -> ReplayStats:
     stop = _stop_event()
+    channels = read_channels(args.file)
+    target = args.session or default_target(recorded_session(channels, args.file))
+    print(f"replaying {args.file} into session {target}", file=sys.stderr, flush=True)
     session = open_session(fabric_from_args(args))
-    replayer = Replayer(session, args.session, speed=args.speed, serve_queries=not args.no_queries)
+    replayer = Replayer(
+        session,
+        target,
+        speed=args.speed,
+        serve_queries=not args.no_queries,
+        with_commands=args.with_commands,
+    )
     try:
         if args.connect and not wait_for_peers(session, stop):
             raise FabricError(f"could not reach {', '.join(args.connect)} within 10 s")
-        replayer.prepare(read_channels(args.file))
+        replayer.prepare(channels)
         replayer.wait_for_subscribers(stop)  # best effort: a session may have no listener yet
         return replayer.run(lambda: iter_samples(args.file), stop, loop=args.loop)
     finally:
         replayer.close()
         session.close()
+
+
+def recorded_session(channels: Mapping[str, object], path: Path) -> str:
+    """The session the recording was made in, from its keys."""
+    for key in channels:
+        try:
+            return parse(key).session
+        except KeySpaceError:
+            continue
+    raise RecordingError(f"{path} holds no carlaverse key: pass --session NAME to replay it")
 
 
 def _stop_event() -> threading.Event:

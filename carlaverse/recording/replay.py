@@ -7,8 +7,12 @@ up to a scheduler tick). A sample that is already late is sent at once, never sk
 lateness is counted.
 
 So that viewers and late joiners see the recorded world, recorded authority replies (map,
-scenario, snapshot, configs) are served as queryables, and recorded presence (`node/<id>`)
-becomes liveliness tokens of the replaying session.
+scenario, snapshot, configs) are served as queryables (configs with their secrets redacted,
+whatever the recording holds), and recorded presence (`node/<id>`) becomes liveliness
+tokens of the replaying session.
+
+Commands are withheld unless asked for (`with_commands`): `impulse/*` and `ego/*/override`
+move real wheels and motion platforms, and a replay must not drive a live rig by accident.
 """
 
 from __future__ import annotations
@@ -25,11 +29,24 @@ import zenoh
 
 from carlaverse.keys import Keys, KeySpaceError, parse
 from carlaverse.recording.reading import RecordedSample
+from carlaverse.recording.scrub import holds_configs, scrub_configs
 
 log = logging.getLogger(__name__)
 
 SPIN_S = 0.001  # [s] busy-wait this close to a deadline
 LATE_S = 0.001  # [s] a sample sent later than this counts as late
+REPLAY_SUFFIX = "-replay"
+
+
+def is_command(key: str) -> bool:
+    """Keys whose samples act on hardware: collision impulses and ego overrides."""
+    parsed = parse(key)
+    return parsed.area == "impulse" or (parsed.area == "ego" and parsed.channel == "override")
+
+
+def default_target(recorded_session: str) -> str:
+    """`<recorded>-replay`: a replay never lands in the recorded session unless told to."""
+    return recorded_session[: 63 - len(REPLAY_SUFFIX)] + REPLAY_SUFFIX
 
 
 def wait_until(
@@ -73,6 +90,7 @@ class ReplayStats:
     late: int = 0  # samples sent more than LATE_S after their slot
     max_late_s: float = 0.0  # [s]
     skipped: int = 0  # keys outside the key space (recorded by a newer carlaverse)
+    withheld: int = 0  # command samples not sent (impulse, override) without with_commands
     per_key: Counter[str] = field(default_factory=Counter)
 
 
@@ -102,6 +120,7 @@ class Replayer:
         *,
         speed: float = 1.0,
         serve_queries: bool = True,
+        with_commands: bool = False,
         clock: Callable[[], float] = time.perf_counter,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
@@ -111,6 +130,7 @@ class Replayer:
         self._target = target_session
         self._speed = speed
         self._serve_queries = serve_queries
+        self._with_commands = with_commands
         self._clock = clock
         self._sleep = sleep
         self._keys: dict[str, str | None] = {}
@@ -138,7 +158,7 @@ class Replayer:
         """Declare a publisher per recorded key up front, so subscribers can match early."""
         for key, metadata in channels.items():
             target = self._target_key(key)
-            if target is not None and parse(target).area not in ("authority", "node"):
+            if target is not None and self._publishes(target):
                 self._publisher(target, metadata)
 
     def wait_for_subscribers(self, stop: threading.Event, timeout_s: float = 2.0) -> bool:
@@ -176,10 +196,18 @@ class Replayer:
 
     # ------------------------------------------------------------------ sending
 
+    def _publishes(self, key: str) -> bool:
+        """Whether samples of `key` go out as puts (not served, not presence, not withheld)."""
+        area = parse(key).area
+        return area not in ("authority", "node") and (self._with_commands or not is_command(key))
+
     def _send(self, sample: RecordedSample) -> None:
         key = self._target_key(sample.key)
         if key is None:
             self.stats.skipped += 1
+            return
+        if not self._with_commands and is_command(key):
+            self.stats.withheld += 1
             return
         area = parse(key).area
         if area == "authority":
@@ -218,7 +246,7 @@ class Replayer:
 
     def _serve(self, key: str, payload: bytes) -> None:
         """Answer queries on an authority key with the latest recorded reply."""
-        self._replies[key] = payload
+        self._replies[key] = scrub_configs(payload) if holds_configs(key) else payload
         if self._serve_queries and key not in self._queryables:
             self._queryables[key] = self._session.declare_queryable(
                 key, lambda query, key=key: query.reply(key, self._replies[key]), complete=True

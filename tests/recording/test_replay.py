@@ -5,8 +5,11 @@ from __future__ import annotations
 import threading
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+import pytest
+import yaml
 import zenoh
 
 from carlaverse import cli, messages
@@ -14,7 +17,7 @@ from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys, parse
 from carlaverse.recording.reading import RecordedSample, iter_samples
 from carlaverse.recording.recorder import Recorder
-from carlaverse.recording.replay import Replayer
+from carlaverse.recording.replay import Replayer, is_command
 from carlaverse.recording.replay import wait_until as wait_deadline
 from carlaverse.recording.sink import McapSink
 from tests.recording.conftest import World
@@ -47,7 +50,8 @@ def test_replay_keeps_payloads_order_and_timing(world: World, tmp_path: Path) ->
         lambda s: arrivals.append((time.perf_counter(), str(s.key_expr), s.payload.to_bytes())),
     )
     code: list[int] = []
-    argv = ["replay", str(path), "--session", "again", "--connect", world.endpoint]
+    argv = ["replay", str(path), "--session", "again", "--with-commands"]
+    argv += ["--connect", world.endpoint]
     replay = threading.Thread(target=lambda: code.append(cli.main(argv)))
     try:
         replay.start()
@@ -114,3 +118,57 @@ def test_unknown_keys_are_skipped_and_counted() -> None:
     finally:
         session.close()
     assert stats.skipped == 1 and stats.published == 0
+
+
+def test_by_default_a_replay_goes_to_a_new_session_and_sends_no_commands(
+    world: World, tmp_path: Path
+) -> None:
+    path = tmp_path / "session.mcap"
+    _record(world, path, 2.5)  # the synthetic world collides every 2 s: impulses recorded
+    recorded = [s for s in iter_samples(path) if parse(s.key).area not in ("authority", "node")]
+    commands = [s for s in recorded if is_command(s.key)]
+    assert commands, "the recording holds impulses to withhold"
+
+    arrivals: list[str] = []
+    observer = world.connect()
+    subs = [
+        observer.declare_subscriber(
+            Keys(name).everything, lambda s: arrivals.append(str(s.key_expr))
+        )
+        for name in ("rec", "rec-replay")
+    ]
+    try:
+        code = cli.main(["replay", str(path), "--connect", world.endpoint])
+        wait_until(lambda: len(arrivals) >= len(recorded) - len(commands), 5, "the replay")
+    finally:
+        for sub in subs:
+            sub.undeclare()
+        observer.close()
+    assert code == 0
+    expected = [Keys("rec").with_session(s.key, "rec-replay") for s in recorded]
+    assert arrivals == [k for k in expected if not is_command(k)]  # only rec-replay, no commands
+
+
+def test_help_says_how_to_replay_into_the_recorded_session(capsys: Any) -> None:
+    with pytest.raises(SystemExit):
+        cli.main(["replay", "--help"])
+    text = " ".join(capsys.readouterr().out.split())
+    assert "default: <recorded>-replay" in text and "name it here explicitly" in text
+    assert "--with-commands" in text
+
+
+def test_served_configs_are_redacted_even_from_an_old_recording() -> None:
+    secret = "pw-from-an-old-node-42"
+    config = yaml.safe_dump({"fabric": {"zenoh": {"transport/auth/usrpwd/password": secret}}})
+    payload = messages.CONFIGS.encode(messages.ConfigsReply(messages.SCHEMA_VERSION, {"n": config}))
+    key = Keys("rec").authority("configs")
+    session = open_session(FabricSettings())
+    try:
+        replayer = Replayer(session, "served")
+        replayer.run(lambda: [RecordedSample(key, payload, "put", 0, 0, {})], threading.Event())
+        served = _answer(session, Keys("served").authority("configs"))
+        replayer.close()
+    finally:
+        session.close()
+    assert served is not None and secret.encode() not in served
+    assert "<redacted>" in messages.CONFIGS.decode(served).nodes["n"]
