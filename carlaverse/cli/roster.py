@@ -21,6 +21,7 @@ from carlaverse.config import ConfigError
 from carlaverse.fabric.session import FabricSettings
 from carlaverse.security.acl import site_acl
 from carlaverse.security.certs import CertificateError
+from carlaverse.security.redact import redact
 from carlaverse.security.roster import LoadedRoster, load_roster
 from carlaverse.security.sites import node_fabric_settings, password_files, router_settings_for_site
 from carlaverse.security.zenoh_entries import CredentialError, write_private
@@ -81,11 +82,20 @@ def _passwords(loaded: LoadedRoster, args: argparse.Namespace) -> int:
         print("security.usrpwd is off: no passwords needed", file=sys.stderr)
     for path in files:
         if path.exists():
-            print(f"kept    {path}", file=sys.stderr)
+            tightened = _owner_only(path)
+            print(f"kept    {path}{' (now 0600)' if tightened else ''}", file=sys.stderr)
         else:
             write_private(path, secrets.token_urlsafe(PASSWORD_BYTES) + "\n")
             print(f"created {path}")
     return 0
+
+
+def _owner_only(path: Path) -> bool:
+    """Make a kept password file 0600 if it was wider; True if it had to change."""
+    if path.stat().st_mode & 0o077 == 0:
+        return False
+    path.chmod(0o600)
+    return True
 
 
 def _zenoh_config(loaded: LoadedRoster, args: argparse.Namespace) -> int:
@@ -105,9 +115,13 @@ def nested_config(settings: FabricSettings) -> dict[str, Any]:
 
 
 def _emit(value: dict[str, Any], out: Path | None) -> None:
+    """Print `value`, or write it to `out`: owner-only (0600) if it holds a secret (a login)."""
     text = json.dumps(value, indent=2) + "\n"
     if out is None:
         sys.stdout.write(text)
+    elif redact(value) != value:
+        write_private(out, text)
+        print(f"wrote {out} (readable by you only: it holds a login)", file=sys.stderr)
     else:
         out.parent.mkdir(parents=True, exist_ok=True)
         out.write_text(text, encoding="utf-8")

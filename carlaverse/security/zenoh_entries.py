@@ -98,11 +98,17 @@ def dictionary_text(logins: list[tuple[str, str]]) -> str:
     )
 
 
-def write_private(path: Path, text: str) -> Path:
-    """Write a secret file readable by its owner only (created 0600, never wider)."""
-    path.parent.mkdir(parents=True, exist_ok=True)
+def write_private(path: Path, content: str | bytes) -> Path:
+    """Write a secret file readable by its owner only (0600, never wider, not even briefly).
+
+    The mode is set on the open descriptor before any byte is written, because an existing
+    file keeps its old mode through O_CREAT and would hold the new secret world-readable.
+    A missing directory is created 0700.
+    """
+    path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
     fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600)
-    with os.fdopen(fd, "w", encoding="utf-8") as handle:
-        handle.write(text)
-    os.chmod(path, 0o600)  # an existing file keeps its old mode through O_CREAT
+    os.fchmod(fd, 0o600)
+    data = content.encode("utf-8") if isinstance(content, str) else content
+    with os.fdopen(fd, "wb") as handle:
+        handle.write(data)
     return path

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 import stat
 from pathlib import Path
 
@@ -93,3 +94,50 @@ def test_zenoh_config_for_zenohd_users(roster: Path, capsys: pytest.CaptureFixtu
     assert config["mode"] == "client" and config["connect"]["endpoints"] == ["tls/h:1"]
     assert config["transport"]["link"]["tls"]["enable_mtls"] is True
     assert config["transport"]["auth"]["usrpwd"]["user"] == "kth-bike-1"
+
+
+# ------------------------------------------------------------- files that hold secrets
+
+
+def _mode(path: Path) -> int:
+    return stat.S_IMODE(os.stat(path).st_mode)
+
+
+def _world_readable(path: Path, text: str = "old\n") -> Path:
+    """A file left 0644 by an older version: rewriting it must not keep that mode."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text)
+    path.chmod(0o644)
+    return path
+
+
+def test_zenoh_config_with_a_login_is_written_0600(
+    roster: Path, capsys: pytest.CaptureFixture
+) -> None:
+    assert main(["certs", "--roster", str(roster)]) == 0
+    assert main(["roster", "passwords", str(roster)]) == 0
+    for who in (["--site", "tum"], ["--node", "kth-bike-1", "--connect", "tls/h:1"]):
+        out = _world_readable(roster.parent / "out" / f"{who[1]}.json")
+        assert main(["roster", "zenoh-config", str(roster), *who, "--out", str(out)]) == 0
+        assert "password" in json.loads(out.read_text())["transport"]["auth"]["usrpwd"]
+        assert _mode(out) == 0o600, who
+    assert "readable by you only" in capsys.readouterr().err
+
+
+def test_passwords_dictionaries_and_keys_are_0600(roster: Path) -> None:
+    secrets_dir = roster.parent / "secrets"
+    assert main(["roster", "passwords", str(roster)]) == 0
+    assert _mode(secrets_dir) == 0o700
+    assert all(_mode(p) == 0o600 for p in secrets_dir.glob("*.password"))
+    kept = _world_readable(secrets_dir / "authority.password", "an-older-password-file\n")
+    assert main(["roster", "passwords", str(roster)]) == 0
+    assert _mode(kept) == 0o600 and kept.read_text() == "an-older-password-file\n"
+
+    certs = roster.parent / "certs"
+    _world_readable(certs / "kth-bike-1.key")
+    _world_readable(secrets_dir / "tum.dictionary")
+    assert main(["certs", "--roster", str(roster), "--name", "kth-bike-1"]) == 0
+    assert main(["router", "--site", "tum", "--config", str(roster), "--duration", "0.2"]) == 0
+    assert _mode(secrets_dir / "tum.dictionary") == 0o600
+    keys = list(certs.glob("*.key"))
+    assert len(keys) >= 3 and all(_mode(k) == 0o600 for k in keys), keys
