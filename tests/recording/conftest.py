@@ -3,14 +3,18 @@
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import pytest
 import zenoh
 
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
+from carlaverse.recording.sink import McapSink
 from carlaverse.recording.synthetic import SyntheticSession, SyntheticSpec
 from tests.support import free_port, wait_until
 
@@ -48,3 +52,15 @@ def world() -> Iterator[World]:
     finally:
         synthetic.close()
         session.close()
+
+
+class GatedSink(McapSink):
+    """A real sink whose writes wait for the test's `gate`: the recorder's queue fills."""
+
+    def __init__(self, path: Path) -> None:
+        super().__init__(path, monotonic=time.monotonic)
+        self.gate = threading.Event()
+
+    def write(self, *args: Any, **kwargs: Any) -> bool:
+        self.gate.wait(timeout=30)
+        return super().write(*args, **kwargs)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -22,6 +21,7 @@ from carlaverse.recording.reading import iter_samples, read_attachments, read_me
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.sink import McapSink
 from carlaverse.security.redact import REDACTED
+from tests.recording.conftest import GatedSink
 from tests.recording.hostile import hostile_payloads
 from tests.support import wait_until
 
@@ -145,19 +145,9 @@ def test_a_writer_that_stops_is_reported_not_hidden(tmp_path: Path) -> None:
             session.close()
 
 
-class _GatedSink(McapSink):
-    def __init__(self, path: Path) -> None:
-        super().__init__(path, monotonic=time.monotonic)
-        self.gate = threading.Event()
-
-    def write(self, *args: Any, **kwargs: Any) -> bool:
-        self.gate.wait(timeout=30)
-        return super().write(*args, **kwargs)
-
-
 def test_queued_payload_bytes_are_bounded_and_drops_counted(tmp_path: Path) -> None:
     session = open_session(FabricSettings())
-    sink = _GatedSink(tmp_path / "q.mcap")
+    sink = GatedSink(tmp_path / "q.mcap")
     recorder = Recorder(session, K, sink, archive=False, queue_bytes=10_000)
     try:
         recorder.start()

@@ -3,11 +3,9 @@
 from __future__ import annotations
 
 import json
-import threading
 import time
 from collections import Counter
 from pathlib import Path
-from typing import Any
 
 import zenoh
 from mcap.reader import make_reader
@@ -18,7 +16,7 @@ from carlaverse.recording.archive import CONFIG_ATTACHMENT, SCENARIO_ATTACHMENT
 from carlaverse.recording.reading import iter_samples, read_attachments, read_metadata
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.sink import McapSink
-from tests.recording.conftest import World
+from tests.recording.conftest import GatedSink, World
 from tests.support import wait_until
 
 FUTURE_KEY = "carlaverse/rec/future/thing"  # a key this build has no type for
@@ -121,23 +119,11 @@ def test_json_view_is_readable_and_names_fields(world: World, tmp_path: Path) ->
     assert "error" in skeleton and "msg" not in skeleton
 
 
-class _GatedSink(McapSink):
-    """A real sink whose first write waits for the test: the queue fills meanwhile."""
-
-    def __init__(self, path: Path) -> None:
-        super().__init__(path, monotonic=time.monotonic)
-        self.gate = threading.Event()
-
-    def write(self, *args: Any, **kwargs: Any) -> None:
-        self.gate.wait(timeout=30)
-        super().write(*args, **kwargs)
-
-
 def test_writer_loses_nothing_across_batches(world: World, tmp_path: Path) -> None:
     """A backlog longer than one writer batch (4096): every sample is written, in order."""
     path = tmp_path / "burst.mcap"
     session = world.connect()
-    sink = _GatedSink(path)
+    sink = GatedSink(path)
     recorder = Recorder(session, Keys("rec"), sink, archive=False)
     key = Keys("rec").pose("ego-0")
     payloads = [messages.POSE.encode(messages.Pose(i, i * 1e-3, 0.0, 0.0)) for i in range(10_000)]
