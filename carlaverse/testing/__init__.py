@@ -1,6 +1,7 @@
-"""Test infrastructure shipped with the package: the WAN link emulator and namespaced sites.
+"""Pure test support shipped with the package: the link emulator, reference trajectories,
+the renderer comparison and the in-process stream simulation.
 
-It lives in the package (not in tests/ or tools/) because the test suite, the benchmark
-scripts in tools/bench/ and the probe processes started inside namespaces all import it,
-from any working directory, without path edits.
+It lives in the package because the test suite, the benchmark scripts in tools/ and probe
+processes all import it from any working directory, without path edits. Nothing here needs
+root or imports a node kind; the network-namespace harness lives in tests/wan/.
 """

@@ -1,4 +1,4 @@
-"""A user-space WAN link emulator: a TCP relay with delay, jitter, loss bursts and cuts.
+"""A user-space WAN link emulator: a TCP relay with delay, jitter, loss, stalls and cuts.
 
 The kernel of the test machines lacks `netem`, so a site-to-site link is emulated by a relay
 between one router and the next: the dialing router connects to the relay, which connects on
@@ -9,15 +9,25 @@ bytes without breaking the Zenoh framing inside it:
 - jitter: each chunk's delivery time is `now + delay ± jitter`, clamped to be no earlier
   than the previous chunk's, as TCP delivers in order (a late chunk delays those behind it
   — head-of-line blocking, exactly what a real TCP link does);
+- loss (`LinkProfile.loss`, per chunk ≈ per segment): TCP retransmits a lost segment after
+  its retransmission timeout and delivers nothing behind it meanwhile, so a lost chunk is
+  delivered one RTO late and holds everything after it. RTO = max(200 ms, SRTT + 4·RTTVAR)
+  as Linux computes it (RFC 6298 with Linux's 200 ms TCP_RTO_MIN), SRTT = twice the one-way
+  delay, RTTVAR ≈ the jitter. Fast retransmit (three duplicate ACKs) can recover sooner, but
+  only when three more segments follow the lost one within an RTT; pose streams are thin
+  (one small segment per 20 ms), and a loss near the end of a burst waits for the timer,
+  so the timeout is the honest bound. `LinkModel(transport="datagram")` drops the chunk
+  instead (UDP / QUIC datagrams: nothing waits, the sample is gone);
 - a loss burst (`stall`) holds the direction until the burst ends, as TCP's retransmission
   would: nothing is lost, everything is late;
 - a cut (`cut`) holds every direction and refuses new connections (accept, then close at
   once) until `restore`; a cut longer than the Zenoh lease makes the routers close the link
   and redial, which they can once it is restored. `reset` drops every open connection.
 
-The relay runs its own asyncio loop in a thread; `netns` makes that thread enter a network
-namespace first, so every socket of the relay lives there. Timing uses the loop's monotonic
-clock with ~1 ms resolution (epoll's), which is why delays are honoured to about ±1 ms.
+`LinkModel` is the pure delivery schedule (also what the in-process stream simulation of
+`tools/bench/bench_wan.py` uses); the relay runs its own asyncio loop in a thread, after an
+optional `thread_setup` (the WAN harness enters a network namespace there). Timing uses the
+loop's monotonic clock with ~1 ms resolution (epoll's): delays are honoured to about ±1 ms.
 """
 
 from __future__ import annotations
@@ -28,13 +38,17 @@ import logging
 import random
 import threading
 from collections import Counter
+from collections.abc import Callable
 from dataclasses import dataclass
-
-from carlaverse.testing.netns import enter_netns
+from typing import Literal
 
 log = logging.getLogger(__name__)
 
 CHUNK = 65536  # [bytes] read size
+
+
+Transport = Literal["tcp", "datagram"]
+RTO_MIN_S = 0.2  # [s] Linux's TCP_RTO_MIN
 
 
 @dataclass(frozen=True, slots=True)
@@ -43,6 +57,7 @@ class LinkProfile:
 
     delay_s: float = 0.0  # [s] one-way delay
     jitter_s: float = 0.0  # [s] uniform ± around the delay
+    loss: float = 0.0  # fraction of chunks (≈ segments, datagrams) lost
 
     def __post_init__(self) -> None:
         if self.delay_s < 0 or self.jitter_s < 0 or self.jitter_s > self.delay_s:
@@ -50,24 +65,52 @@ class LinkProfile:
                 f"link profile delay {self.delay_s} s, jitter {self.jitter_s} s: both must be "
                 ">= 0 and the jitter at most the delay (a chunk cannot arrive before it is sent)"
             )
+        if not 0.0 <= self.loss < 1.0:
+            raise ValueError(f"link profile loss {self.loss}: expected a fraction in [0, 1)")
+
+    def rto_s(self) -> float:
+        """TCP's retransmission timeout on this link (Linux: RFC 6298, 200 ms floor)."""
+        return max(RTO_MIN_S, 2 * self.delay_s + 4 * self.jitter_s)
 
 
-class Direction:
-    """Delivery schedule of one direction: monotonic due times, stalls, statistics."""
+class LinkModel:
+    """Delivery schedule of one direction: in order for TCP, independent for datagrams."""
 
-    def __init__(self, profile: LinkProfile, rng: random.Random) -> None:
+    def __init__(self, profile: LinkProfile, rng: random.Random, transport: Transport = "tcp"):
         self.profile = profile
         self.rng = rng
+        self.transport = transport
         self.last_due = 0.0
+        self.lost = 0  # chunks retransmitted (tcp) or dropped (datagram)
+
+    def schedule(self, now: float) -> float | None:
+        """When a chunk sent at `now` is delivered; None if a datagram is lost."""
+        p = self.profile
+        due = now + p.delay_s + (self.rng.uniform(-p.jitter_s, p.jitter_s) if p.jitter_s else 0)
+        if p.loss and self.rng.random() < p.loss:
+            self.lost += 1
+            if self.transport == "datagram":
+                return None
+            due += p.rto_s()  # retransmitted; every later chunk waits behind it
+        if self.transport == "datagram":
+            return due
+        self.last_due = max(due, self.last_due)
+        return self.last_due
+
+
+class Direction(LinkModel):
+    """One direction of the relay: its TCP schedule plus stalls and statistics."""
+
+    def __init__(self, profile: LinkProfile, rng: random.Random) -> None:
+        super().__init__(profile, rng, "tcp")
         self.blocked_until = 0.0  # [s] loop time; a loss burst holds deliveries until then
         self.bytes = 0
         self.chunks = 0
 
     def schedule(self, now: float) -> float:
-        p = self.profile
-        due = now + p.delay_s + (self.rng.uniform(-p.jitter_s, p.jitter_s) if p.jitter_s else 0)
-        self.last_due = max(due, self.last_due)
-        return self.last_due
+        due = super().schedule(now)
+        assert due is not None  # a TCP schedule never drops
+        return due
 
 
 class LinkEmulator:
@@ -80,13 +123,13 @@ class LinkEmulator:
         forward: LinkProfile = LinkProfile(),
         backward: LinkProfile | None = None,
         seed: int = 0,
-        netns: str | None = None,
+        thread_setup: Callable[[], None] | None = None,
         name: str = "link",
     ) -> None:
         self.listen = listen
         self.target = target
         self.name = name
-        self.netns = netns
+        self.thread_setup = thread_setup  # run in the relay's thread first (enter a netns)
         rng = random.Random(seed)
         self.forward = Direction(forward, random.Random(rng.random()))
         self.backward = Direction(backward or forward, random.Random(rng.random()))
@@ -182,8 +225,8 @@ class LinkEmulator:
 
     def _run(self) -> None:
         try:
-            if self.netns:
-                enter_netns(self.netns)
+            if self.thread_setup is not None:
+                self.thread_setup()
             self._loop = asyncio.new_event_loop()
             self._loop.run_until_complete(self._serve())
         except BaseException as exc:  # reported to start(); the thread ends here

@@ -10,10 +10,11 @@ from collections.abc import Iterator
 import pytest
 
 from carlaverse.testing.linkemu import LinkEmulator, LinkProfile
-from carlaverse.testing.netns import (
+from tests.wan.netns import (
     NamespaceSet,
     NetNamespace,
     Veth,
+    enter_netns,
     owner_prefix,
     remove_orphans,
     unavailable_reason,
@@ -59,7 +60,10 @@ def test_sites_talk_only_through_the_relay(spaces: NamespaceSet) -> None:
     server = _python(a, SERVER.format(addr="10.99.71.2"))
     assert server.stdout is not None and server.stdout.readline() == "listening\n"
     relay = LinkEmulator(
-        ("10.99.72.1", 0), ("10.99.71.2", 9000), LinkProfile(0.005), netns=core.name
+        ("10.99.72.1", 0),
+        ("10.99.71.2", 9000),
+        LinkProfile(0.005),
+        thread_setup=lambda: enter_netns(core.name),
     ).start()
     try:
         client = _python(b, CLIENT.format(addr="10.99.72.1", port=relay.port))

@@ -1,20 +1,17 @@
-"""A measuring observer for WAN tests: how far remote actors are drawn from their true path.
+"""A measuring observer for WAN tests and benchmarks: every renderer, against the true path.
 
-    python -m carlaverse.testing.wan_probe --id probe-a --session wan \\
+    python tools/wan/wan_probe.py --id probe-a --session wan \\
         --connect tcp/127.0.0.1:7447 --target b-bike=bike.yaml --duration 30
 
 Joins as an observer (a real `NodeClient`: clock sync, presence, despawns) and, at `--rate-hz`,
-renders each target three ways from the same pose stream:
-- `adaptive`: a `RemoteActor` whose delay follows the stream's interval and jitter (DESIGN §6);
-- `fixed`: the same with `adaptive: false`, i.e. the starting delay of two send intervals;
-- `naive`: the last sample received, drawn as is, now.
-The error of the first two is the distance to the true path at the time they show
-(`render_t`); the naive one is drawn now, so its error is against the true position now.
-Targets are scripted nodes whose config (path) is given, so their true path is known.
+draws each target with every renderer of `carlaverse.testing.render_metrics` (the world view
+in past and present mode, and naive) from the same pose stream. Targets are scripted nodes
+whose config (path) is given, so their true path is known; `render_metrics.probe_metrics`
+turns the report into the same figures the in-process benchmark gives.
 
-Prints `ready` on stderr once every target has been rendered, and `presence <id> <0|1> <t>`
+Prints `ready` on stderr once every target has been drawn, and `presence <id> <0|1> <t>`
 whenever a target appears in or leaves the observer's world; on exit (duration or SIGINT)
-prints JSON: the raw samples, each stamped with the host's monotonic clock (shared by all
+prints JSON: the raw frames, each stamped with the host's monotonic clock (shared by all
 network namespaces) so a harness can cut them into windows around the events it caused.
 """
 
@@ -22,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import signal
 import sys
 import threading
@@ -31,7 +27,6 @@ from collections import deque
 from pathlib import Path
 from typing import Any
 
-import msgspec
 import zenoh
 from carlaverse_nodes.scripted import ScriptedConfig
 
@@ -39,12 +34,12 @@ from carlaverse import messages as m
 from carlaverse.config import load_config
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.remote_actor import RemoteActor
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys, KeySpaceError, parse
 from carlaverse.paths import PathSpec
+from carlaverse.testing.render_metrics import RENDERERS, RendererSet
 
-VARIANTS = ("adaptive", "fixed", "naive")
+SCRIPT = Path(__file__).resolve()
 
 
 class Probe:
@@ -52,14 +47,9 @@ class Probe:
         self.client = client
         self.targets = targets
         settings = client.settings.interpolation
-        fixed = msgspec.structs.replace(settings, adaptive=False)
-        self.actors = {
-            t: {"adaptive": RemoteActor(t, settings), "fixed": RemoteActor(t, fixed)}
-            for t in targets
-        }
-        self.last: dict[str, m.Pose] = {}
+        self.renderers = {t: RendererSet(t, settings) for t in targets}
         self.inbox: deque[tuple[str, m.Pose, float]] = deque(maxlen=100_000)
-        # [monotonic t, target, adaptive, fixed, naive error [m], present, adaptive delay [ms]]
+        # [monotonic t, target, present in the world, {renderer: frame}]
         self.samples: list[list[Any]] = []
         self.present: dict[str, bool] = dict.fromkeys(targets, False)
         self.bad = 0
@@ -76,37 +66,22 @@ class Probe:
             self.inbox.append((node_id, pose, rx_t))
 
     def step(self) -> bool:
-        """Drain, render, measure; True once every target has a measurement."""
+        """Drain, draw, record; True once every target has been drawn."""
         now = self.client.update()
         while self.inbox:
             node_id, pose, rx_t = self.inbox.popleft()
-            for actor in self.actors[node_id].values():
-                actor.add(pose, rx_t)
-            if node_id not in self.last or pose.t > self.last[node_id].t:
-                self.last[node_id] = pose
+            self.renderers[node_id].add(pose, rx_t)
         mono = time.monotonic()
-        for target, path in self.targets.items():
-            errors = [self._error(target, path, v, now) for v in VARIANTS]
+        drawn = True
+        for target, renderers in self.renderers.items():
+            frames = {k: [round(v, 6) for v in f] for k, f in renderers.frame(now).items()}
+            drawn = drawn and len(frames) == len(RENDERERS)
             present = target in self.client.world.egos
-            delay_ms = round(self.actors[target]["adaptive"].delay_s * 1e3, 2)
-            self.samples.append([round(mono, 4), target, *errors, present, delay_ms])
+            self.samples.append([round(mono, 4), target, present, frames])
             if present != self.present[target]:
                 self.present[target] = present
                 print(f"presence {target} {int(present)} {mono:.4f}", file=sys.stderr, flush=True)
-        return all(t in self.last for t in self.targets)
-
-    def _error(self, target: str, path: PathSpec, variant: str, now: float) -> float | None:
-        if variant == "naive":
-            last = self.last.get(target)
-            if last is None:
-                return None
-            true = path.pose_at(now)
-            return round(math.hypot(last.x - true.x, last.y - true.y), 5)
-        view = self.actors[target][variant].view(now)
-        if view is None:
-            return None
-        true = path.pose_at(view.render_t)
-        return round(math.hypot(view.x - true.x, view.y - true.y), 5)
+        return drawn
 
     def report(self) -> dict[str, Any]:
         world = self.client.world
@@ -116,34 +91,12 @@ class Probe:
             "seen": sorted(world.seen),
             "despawns": [(d.actor_id, d.reason) for d in world.despawns],
             "bad_samples": self.bad,
-            "delay_ms": {
-                t: {v: round(a.delay_s * 1e3, 2) for v, a in actors.items()}
-                for t, actors in self.actors.items()
-            },
             "samples": self.samples,
         }
 
 
-def window(report: dict[str, Any], target: str, start: float, end: float) -> list[list[Any]]:
-    """The samples of `target` taken between monotonic times `start` and `end`."""
-    return [r for r in report["samples"] if r[1] == target and start <= r[0] <= end]
-
-
-def error_stats(rows: list[list[Any]], variant: str) -> dict[str, float]:
-    """p50, p95, p99 and max [m] of one variant's error over `rows` (measured ones only)."""
-    column = 2 + VARIANTS.index(variant)
-    values = sorted(r[column] for r in rows if r[column] is not None)
-    if not values:
-        return {"n": 0, "p50": math.nan, "p95": math.nan, "p99": math.nan, "max": math.nan}
-
-    def q(p: float) -> float:
-        return round(values[min(len(values) - 1, int(p * len(values)))], 4)
-
-    return {"n": len(values), "p50": q(0.5), "p95": q(0.95), "p99": q(0.99), "max": values[-1]}
-
-
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    parser = argparse.ArgumentParser(prog="python -m carlaverse.testing.wan_probe")
+    parser = argparse.ArgumentParser(prog="python tools/wan/wan_probe.py")
     parser.add_argument("--id", required=True, help="the probe's node id")
     parser.add_argument("--session", required=True)
     parser.add_argument("--connect", action="append", default=[], metavar="EP")

@@ -1,4 +1,4 @@
-"""Several sites on one machine, joined by emulated WAN links (issue 7's test harness).
+"""Several sites on one machine, joined by emulated WAN links (the WAN tests' harness; root).
 
     core namespace ── veth ── site a (10.99.1.2)  router a  <─ hub
          │  relays    ── veth ── site b (10.99.2.2)  router b  ── dials a through relay b
@@ -32,7 +32,14 @@ from typing import Any
 import yaml
 
 from carlaverse.testing.linkemu import LinkEmulator, LinkProfile
-from carlaverse.testing.netns import NamespaceSet, NetNamespace, Veth, owner_prefix, remove_orphans
+from tests.wan.netns import (
+    NamespaceSet,
+    NetNamespace,
+    Veth,
+    enter_netns,
+    owner_prefix,
+    remove_orphans,
+)
 
 ROUTER_PORT = 7447
 DEFAULT_ROUTER_LEASE_MS = 5000
@@ -189,7 +196,7 @@ class WanLab:
             target=(self.hub.address, ROUTER_PORT),
             forward=self.profile,
             seed=self.seed + plan.index,
-            netns=core.name,
+            thread_setup=lambda: enter_netns(core.name),
             name=f"{plan.name}-{self.hub.name}",
         ).start()
 
@@ -214,9 +221,11 @@ class WanLab:
 
     # ------------------------------------------------------------ processes
 
-    def spawn(self, site: str, name: str, *args: str, module: str = "carlaverse") -> SiteProcess:
-        """`python -m <module> args...` inside `site`'s namespace."""
-        argv = self.namespace(site).argv(sys.executable, "-m", module, *args)
+    def spawn(self, site: str, name: str, *args: str, script: Path | None = None) -> SiteProcess:
+        """`python -m carlaverse args...` (or `python SCRIPT args...`) inside `site`'s
+        namespace."""
+        program = [str(script)] if script is not None else ["-m", "carlaverse"]
+        argv = self.namespace(site).argv(sys.executable, *program, *args)
         process = SiteProcess(name, argv, self.workdir)
         self.processes.append(process)
         return process
