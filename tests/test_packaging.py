@@ -22,3 +22,15 @@ def test_every_package_directory_is_listed() -> None:
                 found.add(".".join((name, *rel.parts)))
     assert found - listed == set(), "add these to [tool.setuptools] packages"
     assert listed - found == set(), "listed packages with no directory"
+
+
+def test_the_library_never_imports_a_node_kind_nor_ships_root_only_harnesses() -> None:
+    library = ROOT / "carlaverse"
+    offenders = [
+        str(p.relative_to(ROOT))
+        for p in library.rglob("*.py")
+        if "carlaverse_nodes" in p.read_text(encoding="utf-8")
+    ]
+    assert offenders == [], "the library must not import node kinds (nodes/ = carlaverse_nodes)"
+    testing = {p.name for p in (library / "testing").glob("*.py")}
+    assert not testing & {"netns.py", "wan.py", "wan_probe.py"}, "test harnesses: tests/, tools/"

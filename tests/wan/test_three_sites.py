@@ -1,8 +1,11 @@
 """Issue 7 acceptance: three sites across emulated WAN links, in network namespaces.
 
 Site a hosts the authority, a scripted car and a probe; site b a scripted bike at 14 m/s on a
-rectangle (corners make interpolation earn its keep); site c a scripted walker. Links b-a and
-c-a have 30 ± 10 ms one-way delay (20–40 ms). One scenario runs once per module:
+circle (bounded jerk: the paths a vehicle can drive); site c a scripted walker. Links b-a and
+c-a have 30 ± 10 ms one-way delay (20–40 ms) and lose 1 % of segments, as TCP sees it (a
+retransmission timeout holds everything behind a lost segment). Every probe draws each target
+with every renderer (past, present, naive), measured against the same references
+(`carlaverse.testing.render_metrics`). One scenario runs once per module:
 
     steady 6 s │ cut c–a 2 s │ settle 3 s │ cut c–a 8 s │ restore, wait for c to return
 
@@ -21,21 +24,23 @@ from typing import Any
 
 import pytest
 
+from carlaverse.paths import CirclePath, PolylinePath
 from carlaverse.testing.linkemu import LinkProfile
-from carlaverse.testing.netns import unavailable_reason
-from carlaverse.testing.wan import SiteProcess, WanLab, write_scripted_config
-from carlaverse.testing.wan_probe import error_stats, window
+from carlaverse.testing.render_metrics import probe_metrics, window
+from tests.wan.lab import SiteProcess, WanLab, write_scripted_config
+from tests.wan.netns import unavailable_reason
 
 pytestmark = [pytest.mark.netns, pytest.mark.slow]
 
 SESSION = "wan"
-PROFILE = LinkProfile(delay_s=0.030, jitter_s=0.010)
+PROFILE = LinkProfile(delay_s=0.030, jitter_s=0.010, loss=0.01)
+PROBE = Path(__file__).resolve().parents[2] / "tools" / "wan" / "wan_probe.py"
 DESPAWN_TIMEOUT_S = 3.0
 STEADY_S, SHORT_CUT_S, SETTLE_S, LONG_CUT_S = 6.0, 2.0, 3.0, 8.0
 PATHS = {
     "a-drive": ("a", "car", {"type": "circle", "radius": 25.0, "speed_mps": 14.0}),
     "b-bike": ("b", "bicycle", {
-        "type": "polyline", "points": [[0, 0], [60, 0], [60, 30], [0, 30]], "speed_mps": 14.0,
+        "type": "circle", "center": [60.0, 0.0], "radius": 20.0, "speed_mps": 14.0,
     }),
     "c-walk": ("c", "pedestrian", {
         "type": "circle", "center": [30.0, 15.0], "radius": 5.0, "speed_mps": 1.4,
@@ -98,7 +103,7 @@ def run_scenario(lab: WanLab, workdir: Path) -> Record:
             "--duration",
             "120",
             *(arg for t in targets for arg in ("--target", f"{t}={configs[t]}")),
-            module="carlaverse.testing.wan_probe",
+            script=PROBE,
         )
         for site, targets in PROBES.items()
     }
@@ -176,29 +181,42 @@ def test_every_node_sees_every_other(record: Record) -> None:
         assert set(PROBES[site]) <= set(report["seen"]), site
 
 
+def true_path(node_id: str) -> CirclePath | PolylinePath:
+    spec = PATHS[node_id][2]
+    return CirclePath(**{k: v for k, v in spec.items() if k != "type"})
+
+
 def test_remote_actor_error_at_14_mps(record: Record) -> None:
     start, end = record.times["steady"], record.times["cut1"]
     for site, hops in (("a", 1), ("c", 2)):  # the bike seen one WAN link and two links away
         rows = window(record.probes[site], "b-bike", start, end)
-        adaptive, naive = error_stats(rows, "adaptive"), error_stats(rows, "naive")
-        print(f"b-bike at site {site} ({hops} link(s)): adaptive {adaptive}, naive {naive}")
-        assert adaptive["n"] > 300
-        assert adaptive["p95"] <= 0.10
-        assert naive["p95"] > 5 * adaptive["p95"]  # the naive renderer is far worse
+        by = probe_metrics(rows, true_path("b-bike"))
+        for name, x in by.items():
+            print(f"b-bike at site {site} ({hops} link(s)) {name}: {x.row()}")
+        past, present, naive = by["past"], by["present"], by["naive"]
+        assert present.frames > 300
+        assert past.shown_p95_m <= 0.10  # right about the moment it shows...
+        assert past.lag_mean_ms > 30 * hops  # ...which is that far in the past
+        assert present.now_p95_m <= 0.25 and present.jump_max_m <= 0.2  # where it is now
+        assert present.lag_mean_ms == 0.0
+        assert naive.now_p95_m > 5 * present.now_p95_m  # the naive renderer is far worse
+        assert naive.jump_max_m > 0.2
 
 
 def test_a_short_cut_despawns_nobody_and_tracking_resumes(record: Record) -> None:
     t = record.times
     for site in ("a", "b"):
         rows = window(record.probes[site], "c-walk", t["cut1"], t["cut2"])
-        assert rows and all(r[5] for r in rows), f"c-walk vanished at {site} during a 2 s cut"
-        during = error_stats(window(record.probes[site], "c-walk", t["cut1"], t["restore1"]),
-                             "adaptive")  # fmt: skip
-        after = error_stats(
-            window(record.probes[site], "c-walk", t["restore1"] + 1.0, t["cut2"]), "adaptive"
-        )
+        assert rows and all(r[2] for r in rows), f"c-walk vanished at {site} during a 2 s cut"
+        walker = true_path("c-walk")
+        during = probe_metrics(
+            window(record.probes[site], "c-walk", t["cut1"], t["restore1"]), walker
+        )["present"]
+        after = probe_metrics(
+            window(record.probes[site], "c-walk", t["restore1"] + 1.0, t["cut2"]), walker
+        )["present"]
         print(f"c-walk at {site}: during the 2 s cut {during}; from 1 s after restore {after}")
-        assert after["p95"] <= 0.10  # extrapolated, held, then back on its path
+        assert after.now_p95_m <= 0.10  # projected, held, then back on its path
     gone_early = [
         at for present, at in record.presence["c-walk@a"] if not present and at < t["cut2"]
     ]

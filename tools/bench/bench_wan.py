@@ -66,8 +66,10 @@ def worst(grid: dict, transport: str, link: tuple, renderer: str, field: str) ->
 
 
 def target_table(grid: dict) -> str:  # type: ignore[type-arg]
-    head = ("| path | renderer | error vs now p50 / p95 / max [m] | error at time shown p95 [m] "
-            "| lag [ms] | largest jump beyond true motion [m] |\n|---|---|---|---|---|---|\n")  # fmt: skip
+    head = (
+        "| path | renderer | error vs now p50 / p95 / max [m] | error at time shown p95 [m] "
+        "| lag [ms] | largest jump beyond true motion [m] |\n|---|---|---|---|---|---|\n"
+    )
     lines = []
     for path in PATHS:
         for r in RENDERERS:
