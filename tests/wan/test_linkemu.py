@@ -7,6 +7,7 @@ a few ms typically; medians are checked tightly, maxima loosely.
 
 from __future__ import annotations
 
+import itertools
 import socket
 import socketserver
 import statistics
@@ -181,3 +182,33 @@ def test_reset_drops_open_connections_and_eof_passes_through(sink: Sink) -> None
 def test_profiles_that_would_deliver_before_sending_are_refused() -> None:
     with pytest.raises(ValueError, match="jitter"):
         LinkProfile(delay_s=0.01, jitter_s=0.02)
+
+
+def test_tcp_loss_holds_everything_behind_a_lost_segment_for_one_rto() -> None:
+    import random
+
+    from carlaverse.testing.linkemu import LinkModel
+
+    profile = LinkProfile(delay_s=0.025, jitter_s=0.010, loss=0.05)
+    assert profile.rto_s() == 0.2  # Linux's floor: 2 × 25 ms + 4 × 10 ms is less
+    tcp = LinkModel(profile, random.Random(3), "tcp")
+    dues = [tcp.schedule(k * 0.02) for k in range(2000)]
+    assert all(b >= a for a, b in itertools.pairwise(dues))  # in order, head-of-line
+    late = [d - k * 0.02 for k, d in enumerate(dues)]
+    assert 60 < tcp.lost < 140 and max(late) >= 0.2 + 0.015  # stalls of about one RTO
+    datagram = LinkModel(profile, random.Random(3), "datagram")
+    delivered = [datagram.schedule(k * 0.02) for k in range(2000)]
+    assert delivered.count(None) == datagram.lost and 60 < datagram.lost < 140
+    assert max(d - k * 0.02 for k, d in enumerate(delivered) if d is not None) <= 0.035 + 1e-9
+
+
+def test_relay_delivers_a_lossy_stream_whole_and_in_order(sink: Sink) -> None:
+    emu = relay(sink, LinkProfile(delay_s=0.005, loss=0.5)).start()
+    try:
+        with connect(emu) as sock:
+            sent = send_stream(sock, 30, 0.003)
+            delays = one_way(sink, sent)
+    finally:
+        emu.close()
+    assert [line for _, line in sink.lines] == list(sent)
+    assert emu.forward.lost > 0 and max(delays) >= 0.2  # a retransmission stall happened

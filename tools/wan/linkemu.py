@@ -31,6 +31,9 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--target", type=_address, required=True, metavar="HOST:PORT")
     parser.add_argument("--delay-ms", type=float, default=30.0, help="one-way delay [ms]")
     parser.add_argument("--jitter-ms", type=float, default=0.0, help="± jitter [ms]")
+    parser.add_argument(
+        "--loss", type=float, default=0.0, help="fraction of segments lost (retransmitted)"
+    )
     parser.add_argument("--seed", type=int, default=0)
     return parser.parse_args(argv)
 
@@ -53,7 +56,7 @@ def command(emu: LinkEmulator, line: str) -> str:
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
     try:
-        profile = LinkProfile(args.delay_ms / 1e3, args.jitter_ms / 1e3)
+        profile = LinkProfile(args.delay_ms / 1e3, args.jitter_ms / 1e3, args.loss)
         emu = LinkEmulator(args.listen, args.target, profile, seed=args.seed).start()
     except (ValueError, RuntimeError, OSError) as exc:
         print(f"linkemu: {exc}", file=sys.stderr)
