@@ -1,0 +1,273 @@
+"""What the wire carries, read from the message Structs: the source of `carlaverse schema`.
+
+Everything here is derived from `carlaverse.messages` and `carlaverse.keys` (types, defaults,
+the pose's `struct` layout, the NPC row dtype, the light bits) so the generated JSON Schema and
+the field tables of docs/protocol.md cannot drift from the code. The only hand-written facts
+are the ones the code does not state in one place: who writes each key and how it is
+delivered (`KEYS`), and which request type each authority query takes (`REQUESTS`).
+"""
+
+from __future__ import annotations
+
+import inspect
+import re
+import struct
+import typing
+from dataclasses import dataclass
+from typing import Any
+
+import msgspec
+import msgspec.inspect as mi
+
+from carlaverse import messages as m
+from carlaverse.keys import AUTHORITY_QUERIES, EGO_CHANNELS, KEY_AREAS, WORLD_CHANNELS
+
+
+@dataclass(frozen=True, slots=True)
+class KeyDoc:
+    """One key of the space (after `carlaverse/<session>/`), its writer and delivery."""
+
+    key: str
+    writer: str
+    delivery: str
+    payload: str = ""  # message name(s); derived from the codecs where the code has them
+    request: str = ""  # authority queries: what the query payload carries
+
+
+# Request payloads of the authority's queryables; the other queries take an empty payload.
+REQUESTS: dict[str, type[msgspec.Struct]] = {"join": m.JoinRequest, "clock": m.ClockRequest}
+
+_KEY_FACTS: tuple[tuple[str, str, str], ...] = (
+    ("node/<id>", "every node, and the authority as `node/authority`",
+     "liveliness token: PUT when declared, DELETE on undeclare or lease loss"),
+    ("ego/<id>/pose", "the node", "best effort, congestion DROP, priority real-time; 50-120 Hz"),
+    ("ego/<id>/state", "the node", "reliable, congestion BLOCK; on change"),
+    ("ego/<id>/skeleton", "walk nodes (none ships yet)", "best effort; ~30 Hz"),
+    ("ego/<id>/override", "an ADAS program; the drive node applies it", "reliable"),
+    ("world/npc", "authority", "best effort, congestion DROP; scenario `npc_rate_hz` (20 Hz)"),
+    ("world/lights", "authority", "reliable, congestion BLOCK; on change and at `status_rate_hz`"),
+    ("world/weather", "authority", "reliable, congestion BLOCK; on change and at `status_rate_hz`"),
+    ("world/events", "authority", "reliable, congestion BLOCK, priority interactive-high"),
+    ("impulse/<id>", "authority", "reliable, congestion BLOCK, priority interactive-high"),
+    ("audio/<id>", "reserved for the authority", "no message defined yet"),
+)  # fmt: skip
+
+
+def key_docs() -> list[KeyDoc]:
+    """Every key of the space with its payload type, taken from `messages.CHANNEL_CODECS`."""
+    out = []
+    queries = [(f"authority/{q}", "authority (queryable)", "query / reply")
+               for q in AUTHORITY_QUERIES]  # fmt: skip
+    for key, writer, delivery in [*_KEY_FACTS, *queries]:
+        area, _, rest = key.partition("/")
+        channel = rest.rpartition("/")[2] if area in ("ego", "world", "authority") else ""
+        codec = m.CHANNEL_CODECS.get((area, channel))
+        payload = _type_names(codec.type) if codec is not None else ""
+        request = ""
+        if area == "authority":
+            req = REQUESTS.get(channel)
+            request = req.__name__ if req is not None else "empty"
+        out.append(KeyDoc(key, writer, delivery, payload, request))
+    return out
+
+
+def key_space_paths() -> set[str]:
+    """Every key shape `carlaverse.keys` can build, for checking `keys()` is complete."""
+    paths = {f"{area}/<id>" for area in ("node", "impulse", "audio")}
+    paths |= {f"ego/<id>/{c}" for c in EGO_CHANNELS}
+    paths |= {f"world/{c}" for c in WORLD_CHANNELS}
+    paths |= {f"authority/{q}" for q in AUTHORITY_QUERIES}
+    assert {p.split("/")[0] for p in paths} == set(KEY_AREAS)
+    return paths
+
+
+def _type_names(type_: Any) -> str:
+    members = typing.get_args(type_) or (type_,)
+    return ", ".join(t.__name__ for t in members)
+
+
+# --------------------------------------------------------------------------- structs
+
+
+def message_structs() -> list[type[msgspec.Struct]]:
+    """Every Struct `carlaverse.messages` defines, in source order."""
+    return [
+        v
+        for v in vars(m).values()
+        if isinstance(v, type) and issubclass(v, msgspec.Struct) and v.__module__ == m.__name__
+    ]
+
+
+def embedded(cls: type[msgspec.Struct]) -> list[str]:
+    """Names of the message Structs that have a field of type `cls` (directly or optional)."""
+    names = []
+    for other in message_structs():
+        info = mi.type_info(other)
+        assert isinstance(info, mi.StructType)
+        if any(_mentions(f.type, cls) for f in info.fields):
+            names.append(other.__name__)
+    return names
+
+
+def _mentions(t: mi.Type, cls: type) -> bool:
+    if isinstance(t, mi.StructType):
+        return t.cls is cls
+    if isinstance(t, mi.UnionType):
+        return any(_mentions(u, cls) for u in t.types)
+    item = getattr(t, "item_type", None)
+    return item is not None and _mentions(item, cls)
+
+
+def world_event_types() -> tuple[type[msgspec.Struct], ...]:
+    return typing.get_args(m.WorldEvent)
+
+
+def encoding(cls: type[msgspec.Struct]) -> str:
+    """How a Struct travels: the pose's fixed layout, a MessagePack array or map."""
+    info = mi.type_info(cls)
+    assert isinstance(info, mi.StructType)
+    if cls is m.Pose:
+        inside = ", ".join(embedded(cls))
+        fixed = f"on `ego/<id>/pose`: the fixed {m.POSE_SIZE}-byte layout (not MessagePack)"
+        return fixed + (f"; inside {inside}: a MessagePack array of these fields" if inside else "")
+    if info.array_like:
+        return "MessagePack array, fields by position"
+    if info.tag_field is not None:
+        return f"MessagePack map, tagged `{info.tag_field}` = `{info.tag}`"
+    return "MessagePack map, keyed by field name"
+
+
+_FIELD_COMMENT = re.compile(r"^    (\w+)\s*:[^#]*#\s?(.*)$")
+
+
+# Fields most messages share; their meaning is stated once in docs/protocol.md.
+_COMMON_NOTES = {
+    "seq": "sequence number (see Sequence numbers)",
+    "t": "[s] session time",
+    "schema": "the sender's SCHEMA_VERSION",
+}
+
+
+def field_notes(cls: type) -> dict[str, str]:
+    """Each field's trailing comment in the class source: units and meaning live there."""
+    notes = dict(_COMMON_NOTES)
+    for line in inspect.getsource(cls).splitlines():
+        match = _FIELD_COMMENT.match(line)
+        if match:
+            notes[match[1]] = match[2].strip()
+    return notes
+
+
+@dataclass(frozen=True, slots=True)
+class FieldDoc:
+    name: str
+    type: str
+    required: bool
+    default: str
+    note: str
+
+
+def fields(cls: type[msgspec.Struct]) -> list[FieldDoc]:
+    info = mi.type_info(cls)
+    assert isinstance(info, mi.StructType)
+    notes = field_notes(cls)
+    return [
+        FieldDoc(f.name, wire_type(f.type), f.required, _default(f), notes.get(f.name, ""))
+        for f in info.fields
+    ]
+
+
+def _default(f: mi.Field) -> str:
+    if f.required:
+        return ""
+    value = f.default if f.default is not mi.NODEFAULT else f.default_factory()
+    return "nil" if value is None else msgspec.json.encode(msgspec.to_builtins(value)).decode()
+
+
+def wire_type(t: mi.Type) -> str:
+    """A MessagePack-level name for a field type: int, float, str, bin, [float, float]..."""
+    if isinstance(t, mi.UnionType):
+        return " or ".join(wire_type(u) for u in t.types)
+    if isinstance(t, mi.LiteralType):
+        return " or ".join(f'"{v}"' if isinstance(v, str) else str(v) for v in t.values)
+    if isinstance(t, mi.ListType | mi.SetType | mi.VarTupleType):
+        return f"[{wire_type(t.item_type)}, …]"
+    if isinstance(t, mi.TupleType):
+        return "[" + ", ".join(wire_type(i) for i in t.item_types) + "]"
+    if isinstance(t, mi.DictType):
+        return f"{{{wire_type(t.key_type)}: {wire_type(t.value_type)}}}"
+    if isinstance(t, mi.StructType):
+        return t.cls.__name__
+    return _SCALARS.get(type(t), type(t).__name__.removesuffix("Type").lower()) + _bounds(t)
+
+
+_SCALARS: dict[type, str] = {
+    mi.IntType: "int", mi.FloatType: "float", mi.StrType: "str", mi.BoolType: "bool",
+    mi.BytesType: "bin", mi.ByteArrayType: "bin", mi.NoneType: "nil", mi.AnyType: "any",
+}  # fmt: skip
+
+_BOUNDS = (("gt", ">"), ("ge", "≥"), ("lt", "<"), ("le", "≤"))
+_LENGTHS = (("min_length", "len ≥"), ("max_length", "len ≤"))
+
+
+def _bounds(t: mi.Type) -> str:
+    """Constraints (msgspec `Meta`) as a suffix: `float > 0`, `str len ≤ 63`."""
+    parts = [f"{sym} {getattr(t, a)}" for a, sym in _BOUNDS if getattr(t, a, None) is not None]
+    parts += [f"{sym} {getattr(t, a)}" for a, sym in _LENGTHS if getattr(t, a, None) is not None]
+    if getattr(t, "pattern", None):
+        parts.append(f"matching `{t.pattern}`")  # type: ignore[attr-defined]
+    return (" " + ", ".join(parts)) if parts else ""
+
+
+# --------------------------------------------------------------------------- binary layouts
+
+
+@dataclass(frozen=True, slots=True)
+class ByteField:
+    offset: int  # [byte]
+    size: int  # [byte]
+    type: str  # u8, u16, u32, f16, f32, f64
+    name: str
+
+
+_STRUCT_CODES = {"B": "u8", "H": "u16", "I": "u32", "e": "f16", "f": "f32", "d": "f64"}
+_POSE_HEADER = ("version", "flags", "reserved")
+
+
+def pose_layout() -> list[ByteField]:
+    """The 64-byte pose, from `messages.POSE_LAYOUT`: header, then the Pose fields but flags."""
+    fmt = m.POSE_LAYOUT.format
+    assert fmt[0] == "<", "the pose layout must be little-endian"
+    codes = [c for n, c in re.findall(r"(\d*)([A-Za-z])", fmt[1:]) for _ in range(int(n or 1))]
+    names = [*_POSE_HEADER, *(f for f in m.Pose.__struct_fields__ if f != "flags")]
+    assert len(codes) == len(names), "POSE_LAYOUT and Pose fields disagree"
+    out, offset = [], 0
+    for code, name in zip(codes, names, strict=True):
+        size = struct.calcsize("<" + code)
+        out.append(ByteField(offset, size, _STRUCT_CODES[code], name))
+        offset += size
+    return out
+
+
+def npc_row_layout() -> list[ByteField]:
+    """One NPC row, from the numpy dtype `messages.NPC_DTYPE`."""
+    out = []
+    for name in m.NPC_DTYPE.names or ():
+        dtype, offset = m.NPC_DTYPE.fields[name][:2]  # type: ignore[index]
+        out.append(ByteField(offset, dtype.itemsize, f"{dtype.kind}{dtype.itemsize * 8}", name))
+    return out
+
+
+def light_bits() -> list[tuple[int, str]]:
+    """(bit value, name) of the `LIGHT_*` flags egos and NPC rows share."""
+    return _constants("LIGHT_")
+
+
+def pose_flags() -> list[tuple[int, str]]:
+    """(bit value, name) of the `POSE_FLAG_*` flags in the pose header."""
+    return _constants("POSE_FLAG_")
+
+
+def _constants(prefix: str) -> list[tuple[int, str]]:
+    return sorted((v, k.removeprefix(prefix).lower()) for k, v in vars(m).items()
+                  if k.startswith(prefix))  # fmt: skip

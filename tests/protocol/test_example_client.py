@@ -1,0 +1,145 @@
+"""examples/thirdparty_client.py, a client written from docs/protocol.md in plain zenoh +
+msgpack, against a live session: router, authority, a project scripted node, an observer."""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from tests.support import Cluster, wait_until
+
+EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "thirdparty_client.py"
+LEASE_S = 2.0  # the lease the example sets, as the project's nodes do
+MARGIN_S = 1.0  # detection, propagation and a loaded machine
+RADIUS_M = 20.0  # the example rides a circle of this radius around the origin
+
+
+class Example:
+    """The example as a subprocess; it prints one JSON status line a second."""
+
+    def __init__(self, endpoint: str, node_id: str) -> None:
+        argv = [sys.executable, str(EXAMPLE), "--connect", endpoint, "--session", "t", "--id",
+                node_id]  # fmt: skip
+        env = dict(os.environ, PYTHONUNBUFFERED="1")
+        self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                                     text=True, env=env)  # fmt: skip
+        self.lines: list[str] = []
+        threading.Thread(target=self._read, daemon=True).start()
+
+    def _read(self) -> None:
+        assert self.proc.stdout is not None
+        for line in self.proc.stdout:
+            self.lines.append(line)
+
+    def status(self) -> dict[str, Any]:
+        for line in reversed(self.lines):
+            if line.startswith("{"):
+                return json.loads(line)
+        return {}
+
+    def kill(self) -> None:
+        if self.proc.poll() is None:
+            self.proc.kill()
+        self.proc.wait(timeout=10)
+
+
+@pytest.fixture
+def example(cluster: Cluster) -> Any:
+    started: list[Example] = []
+
+    def start(node_id: str = "partner-1") -> Example:
+        started.append(Example(cluster.endpoint, node_id))
+        return started[-1]
+
+    yield start
+    for proc in started:
+        proc.kill()
+
+
+def _decoded_everything(status: dict[str, Any]) -> bool:
+    counts = status.get("counts", {})
+    return bool(
+        status.get("joined")
+        and all(counts.get(k, 0) > 0 for k in ("poses", "npc", "lights", "weather"))
+        and status.get("npcs", 0) > 0
+        and "spawned:partner-1" in status.get("events", [])
+    )
+
+
+def test_partner_client_joins_is_seen_decodes_the_world_and_is_despawned_when_killed(
+    cluster: Cluster, example: Any
+) -> None:
+    cluster.router()
+    authority = cluster.authority("--scenario", "crossing")
+    node = cluster.scripted("car-1")
+    observer = cluster.observer()
+    partner = example()
+    status = wait_until(
+        lambda: _decoded_everything(partner.status()) and partner.status(),
+        40,
+        "the example to decode every world message",
+    )
+    assert not [k for k in status["counts"] if k.startswith("dropped")], status
+    assert not [line for line in partner.lines if not line.startswith("{")], partner.lines
+    x, y = status["egos"]["car-1"]
+    assert math.isfinite(x) and math.isfinite(y)
+
+    # The project's observer sees the partner where its poses say, stamped in session time.
+    wait_until(lambda: observer.update() and "partner-1" in observer.world.egos, 10, "partner")
+    view = next(v for v in observer.world.ego_views(observer.update()) if v.actor_id == "partner-1")
+    assert abs(math.hypot(view.x, view.y) - RADIUS_M) < 0.2
+    latency = observer.world.stats["partner-1"].summary(observer.update())
+    # A clock off by more than a few ms would show here: both sides sync to the authority.
+    assert -5.0 < latency.latency_p50_ms < 50.0, latency
+
+    killed_at = time.monotonic()
+    partner.kill()
+    wait_until(lambda: observer.update() and "partner-1" not in observer.world.egos,
+               LEASE_S + MARGIN_S, "the killed partner to be despawned")  # fmt: skip
+    print(f"despawned {1e3 * (time.monotonic() - killed_at):.0f} ms after SIGKILL")
+    assert [d.reason for d in observer.world.despawns if d.actor_id == "partner-1"] == [
+        "liveliness"
+    ]
+    node.stop()
+    summary = node.json()
+    assert "partner-1" in summary["actors_seen"] and "partner-1" not in summary["actors_now"]
+    assert ["partner-1", "liveliness"] in summary["despawns"]
+    authority.stop()
+    assert ["partner-1", "liveliness"] in authority.json()["despawned"]
+
+
+def test_a_frozen_partner_is_dropped_by_its_lease_before_the_silence_timeout(
+    cluster: Cluster, example: Any
+) -> None:
+    cluster.router()
+    cluster.authority()
+    observer = cluster.observer()
+    partner = example()
+    wait_until(lambda: observer.update() and "partner-1" in observer.world.egos, 30, "partner")
+    frozen_at = time.monotonic()
+    partner.proc.send_signal(signal.SIGSTOP)  # alive, connection open, silent
+    try:
+        wait_until(lambda: observer.update() and "partner-1" not in observer.world.egos,
+                   LEASE_S + MARGIN_S, "the frozen partner to be despawned")  # fmt: skip
+        waited = time.monotonic() - frozen_at
+    finally:
+        partner.proc.send_signal(signal.SIGCONT)
+    print(f"frozen partner despawned after {waited:.2f} s")
+    # The lease, not the 3 s telemetry timeout, removed it: Zenoh's 10 s default would not.
+    reasons = [d.reason for d in observer.world.despawns if d.actor_id == "partner-1"]
+    assert reasons == ["liveliness"], reasons
+    assert waited > LEASE_S * 0.5, f"despawned after {waited:.2f} s: not by the lease"
+    # Thawed, it finds it was dropped (clock reply `known: false`) and joins again.
+    wait_until(lambda: observer.update() and "partner-1" in observer.world.egos, 15, "re-join")
+    wait_until(lambda: partner.status()["events"].count("spawned:partner-1") == 2, 5,
+               "the partner to see its second spawn")  # fmt: skip
