@@ -105,16 +105,16 @@ def json_schema() -> dict[str, Any]:
 def _annotate(schema: dict[str, Any], cls: type[msgspec.Struct]) -> None:
     """Add each field's unit/meaning and the wire encoding to msgspec's schema of `cls`."""
     schema["x-encoding"] = wc.encoding(cls)
-    notes = wc.field_notes(cls)
+    docs = wc.fields(cls)  # by wire name, in field order
     if "properties" in schema:
-        for name, prop in schema["properties"].items():
-            if notes.get(name):
-                prop["description"] = notes[name]
+        for doc in docs:
+            if doc.note:
+                schema["properties"][doc.name]["description"] = doc.note
     elif "prefixItems" in schema:
-        for name, item in zip(cls.__struct_fields__, schema["prefixItems"], strict=True):
-            item["title"] = name
-            if notes.get(name):
-                item["description"] = notes[name]
+        for doc, item in zip(docs, schema["prefixItems"], strict=True):
+            item["title"] = doc.name
+            if doc.note:
+                item["description"] = doc.note
 
 
 def _pose_wire() -> dict[str, Any]:

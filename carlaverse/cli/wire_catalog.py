@@ -4,7 +4,9 @@ Everything here is derived from `carlaverse.messages` and `carlaverse.keys` (typ
 the pose's `struct` layout, the NPC row dtype, the light bits) so the generated JSON Schema and
 the field tables of docs/protocol.md cannot drift from the code. The only hand-written facts
 are the ones the code does not state in one place: who writes each key and how it is
-delivered (`KEYS`), and which request type each authority query takes (`REQUESTS`).
+delivered (`_KEY_FACTS`). An authority query `q` takes the Struct `<Q>Request` as its payload
+if `messages` defines one (an empty payload otherwise) and answers with its codec in
+`CHANNEL_CODECS`, else with `<Q>Reply`.
 """
 
 from __future__ import annotations
@@ -34,9 +36,6 @@ class KeyDoc:
     request: str = ""  # authority queries: what the query payload carries
 
 
-# Request payloads of the authority's queryables; the other queries take an empty payload.
-REQUESTS: dict[str, type[msgspec.Struct]] = {"join": m.JoinRequest, "clock": m.ClockRequest}
-
 _KEY_FACTS: tuple[tuple[str, str, str], ...] = (
     ("node/<id>", "every node, and the authority as `node/authority`",
      "liveliness token: PUT when declared, DELETE on undeclare or lease loss"),
@@ -65,10 +64,17 @@ def key_docs() -> list[KeyDoc]:
         payload = _type_names(codec.type) if codec is not None else ""
         request = ""
         if area == "authority":
-            req = REQUESTS.get(channel)
-            request = req.__name__ if req is not None else "empty"
+            request = _query_struct(channel, "Request") or "empty"
+            payload = payload or _query_struct(channel, "Reply")
         out.append(KeyDoc(key, writer, delivery, payload, request))
     return out
+
+
+def _query_struct(query: str, suffix: str) -> str:
+    """`JoinRequest` for ("join", "Request") if `messages` defines it, else ""."""
+    name = f"{query.capitalize()}{suffix}"
+    value = getattr(m, name, None)
+    return name if isinstance(value, type) and issubclass(value, msgspec.Struct) else ""
 
 
 def key_space_paths() -> set[str]:
@@ -172,7 +178,8 @@ def fields(cls: type[msgspec.Struct]) -> list[FieldDoc]:
     assert isinstance(info, mi.StructType)
     notes = field_notes(cls)
     return [
-        FieldDoc(f.name, wire_type(f.type), f.required, _default(f), notes.get(f.name, ""))
+        # the wire name may differ from the attribute (`msgspec.field(name=...)`)
+        FieldDoc(f.encode_name, wire_type(f.type), f.required, _default(f), notes.get(f.name, ""))
         for f in info.fields
     ]
 
@@ -206,17 +213,30 @@ _SCALARS: dict[type, str] = {
     mi.BytesType: "bin", mi.ByteArrayType: "bin", mi.NoneType: "nil", mi.AnyType: "any",
 }  # fmt: skip
 
-_BOUNDS = (("gt", ">"), ("ge", "≥"), ("lt", "<"), ("le", "≤"))
+_ORDER = (("gt", ">"), ("ge", "≥"), ("lt", "<"), ("le", "≤"))
 _LENGTHS = (("min_length", "len ≥"), ("max_length", "len ≤"))
 
 
 def _bounds(t: mi.Type) -> str:
-    """Constraints (msgspec `Meta`) as a suffix: `float > 0`, `str len ≤ 63`."""
-    parts = [f"{sym} {getattr(t, a)}" for a, sym in _BOUNDS if getattr(t, a, None) is not None]
+    """Constraints (msgspec `Meta`) as a suffix: `float in [-1e+15, 1e+15]`, `int > 0`."""
+    ops = [(sym, getattr(t, a)) for a, sym in _ORDER if getattr(t, a, None) is not None]
+    parts = [f"{sym} {_num(v)}" for sym, v in ops]
+    if [sym for sym, _ in ops] == ["≥", "≤"]:
+        parts = [f"in [{_num(ops[0][1])}, {_num(ops[1][1])}]"]
     parts += [f"{sym} {getattr(t, a)}" for a, sym in _LENGTHS if getattr(t, a, None) is not None]
     if getattr(t, "pattern", None):
         parts.append(f"matching `{t.pattern}`")  # type: ignore[attr-defined]
     return (" " + ", ".join(parts)) if parts else ""
+
+
+def _num(value: float) -> str:
+    """Bounds as people write them: 2^63−1 rather than 19 digits, 1e+15 rather than 15 zeros."""
+    for power in (63, 64, 31, 32):
+        if value == 2**power - 1:
+            return f"2^{power}−1"
+        if value == -(2**power):
+            return f"−2^{power}"
+    return f"{value:g}" if isinstance(value, float) else str(value)
 
 
 # --------------------------------------------------------------------------- binary layouts
