@@ -82,9 +82,16 @@ def _heading(cls: type, encoding: str) -> str:
 
 
 def messages_region() -> str:
-    """Every Struct; the pose only if some message carries it as MessagePack too."""
+    """The named constrained types, then every Struct; the pose only if some message carries
+    it as MessagePack too."""
     structs = [c for c in wc.message_structs() if c is not m.Pose or wc.embedded(m.Pose)]
-    return "\n".join(struct_table(cls) for cls in structs)
+    tables = [struct_table(cls) for cls in structs]
+    named = wc.constrained_types()
+    if named:
+        rows = [[f"`{name}`", wc.scalar_type(info)] for name, info in named]
+        lead = "Named types used below; a value outside the range is rejected."
+        tables.insert(0, f"#### Constrained types\n\n{lead}\n\n{_table(['type', 'is'], rows)}")
+    return "\n".join(tables)
 
 
 def outputs_region() -> str:

@@ -205,6 +205,18 @@ def wire_type(t: mi.Type) -> str:
         return f"{{{wire_type(t.key_type)}: {wire_type(t.value_type)}}}"
     if isinstance(t, mi.StructType):
         return t.cls.__name__
+    alias = next((name for name, info in constrained_types() if info == t), None)
+    return alias if alias is not None else scalar_type(t)
+
+
+def constrained_types() -> list[tuple[str, mi.Type]]:
+    """The named constrained scalars of `messages` (`Finite = Annotated[float, Meta(...)]`)."""
+    return [(name, mi.type_info(value)) for name, value in vars(m).items()
+            if typing.get_origin(value) is typing.Annotated]  # fmt: skip
+
+
+def scalar_type(t: mi.Type) -> str:
+    """A scalar with its bounds spelled out: `float in [-1e+15, 1e+15]`."""
     return _SCALARS.get(type(t), type(t).__name__.removesuffix("Type").lower()) + _bounds(t)
 
 

@@ -94,7 +94,7 @@ def test_a_join_that_decodes_but_is_unacceptable_is_a_refused_join_reply(session
 
 
 def test_defaults_fill_omitted_fields_and_unknown_keys_are_ignored(session) -> None:
-    kind, reply = session.join(node_id="lab-min", actor_kind="", future_field=[1, 2])
+    kind, reply = session.join(node_id="lab-min", future_field=[1, 2])
     assert kind == "ok" and reply["accepted"], reply
     assert reply["schema"] == m.SCHEMA_VERSION and len(reply["authority_instance"]) == 32
     assert reply["spawn"] is None  # no scenario, no spawn point: a node starts where it likes
@@ -110,21 +110,22 @@ def test_arrays_may_stop_before_defaulted_fields_and_carry_extra_ones() -> None:
 def test_clock_replies_are_arrays_and_say_whether_the_asker_is_joined(session) -> None:
     kind, (t, known) = session.query("clock", msgpack.packb({"node_id": "nobody"}))
     assert kind == "ok" and isinstance(t, float) and known is False
-    session.join(node_id="lab-clock", actor_kind="")
+    session.join(node_id="lab-clock", kind="observer", actor_kind="")
     _, (t2, known) = session.query("clock", msgpack.packb({"node_id": "lab-clock"}))
     assert known is True and t2 >= t
 
 
 def test_spawned_names_the_node_kind_and_the_snapshot_lists_observers(session) -> None:
-    _, reply = session.join(node_id="lab-obs", kind="thirdparty-observer", actor_kind="")
-    assert reply["accepted"]
+    assert session.join(node_id="lab-bike", kind="thirdparty", actor_kind="bicycle")[1]["accepted"]
+    assert session.join(node_id="lab-obs", kind="observer", actor_kind="")[1]["accepted"]
     spawned = wait_until(
-        lambda: [e for e in session.events if e.get("node_id") == "lab-obs"], 5, "spawned event"
+        lambda: [e for e in session.events if e.get("node_id") == "lab-bike"], 5, "spawned event"
     )
-    assert spawned[0]["type"] == "spawned" and spawned[0]["kind"] == "thirdparty-observer"
+    assert spawned[0]["type"] == "spawned" and spawned[0]["kind"] == "thirdparty"
     _, snapshot = session.query("snapshot")
     egos = {e["node_id"]: e for e in snapshot["egos"]}
     assert egos["lab-obs"]["actor_kind"] == "" and egos["lab-obs"]["pose"] is None
+    assert egos["lab-bike"]["actor_kind"] == "bicycle" and egos["lab-bike"]["pose"] is None
 
 
 def test_a_second_instance_of_a_live_id_is_refused_with_a_reason(session) -> None:
@@ -143,5 +144,6 @@ def test_map_and_scenario_are_error_replies_without_a_scenario(session) -> None:
         "err", "this session has no map (the authority runs no scenario)"
     )  # fmt: skip
     assert session.query("scenario")[0] == "err"
+    session.join(node_id="lab-cfg", config_yaml="node: {site: partner-lab}\n")
     kind, configs = session.query("configs")
-    assert kind == "ok" and "lab-min" in configs["nodes"]
+    assert kind == "ok" and configs["nodes"]["lab-cfg"] == "node: {site: partner-lab}\n"

@@ -102,7 +102,7 @@ def _as_json(value: object) -> object:
     return value
 
 
-EGO = m.EgoInfo("car-1", "drive", "car", m.Extent(), 1500.0, pose=m.Pose(9, 10.0, 1.0, 2.0))
+EGO = m.EgoInfo("car-1", "drive", "car", m.Extent(), 1500.0, "lab", m.Pose(9, 10.0, 1.0, 2.0))
 SAMPLES = [
     ("EgoState", m.EGO_STATE, m.EgoState(3, 10.0, lights=m.LIGHT_BRAKE, indicator="left")),
     ("NpcBatch", m.NPC_BATCH, m.NpcBatch.pack(4, 10.0, ["npc-1"], np.zeros(1, m.NPC_DTYPE))),
