@@ -11,6 +11,7 @@ The archive never writes the file itself: it hands `ArchiveItem`s to the writer 
 
 from __future__ import annotations
 
+import hashlib
 import importlib.metadata
 import json
 import logging
@@ -39,6 +40,7 @@ YAML_MEDIA_TYPE = "application/yaml"
 # Queried once at start and stored as messages; configs are re-queried after each spawn.
 STARTUP_QUERIES = ("scenario", "map", "snapshot", "configs")
 RETRY_S = 1.0  # [s] between attempts while the authority has not answered a start-up query
+MAX_NODES = 4096  # roster entries kept: bounded, whatever a forged reply lists
 
 
 @dataclass(frozen=True, slots=True)
@@ -100,7 +102,7 @@ class Archive:
         self._wall_ns = wall_ns
         self._timeout_s = query_timeout_s
         self._wake = threading.Event()
-        self._attached: dict[str, bytes] = {}
+        self._attached: dict[str, bytes] = {}  # attachment name -> digest of what was stored
         self._roster: dict[str, dict[str, Any]] = {}
         self._hostnames: dict[str, str] = {"recorder": socket.gethostname()}
         self._last_roster: tuple[dict[str, str], dict[str, str]] | None = None
@@ -187,25 +189,37 @@ class Archive:
 
     def _absorb_configs(self, reply: messages.ConfigsReply) -> None:
         for node_id, config_yaml in sorted(reply.nodes.items()):
-            self._attach(CONFIG_ATTACHMENT.format(node_id=node_id), config_yaml.encode())
-            self._roster.setdefault(node_id, {})["config"] = True
+            entry = self._entry(node_id)
+            if entry is not None:
+                self._attach(CONFIG_ATTACHMENT.format(node_id=node_id), config_yaml.encode())
+                entry["config"] = True
         if reply.scenario_yaml:
             self._attach(SCENARIO_ATTACHMENT, reply.scenario_yaml.encode())
         # Node hostnames arrive only if the authority reports them (a later ConfigsReply field).
-        self._hostnames.update(getattr(reply, "hostnames", None) or {})
+        hostnames = getattr(reply, "hostnames", None) or {}
+        self._hostnames.update((n, h) for n, h in hostnames.items() if n in self._roster)
         self._emit_roster()
 
     def _absorb_snapshot(self, snapshot: messages.Snapshot) -> None:
         for ego in snapshot.egos:
-            entry = self._roster.setdefault(ego.node_id, {})
-            entry.update(kind=ego.kind, actor_kind=ego.actor_kind, site=ego.site)
+            entry = self._entry(ego.node_id)
+            if entry is not None:
+                entry.update(kind=ego.kind, actor_kind=ego.actor_kind, site=ego.site)
         self._emit_roster()
+
+    def _entry(self, node_id: str) -> dict[str, Any] | None:
+        """The roster entry of `node_id`; None past MAX_NODES (forged replies cannot grow it)."""
+        entry = self._roster.get(node_id)
+        if entry is None and len(self._roster) < MAX_NODES:
+            entry = self._roster[node_id] = {}
+        return entry
 
     def _attach(self, name: str, data: bytes) -> None:
         """Attach a file unless the same bytes are already in the recording under that name."""
-        if self._attached.get(name) == data:
+        digest = hashlib.blake2b(data, digest_size=16).digest()  # not the bytes: memory
+        if self._attached.get(name) == digest:
             return
-        self._attached[name] = data
+        self._attached[name] = digest
         self._emit(ArchiveItem("attachment", name, self._wall_ns(), data, YAML_MEDIA_TYPE))
 
     def _emit_roster(self) -> None:
