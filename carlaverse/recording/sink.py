@@ -6,6 +6,9 @@ the recorder. And chunks are closed both when they reach `chunk_size` and at lea
 `flush_interval_s`, so at most that much data is lost. What is left after a crash has no
 summary section: `mcap`'s stream reader reads it, and `recover()` rewrites it indexed.
 
+What goes in passes the redaction rule (`recording.scrub`): `authority/configs` payloads,
+YAML attachments and metadata keep no login or key, whoever sent them.
+
 Not thread-safe: one writer thread owns a sink.
 """
 
@@ -187,7 +190,7 @@ class McapSink:
         return key in self._channels
 
     def attach(self, name: str, media_type: str, data: bytes, log_time_ns: int) -> None:
-        """Store a file (a node's config, the scenario) verbatim in the recording."""
+        """Store a file (a node's config, the scenario); YAML with its secrets blanked."""
         data = scrub_attachment(name, media_type, data)
         self._writer.add_attachment(log_time_ns, log_time_ns, name, media_type, data)
         self.stats.attachments += 1
