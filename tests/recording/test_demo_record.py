@@ -50,8 +50,11 @@ def test_demo_recording_has_every_key_the_counts_and_the_configs(demo: tuple) ->
     # router, or its last put (counted as sent) reaches nobody.
     for stream, sent in summary["authority"]["sent"].items():
         assert counts[keys.world(stream)] == sent, f"world/{stream}: sent {sent}"
-    for n in nodes:  # poses at 50 Hz for ~8 s each; DROP class, so a bound, not a count
-        assert counts[keys.pose(n)] > 8 * 50 * 0.8, n
+    # Poses are DROP class, so a bound, not a count; against what each node says it sent,
+    # not the nominal 50 Hz, which a loaded machine does not keep.
+    for n in nodes:
+        sent = summary["nodes"][n]["poses_sent"]
+        assert sent > 8 * 50 * 0.5 and 0.9 * sent <= counts[keys.pose(n)] <= sent, (n, sent)
 
     # attachments hold the configs as the authority has them, byte for byte
     attachments = read_attachments(mcap)
