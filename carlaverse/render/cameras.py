@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 from panda3d.core import Camera, DisplayRegion, NodePath, PerspectiveLens
 
+from carlaverse.render.frame import ActorDraw
 from carlaverse.render.graphics import Graphics
 from carlaverse.render.meshes import Color
 from carlaverse.render.rig import CameraView, RigLayout
@@ -37,6 +38,20 @@ def overview_eye(bounds: tuple[float, float, float, float]) -> Eye:
     xmin, ymin, xmax, ymax = bounds
     span = max(xmax - xmin, ymax - ymin, 20.0)
     return Eye((xmin + xmax) / 2, ymin - 0.35 * span, 0.45 * span, math.pi / 2, math.radians(30))
+
+
+CHASE_BACK_M = 7.0  # [m] behind the chased actor's reference point
+CHASE_UP_M = 1.8  # [m] above it (the rig's head height comes on top)
+CHASE_PITCH = math.radians(10.0)  # [rad] looking down onto it
+
+
+def chase_eye(actor: ActorDraw) -> Eye:
+    """A camera behind and above `actor`, looking along its heading."""
+    c, s = math.cos(actor.yaw), math.sin(actor.yaw)
+    return Eye(
+        actor.x - CHASE_BACK_M * c, actor.y - CHASE_BACK_M * s, actor.z + CHASE_UP_M,
+        actor.yaw, CHASE_PITCH,
+    )  # fmt: skip
 
 
 class CameraRig:

@@ -44,6 +44,10 @@ INDICATOR_BITS = {
 }
 
 
+# (roll, pitch, yaw) [rad] per joint name, from a `Skeleton` (see `figure` for the convention)
+JointAngles = Mapping[str, tuple[float, float, float]]
+
+
 @dataclass(frozen=True, slots=True)
 class ActorDraw:
     actor_id: str
@@ -59,6 +63,7 @@ class ActorDraw:
     roll: float = 0.0  # [rad] right side down positive
     lights: int = 0  # LIGHT_* bits
     ego: bool = False
+    skeleton: JointAngles | None = None  # a walker's joint angles, when it sends them
 
 
 @dataclass(frozen=True, slots=True)

@@ -22,6 +22,7 @@ from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.hal import FfbConfig, InputConfig, MotionConfig
 from carlaverse.messages import EgoState, Pose
 from carlaverse.physics.params import VehicleParams
+from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import SharedBlock
 
 log = logging.getLogger(__name__)
@@ -88,6 +89,12 @@ class DriveNode:
             daemon=True,
         )
         self._process.start()
+
+    def own_pose_block(self) -> OwnPoseBlock:
+        """Where a view reads this car's pose without network delay (the loop's state)."""
+        n = self.node_settings
+        name = block_name(n.session, n.node_id, "state")
+        return OwnPoseBlock(name, STATE, n.actor_kind, n.extent)
 
     def pose_source(self) -> PoseSource | None:
         def source(t: float) -> Pose | None:

@@ -1,0 +1,203 @@
+"""The render process's own picture of a live session: everyone else over the fabric, the
+node itself from shared memory, the newest skeleton per walker.
+
+Everyone else comes through an observer `NodeClient` of the render process's own (id
+`<node id>.view`, kind `observer`: the authority gives it no body). It brings what every node
+has: the session clock, the snapshot for late joiners, presence, validation of every sample.
+The node's own actor is read from its shared-memory state block (`OwnPoseBlock`) each frame,
+so the driver's view of their own car has no network delay; the copy of it that comes back
+over the fabric is dropped from the frame.
+
+Skeletons (`ego/*/skeleton`) are not kept by the world view; this module keeps the newest per
+present node, validated (angle bytes must be 3 float32 per joint), and hands them to the
+frame as joint-angle maps.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import Counter
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
+
+import numpy as np
+import zenoh
+
+from carlaverse import messages as m
+from carlaverse.fabric.clock import MonotonicClock
+from carlaverse.fabric.node_client import NodeClient, NodeSettings
+from carlaverse.keys import KeySpaceError, parse
+from carlaverse.render.frame import ActorDraw, JointAngles, SceneFrame, frame_from_view
+from carlaverse.shm import SharedBlock, TornRead
+
+log = logging.getLogger(__name__)
+
+VIEW_SUFFIX = ".view"  # the render process joins as `<node id>.view`
+OWN_POSE_FIELDS = ("t", "x", "y", "yaw")  # an own-pose block must have these (session s, m, rad)
+CAR_EXTENT = m.Extent()
+
+
+@dataclass(frozen=True, slots=True)
+class OwnPoseBlock:
+    """Where a node exports its own pose: a seqlock block (`carlaverse.shm`) of `dtype`.
+
+    The dtype needs the fields `t, x, y, yaw`; `lights` (LIGHT_* bits) and `running` (0 until
+    the loop's first tick) are used when present. The node kind names the block and its
+    dtype, so this library never imports a node kind.
+    """
+
+    name: str
+    dtype: np.dtype
+    kind: str = "car"
+    extent: m.Extent = CAR_EXTENT
+
+
+class OwnPose:
+    """Reads the node's own pose from its block; attaches once the node has created it."""
+
+    def __init__(self, spec: OwnPoseBlock, actor_id: str) -> None:
+        missing = [f for f in OWN_POSE_FIELDS if f not in (spec.dtype.names or ())]
+        if missing:
+            raise ValueError(f"own-pose block {spec.name}: dtype lacks fields {missing}")
+        self.spec = spec
+        self.actor_id = actor_id
+        self._block: SharedBlock | None = None
+        self.torn_reads = 0
+
+    def actor(self) -> ActorDraw | None:
+        """The node's actor now, or None before its loop runs."""
+        record = self._read()
+        if record is None:
+            return None
+        names = self.spec.dtype.names or ()
+        if "running" in names and not record["running"]:
+            return None
+        size = self.spec.extent
+        lights = int(record["lights"]) if "lights" in names else 0
+        return ActorDraw(
+            self.actor_id, self.spec.kind, float(record["x"]), float(record["y"]), 0.0,
+            float(record["yaw"]), size.length, size.width, size.height, lights=lights, ego=True,
+        )  # fmt: skip
+
+    def _read(self) -> np.void | None:
+        if self._block is None:
+            try:
+                self._block = SharedBlock(self.spec.name, self.spec.dtype)
+            except FileNotFoundError:
+                return None  # the node creates it when its loop starts
+        try:
+            return self._block.read()
+        except TornRead:
+            self.torn_reads += 1
+            return None
+
+    def close(self) -> None:
+        if self._block is not None:
+            self._block.close()
+            self._block = None
+
+
+class SkeletonStore:
+    """The newest valid skeleton per node id; fed from a Zenoh callback, never blocking."""
+
+    def __init__(self) -> None:
+        self.latest: dict[str, m.Skeleton] = {}
+        self.dropped: Counter[str] = Counter()
+
+    def on_sample(self, sample: zenoh.Sample) -> None:
+        try:
+            node_id = parse(str(sample.key_expr)).node_id
+            skeleton = m.SKELETON.decode(sample.payload.to_bytes())
+        except (KeySpaceError, m.MessageError):
+            self.dropped["skeleton"] += 1
+            return
+        self.push(node_id, skeleton)
+
+    def push(self, node_id: str, skeleton: m.Skeleton) -> None:
+        if len(skeleton.angles) != 12 * len(skeleton.joints):
+            self.dropped["skeleton_size"] += 1
+            return
+        old = self.latest.get(node_id)
+        if old is None or skeleton.t >= old.t:
+            self.latest[node_id] = skeleton  # a dict store is atomic under the GIL
+
+    def angles(self, present: set[str]) -> dict[str, JointAngles]:
+        """Joint angles per present node; forgets nodes that left."""
+        for gone in [n for n in self.latest if n not in present]:
+            del self.latest[gone]
+        return {node_id: joint_angles(s) for node_id, s in list(self.latest.items())}
+
+
+def joint_angles(skeleton: m.Skeleton) -> JointAngles:
+    """(roll, pitch, yaw) [rad] per joint name, from the float32 triplets."""
+    values = np.frombuffer(skeleton.angles, dtype="<f4").reshape(-1, 3)
+    return {name: (float(r), float(p), float(y)) for name, (r, p, y) in zip(
+        skeleton.joints, values, strict=True)}  # fmt: skip
+
+
+class LiveWorld:
+    """Everything the render process draws of a live session, at one session time."""
+
+    def __init__(
+        self, session: zenoh.Session, node: NodeSettings, own: OwnPoseBlock | None
+    ) -> None:
+        settings = NodeSettings(
+            node_id=f"{node.node_id}{VIEW_SUFFIX}", session=node.session, kind="observer",
+            actor_kind="", site=node.site, interpolation=node.interpolation,
+        )  # fmt: skip
+        self.node_id = node.node_id
+        self.client = NodeClient(session, settings, MonotonicClock())
+        self.own = OwnPose(own, node.node_id) if own is not None else None
+        self.skeletons = SkeletonStore()
+        self._subscriber = session.declare_subscriber(
+            self.client.keys.all_ego("skeleton"), self.skeletons.on_sample
+        )
+
+    def start(self) -> LiveWorld:
+        self.client.start()
+        return self
+
+    def fetch_map(self, timeout_s: float) -> m.MapReply | None:
+        """The session's map from the authority, or None when it does not answer in time."""
+        key = self.client.keys.authority("map")
+        try:
+            for reply in self.client.session.get(key, timeout=timeout_s):
+                if reply.ok is not None:
+                    return m.MAP.decode(reply.ok.payload.to_bytes())
+        except zenoh.ZError as exc:
+            log.warning("map query failed: %s", exc)
+        except m.MessageError as exc:
+            log.warning("the authority's map does not decode: %s", exc)
+        return None
+
+    def frame(self) -> SceneFrame:
+        now = self.client.update()
+        world = self.client.world
+        kinds, extents = _snapshot_attributes(self.client.snapshot)
+        frame = frame_from_view(world, now, kinds=kinds, extents=extents)
+        skeletons = self.skeletons.angles(world.present)
+        actors = [_articulated(a, skeletons) for a in frame.actors if a.actor_id != self.node_id]
+        own = self.own.actor() if self.own is not None else None
+        if own is not None:
+            actors.append(own)
+        return replace(frame, actors=tuple(actors))
+
+    def close(self) -> None:
+        self._subscriber.undeclare()
+        self.client.close()
+        if self.own is not None:
+            self.own.close()
+
+
+def _articulated(actor: ActorDraw, skeletons: Mapping[str, JointAngles]) -> ActorDraw:
+    angles = skeletons.get(actor.actor_id)
+    return replace(actor, skeleton=angles) if angles else actor
+
+
+def _snapshot_attributes(
+    snapshot: m.Snapshot | None,
+) -> tuple[dict[str, str], dict[str, m.Extent]]:
+    if snapshot is None:
+        return {}, {}
+    kinds = {e.node_id: e.actor_kind for e in snapshot.egos if e.actor_kind}
+    return kinds, {e.node_id: e.extent for e in snapshot.egos}
