@@ -2,19 +2,22 @@
 
 Every lane of the network goes in, internal junction lanes included, each with its centre
 line, width and kind (road, sidewalk, bike, crossing, walkingarea, rail); junction shapes and
-optional polygons (vegetation, water, buildings) become areas; every traffic light gets a
-position and, per link index of its state string, the lane that link controls (the crossing
-itself for pedestrian signals, the incoming lane otherwise).
+polygons (vegetation, water, buildings) become areas — from the map's .poly.xml, or generated
+(`scenery`) when it has none; every traffic light gets a position and, per link index of its
+state string, the lane that link controls (the crossing itself for pedestrian signals, the
+incoming lane otherwise).
 """
 
 from __future__ import annotations
 
 import logging
 import xml.etree.ElementTree as ET
+import zlib
 from pathlib import Path
 from typing import Any
 
 from carlaverse.messages import SCHEMA_VERSION, MapArea, MapLane, MapLight, MapReply
+from carlaverse.traffic.scenery import scenery
 from carlaverse.traffic.sumo_tools import SumoMissingError
 
 log = logging.getLogger(__name__)
@@ -66,12 +69,21 @@ def read_net(path: Path) -> Any:
     return sumolib.net.readNet(str(path), withInternal=True, withPedestrianConnections=True)
 
 
-def build_map_reply(net: Any, name: str, polygons: Path | None = None) -> MapReply:
+def build_map_reply(
+    net: Any, name: str, polygons: Path | None = None, seed: int | None = None
+) -> MapReply:
+    """The reply for `net`; without polygons, generated scenery (seeded by `seed`, else by
+    the map's name, so every build of a map gets the same buildings, parks and ponds)."""
     (xmin, ymin), (xmax, ymax) = net.getBBoxXY()
-    areas = junction_areas(net) + (polygon_areas(polygons) if polygons else [])
-    return MapReply(
-        SCHEMA_VERSION, name, (xmin, ymin, xmax, ymax), map_lanes(net), areas, map_lights(net)
-    )
+    bounds = (xmin, ymin, xmax, ymax)
+    lanes, junctions = map_lanes(net), junction_areas(net)
+    if polygons:
+        areas = polygon_areas(polygons)
+    else:
+        areas = scenery(
+            bounds, lanes, junctions, zlib.crc32(name.encode()) if seed is None else seed
+        )
+    return MapReply(SCHEMA_VERSION, name, bounds, lanes, junctions + areas, map_lights(net))
 
 
 def map_lanes(net: Any) -> list[MapLane]:
