@@ -41,7 +41,7 @@ LANE_Z: dict[str, float] = {
 JUNCTION_Z = 0.015
 MARKING_LIFT = 0.01
 GROUND_Z = -0.02
-WATER_Z = -0.01
+WATER_Z = 0.017  # above parks (a pond lies in one), under lanes (bridges)
 
 ACTOR_COLORS: dict[str, Color] = {
     "car": (0.20, 0.38, 0.75, 1.0),

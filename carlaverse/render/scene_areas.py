@@ -34,6 +34,8 @@ def build_ground(bounds: tuple[float, float, float, float]) -> MeshBuilder:
 def build_areas(areas: Iterable[MapArea]) -> MeshBuilder:
     """Every area of the map as one mesh; kinds it does not know are skipped."""
     mesh = MeshBuilder("areas")
+    areas = list(areas)
+    ponds = [open_outline(a.polygon) for a in areas if a.kind == "water"]
     for area in areas:
         outline = open_outline(area.polygon)
         if len(outline) < 3:
@@ -47,7 +49,8 @@ def build_areas(areas: Iterable[MapArea]) -> MeshBuilder:
         elif area.kind == "vegetation":
             mesh.polygon(outline, palette.JUNCTION_Z, palette.VEGETATION)
             for x, y in tree_spots(outline):
-                _tree(mesh, x, y)
+                if not any(inside(pond, (x, y)) for pond in ponds):  # no trees in a pond
+                    _tree(mesh, x, y)
     return mesh
 
 
