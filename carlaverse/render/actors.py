@@ -5,6 +5,7 @@ Each kind has one prototype mesh in a unit frame (x across −0.5..0.5, y along 
 one mesh. Lamps are separate small boxes per actor, coloured each frame from the light bits
 (`LIGHT_BRAKE`, `LIGHT_LEFT_BLINKER`, `LIGHT_RIGHT_BLINKER`). Blinkers flash at 1.5 Hz
 (UN ECE R48: 90 ± 30 flashes per minute) off the render time, so a frame is reproducible.
+A pedestrian that sends a skeleton is drawn as an articulated `figure.Figure` instead.
 """
 
 from __future__ import annotations
@@ -17,6 +18,7 @@ from panda3d.core import NodePath
 
 from carlaverse.messages import LIGHT_BRAKE, LIGHT_LEFT_BLINKER, LIGHT_RIGHT_BLINKER
 from carlaverse.render import palette
+from carlaverse.render.figure import Figure
 from carlaverse.render.frame import ActorDraw
 from carlaverse.render.meshes import Color, MeshBuilder
 
@@ -100,6 +102,15 @@ class _Drawn:
     left: list[NodePath]
     right: list[NodePath]
     shown: tuple[bool, bool, bool] | None = None
+    figure: Figure | None = None  # a walker articulated from its skeleton
+
+
+ARTICULATED = "pedestrian"  # the kind drawn as a `Figure` when it sends a skeleton
+
+
+def _style(actor: ActorDraw) -> str:
+    """What an actor is drawn as: its kind's boxes, or an articulated figure."""
+    return "figure" if actor.skeleton and actor.kind == ARTICULATED else actor.kind
 
 
 class ActorLayer:
@@ -122,10 +133,14 @@ class ActorLayer:
                 continue
             seen.add(actor.actor_id)
             drawn = self._drawn.get(actor.actor_id)
-            if drawn is None or drawn.kind != actor.kind:
+            if drawn is None or drawn.kind != _style(actor):
                 if drawn is not None:
                     drawn.node.remove_node()
                 drawn = self._drawn[actor.actor_id] = self._make(actor)
+            if drawn.figure is not None:
+                drawn.figure.place(actor.x, actor.y, actor.z, actor.yaw, actor.height)
+                drawn.figure.pose(actor.skeleton or {})
+                continue
             _place(drawn.node, actor)
             _light(drawn, actor.lights, t)
         for gone in [i for i in self._drawn if i not in seen]:
@@ -133,6 +148,9 @@ class ActorLayer:
 
     def _make(self, actor: ActorDraw) -> _Drawn:
         node = self.root.attach_new_node(actor.actor_id)
+        if _style(actor) == "figure":
+            body = palette.ACTOR_COLORS[ARTICULATED]
+            return _Drawn(node, "figure", [], [], [], figure=Figure(node, body))
         key = (actor.kind, actor.ego)
         if key not in self._protos:
             self._protos[key] = prototype(*key)

@@ -12,7 +12,7 @@ NPC rows) and default to a typical size per kind.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import (
@@ -142,6 +142,17 @@ def _npcs(
             )
         )  # fmt: skip
     return out
+
+
+def with_skeletons(frame: SceneFrame, skeletons: Mapping[str, JointAngles]) -> SceneFrame:
+    """The frame with each actor's joint angles attached where it sent a skeleton."""
+    if not skeletons:
+        return frame
+    actors = tuple(
+        replace(a, skeleton=skeletons[a.actor_id]) if a.actor_id in skeletons else a
+        for a in frame.actors
+    )
+    return replace(frame, actors=actors)
 
 
 def _view_kind(view: WorldView, actor_id: str) -> str:

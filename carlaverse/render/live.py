@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import logging
 from collections import Counter
-from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -27,7 +26,13 @@ from carlaverse import messages as m
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
 from carlaverse.keys import KeySpaceError, parse
-from carlaverse.render.frame import ActorDraw, JointAngles, SceneFrame, frame_from_view
+from carlaverse.render.frame import (
+    ActorDraw,
+    JointAngles,
+    SceneFrame,
+    frame_from_view,
+    with_skeletons,
+)
 from carlaverse.shm import SharedBlock, TornRead
 
 log = logging.getLogger(__name__)
@@ -175,8 +180,8 @@ class LiveWorld:
         world = self.client.world
         kinds, extents = _snapshot_attributes(self.client.snapshot)
         frame = frame_from_view(world, now, kinds=kinds, extents=extents)
-        skeletons = self.skeletons.angles(world.present)
-        actors = [_articulated(a, skeletons) for a in frame.actors if a.actor_id != self.node_id]
+        frame = with_skeletons(frame, self.skeletons.angles(world.present))
+        actors = [a for a in frame.actors if a.actor_id != self.node_id]
         own = self.own.actor() if self.own is not None else None
         if own is not None:
             actors.append(own)
@@ -187,11 +192,6 @@ class LiveWorld:
         self.client.close()
         if self.own is not None:
             self.own.close()
-
-
-def _articulated(actor: ActorDraw, skeletons: Mapping[str, JointAngles]) -> ActorDraw:
-    angles = skeletons.get(actor.actor_id)
-    return replace(actor, skeleton=angles) if angles else actor
 
 
 def _snapshot_attributes(
