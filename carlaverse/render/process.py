@@ -35,6 +35,7 @@ from carlaverse.render.rig import RenderConfig
 log = logging.getLogger(__name__)
 
 OWN, FREE = "own", "free"
+MAP_QUERY_S = 5.0  # [s] the map is large: give its query time
 CLOSE_TIMEOUT_S = 10.0  # [s] for the render process to finish its frame and report
 
 
@@ -49,13 +50,14 @@ class ViewSpec:
     camera: str = OWN  # own | free | an actor id to chase
     out_dir: str | None = None  # write a PNG here every out_every_s (offscreen testing)
     out_every_s: float = 0.5  # [s]
-    map_timeout_s: float = 10.0  # [s] how long to wait for the authority's map
+    map_timeout_s: float = 30.0  # [s] how long to wait for the authority's map
 
 
 @dataclass
 class ViewSummary:
     frames: int = 0
     written: int = 0
+    fps: float = 0.0  # frames per second while drawing (after the map arrived)
     frame_ms_p50: float = float("nan")
     frame_ms_p99: float = float("nan")
     gl_renderer: str = ""
@@ -127,7 +129,7 @@ def _run(spec: ViewSpec, stop: Any, summary: ViewSummary) -> None:
     session = open_session(spec.fabric)
     world = LiveWorld(session, spec.node, spec.own).start()
     try:
-        road_map = world.fetch_map(spec.map_timeout_s)
+        road_map = _wait_for_map(world, spec.map_timeout_s, stop)
         summary.map_lanes = len(road_map.lanes) if road_map else 0
         title = f"carlaverse: {spec.node.node_id}"
         with Renderer(spec.render, road_map, title=title) as renderer:
@@ -138,11 +140,21 @@ def _run(spec: ViewSpec, stop: Any, summary: ViewSummary) -> None:
         session.close()
 
 
+def _wait_for_map(world: Any, timeout_s: float, stop: Any) -> Any:
+    """The authority's map once it has admitted our view (it may start after us); None when
+    it has no map (`--scenario none`) or does not admit us within `timeout_s`."""
+    deadline = time.monotonic() + timeout_s
+    while not world.client.admitted.wait(0.2):
+        if stop.is_set() or time.monotonic() > deadline:
+            return None
+    return world.fetch_map(MAP_QUERY_S)
+
+
 def _loop(spec: ViewSpec, stop: Any, world: Any, renderer: Any, summary: ViewSummary) -> None:
     period = 1.0 / spec.render.max_fps
     dump = FrameDump(spec.out_dir, spec.out_every_s)
     parent = mp.parent_process()
-    next_t = time.monotonic()
+    first = next_t = time.monotonic()
     while not stop.is_set() and (parent is None or parent.is_alive()):
         started = time.perf_counter()
         frame = world.frame()
@@ -157,6 +169,8 @@ def _loop(spec: ViewSpec, stop: Any, world: Any, renderer: Any, summary: ViewSum
         if delay < -period:
             next_t, delay = time.monotonic(), 0.0  # behind: drop frames, never burst
         stop.wait(max(0.0, delay))
+    if summary.frames > 1:
+        summary.fps = round(summary.frames / (time.monotonic() - first), 1)
 
 
 def aim(camera: str, frame: Any, own_id: str) -> dict[str, Any]:

@@ -16,6 +16,7 @@ import multiprocessing as mp
 import subprocess
 import sys
 import time
+from collections.abc import Sequence
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -46,12 +47,15 @@ def peers(endpoint: str, first: int, count: int, stop: mp.synchronize.Event) -> 
         session.close()
 
 
-def run(duration: float, n_peers: int) -> dict:
+def run(
+    duration: float, n_peers: int, drive_args: Sequence[str] = (), scenario: str = "none"
+) -> dict:
+    """The loop's timing summary (and the view's, when `drive_args` ask for one)."""
     endpoint = f"tcp/127.0.0.1:{_port()}"
     cli = [sys.executable, "-m", "carlaverse"]
     router = subprocess.Popen([*cli, "router", "--listen", endpoint], stdout=subprocess.DEVNULL)
     authority = subprocess.Popen(
-        [*cli, "authority", "--scenario", "none", "--session", "bench", "--connect", endpoint],
+        [*cli, "authority", "--scenario", scenario, "--session", "bench", "--connect", endpoint],
         stderr=subprocess.DEVNULL,
     )
     ctx = mp.get_context("spawn")
@@ -78,6 +82,7 @@ def run(duration: float, n_peers: int) -> dict:
             "--duration",
             str(duration),
             "--json",
+            *drive_args,
         ],
         capture_output=True,
         text=True,
@@ -91,6 +96,8 @@ def run(duration: float, n_peers: int) -> dict:
     summary = json.loads(drive.stdout)
     loop = summary["extra"]["loop"]
     loop["peers_seen"] = len(summary["actors_seen"])
+    if "view" in summary["extra"]:
+        loop["view"] = summary["extra"]["view"]
     return loop
 
 
