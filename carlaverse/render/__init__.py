@@ -12,9 +12,12 @@ modules that draw; `rig`, `frame` and `weather.lighting` maths need no GPU):
     scene_areas      ground, junctions, buildings, vegetation with trees, water
     traffic_lights   a signal head per controlled link, lit from the lights' state
     actors           egos and NPCs by kind at their extents, brake lamps and blinkers
+    figure           walkers articulated from their Skeleton (joint convention documented)
     weather          sun, sky, fog, clouds, wet roads
     renderer         ties the rooms together: build once, draw a frame, read images
     recording        a world view fed from an MCAP recording, for stills and clips
+    live             a live session for the view: observer client, own pose from shm, skeletons
+    process          the node's view in a render process of its own (`join KIND --view`)
     video            MP4 clips through ffmpeg (imageio-ffmpeg)
     carla_bridge     CARLA as a second backend: actors and cameras mirrored into a server
 """
