@@ -34,7 +34,7 @@ from carlaverse.fabric.remote_actor import (
 )
 from carlaverse.fabric.stats import StreamStats
 from carlaverse.keys import AUTHORITY_ID
-from carlaverse.messages import EgoState, LightsState, NpcBatch, Pose, Snapshot, Weather
+from carlaverse.messages import EgoState, LightsState, NpcBatch, Pose, Skeleton, Snapshot, Weather
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +58,7 @@ class WorldView:
         self.egos: dict[str, RemoteActor] = {}
         self.npcs = NpcTable(settings)
         self.ego_states: dict[str, EgoState] = {}
+        self.skeletons: dict[str, Skeleton] = {}  # the newest per present walker
         self.lights: LightsState | None = None
         self.weather: Weather | None = None
         self.stats: dict[str, StreamStats] = {}
@@ -85,6 +86,10 @@ class WorldView:
     def push_pose(self, node_id: str, pose: Pose, rx_t: float) -> None:
         if node_id != self.own_id:
             self.inbox.append(("pose", node_id, pose, rx_t))
+
+    def push_skeleton(self, node_id: str, skeleton: Skeleton) -> None:
+        if node_id != self.own_id:
+            self.inbox.append(("skeleton", node_id, skeleton))
 
     def push_npc(self, batch: NpcBatch, rx_t: float) -> None:
         self.inbox.append(("npc", batch, rx_t))
@@ -162,6 +167,14 @@ class WorldView:
         if node_id in self.present:
             self.ego_states[node_id] = state
 
+    def _on_skeleton(self, node_id: str, skeleton: Skeleton) -> None:
+        if node_id not in self.present:
+            self.rejected["skeleton_from_absent_node"] += 1
+        elif len(skeleton.angles) != 12 * len(skeleton.joints):  # 3 float32 per joint
+            self.rejected["skeleton_size"] += 1
+        elif node_id not in self.skeletons or skeleton.t >= self.skeletons[node_id].t:
+            self.skeletons[node_id] = skeleton
+
     def _on_gone(self, node_id: str, reason: str, t: float) -> None:
         self._tombstones[node_id] = t
         self.present.discard(node_id)
@@ -179,6 +192,7 @@ class WorldView:
             self.despawns.append(Despawn(node_id, reason, t))
             log.info("despawned %s (%s)", node_id, reason)
         self.ego_states.pop(node_id, None)
+        self.skeletons.pop(node_id, None)
 
     def _forget_tombstones(self, now: float) -> None:
         if self._tombstones:

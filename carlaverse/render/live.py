@@ -8,9 +8,9 @@ The node's own actor is read from its shared-memory state block (`OwnPoseBlock`)
 so the driver's view of their own car has no network delay; the copy of it that comes back
 over the fabric is dropped from the frame.
 
-Skeletons (`ego/*/skeleton`) are not kept by the world view; this module keeps the newest per
-present node, validated (angle bytes must be 3 float32 per joint), and hands them to the
-frame as joint-angle maps.
+Skeletons (`ego/*/skeleton`) go into the world view (NodeClient does not subscribe to them;
+this module does), which keeps the newest valid one per present node; frames get them as
+joint-angle maps.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ import zenoh
 from carlaverse import messages as m
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
+from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import KeySpaceError, parse
 from carlaverse.render.frame import (
     ActorDraw,
@@ -102,11 +103,11 @@ class OwnPose:
             self._block = None
 
 
-class SkeletonStore:
-    """The newest valid skeleton per node id; fed from a Zenoh callback, never blocking."""
+class SkeletonFeed:
+    """Decodes `ego/*/skeleton` samples into a WorldView (a Zenoh callback: never waits)."""
 
-    def __init__(self) -> None:
-        self.latest: dict[str, m.Skeleton] = {}
+    def __init__(self, view: WorldView) -> None:
+        self.view = view
         self.dropped: Counter[str] = Counter()
 
     def on_sample(self, sample: zenoh.Sample) -> None:
@@ -116,21 +117,12 @@ class SkeletonStore:
         except (KeySpaceError, m.MessageError):
             self.dropped["skeleton"] += 1
             return
-        self.push(node_id, skeleton)
+        self.view.push_skeleton(node_id, skeleton)
 
-    def push(self, node_id: str, skeleton: m.Skeleton) -> None:
-        if len(skeleton.angles) != 12 * len(skeleton.joints):
-            self.dropped["skeleton_size"] += 1
-            return
-        old = self.latest.get(node_id)
-        if old is None or skeleton.t >= old.t:
-            self.latest[node_id] = skeleton  # a dict store is atomic under the GIL
 
-    def angles(self, present: set[str]) -> dict[str, JointAngles]:
-        """Joint angles per present node; forgets nodes that left."""
-        for gone in [n for n in self.latest if n not in present]:
-            del self.latest[gone]
-        return {node_id: joint_angles(s) for node_id, s in list(self.latest.items())}
+def skeleton_angles(view: WorldView) -> dict[str, JointAngles]:
+    """Joint angles per walker the view keeps a skeleton of."""
+    return {node_id: joint_angles(s) for node_id, s in view.skeletons.items()}
 
 
 def joint_angles(skeleton: m.Skeleton) -> JointAngles:
@@ -153,7 +145,7 @@ class LiveWorld:
         self.node_id = node.node_id
         self.client = NodeClient(session, settings, MonotonicClock())
         self.own = OwnPose(own, node.node_id) if own is not None else None
-        self.skeletons = SkeletonStore()
+        self.skeletons = SkeletonFeed(self.client.world)
         self._subscriber = session.declare_subscriber(
             self.client.keys.all_ego("skeleton"), self.skeletons.on_sample
         )
@@ -180,7 +172,7 @@ class LiveWorld:
         world = self.client.world
         kinds, extents = _snapshot_attributes(self.client.snapshot)
         frame = frame_from_view(world, now, kinds=kinds, extents=extents)
-        frame = with_skeletons(frame, self.skeletons.angles(world.present))
+        frame = with_skeletons(frame, skeleton_angles(world))
         actors = [a for a in frame.actors if a.actor_id != self.node_id]
         own = self.own.actor() if self.own is not None else None
         if own is not None:

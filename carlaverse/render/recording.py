@@ -4,7 +4,7 @@ Samples go into a real `WorldView` exactly as a live node's callbacks would put 
 receive order; the receive time is the recorder's log time moved onto the session clock
 (by the offset of the first pose: log time − the pose's own session time). `advance(t)`
 feeds everything received up to session time `t`; the view then decides what it shows at
-`t`, as it would have live; walkers' skeletons are kept beside it. Extents and NPC lamps,
+`t`, as it would have live (walkers' skeletons included). Extents and NPC lamps,
 which the view does not keep, come from the recorded snapshot and NPC batches.
 """
 
@@ -20,7 +20,7 @@ from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.recording.reading import RecordedSample, iter_samples
 from carlaverse.render.frame import SceneFrame, frame_from_view, npc_attributes, with_skeletons
-from carlaverse.render.live import SkeletonStore
+from carlaverse.render.live import skeleton_angles
 
 log = logging.getLogger(__name__)
 VIEW_ID = "carlaverse-render"  # never a node id of the session: ids are reserved per node
@@ -58,7 +58,6 @@ class RecordedWorld:
         self.kinds: dict[str, str] = {}
         self.extents: dict[str, m.Extent] = {}
         self.npc_lights: dict[str, int] = {}
-        self.skeletons = SkeletonStore()
         self.bad_samples = 0
         self._samples: Iterator[RecordedSample] = iter_samples(path)
         self._next: RecordedSample | None = next(self._samples, None)
@@ -78,7 +77,7 @@ class RecordedWorld:
         frame = frame_from_view(
             self.view, t, kinds=self.kinds, extents=self.extents, npc_lights=self.npc_lights
         )
-        return with_skeletons(frame, self.skeletons.angles(self.view.present))
+        return with_skeletons(frame, skeleton_angles(self.view))
 
     def _session_rx(self, sample: RecordedSample) -> float:
         return sample.log_time_ns / 1e9 - self._offset_s
@@ -101,7 +100,7 @@ class RecordedWorld:
         elif key.area == "ego" and key.channel == "pose":
             view.push_pose(key.node_id, m.POSE.decode(payload), rx)
         elif key.area == "ego" and key.channel == "skeleton":
-            self.skeletons.push(key.node_id, m.SKELETON.decode(payload))
+            view.push_skeleton(key.node_id, m.SKELETON.decode(payload))
         elif key.area == "ego" and key.channel == "state":
             view.inbox.append(("state", key.node_id, m.EGO_STATE.decode(payload)))
         elif key.area == "world":

@@ -10,7 +10,7 @@ import pytest
 from carlaverse import messages as m
 from carlaverse.render.figure import LIMBS, SHOULDER_Z
 from carlaverse.render.frame import ActorDraw, SceneFrame
-from carlaverse.render.live import SkeletonStore, joint_angles
+from carlaverse.render.live import joint_angles
 from carlaverse.render.renderer import Renderer
 from carlaverse.render.rig import (
     HeadPosition,
@@ -69,15 +69,3 @@ def test_a_raised_arm_shows_above_the_head_on_the_walkers_left(save_shot) -> Non
     # where the arm hung at rest, beside the hip, it is gone
     hip_row = round(project_row(cam, DISTANCE_M, 0.0, 1.0 - HEAD.z))
     assert changed(shots[1], shots[0])[hip_row, round(expected_col)]
-
-
-def test_skeleton_store_keeps_the_newest_valid_skeleton_per_present_node() -> None:
-    store = SkeletonStore()
-    store.push("w1", _skeleton({"neck": (0.1, 0.2, 0.3)}))
-    store.push("w1", m.Skeleton(2, 1.0, ["neck", "left_knee"], b"\x00" * 12))  # one short
-    newer = m.Skeleton(3, 2.0, ["left_knee"], np.array([0.5, 0, 0], "<f4").tobytes())
-    store.push("w1", newer)
-    store.push("w1", _skeleton({"neck": (9.0, 9.0, 9.0)}))  # t = 0: older than what we have
-    assert store.dropped["skeleton_size"] == 1
-    assert store.angles({"w1"}) == {"w1": {"left_knee": (0.5, 0.0, 0.0)}}
-    assert store.angles(set()) == {} and not store.latest  # a node that left is forgotten
