@@ -88,8 +88,10 @@ def _assert_frames_show_a_car(frames: list[Path], written: int) -> None:
     shown = [changed(_png(f), empty).sum() for f in frames]
     # The first frames may come before the drive loop's first tick (the view looks over the
     # map then) or the scripted node's first pose; most show the car ahead, and only the car.
+    # Four seconds of riding at most: then the drive node may have come up beside it.
     riding = [n for n in shown if n < empty.shape[0] * empty.shape[1] // 4]
-    assert len(riding) >= len(frames) // 2, shown
+    assert len(riding) >= min(8, len(frames) // 2), shown
+    riding = riding[:8]
     assert sum(n > 20 for n in riding) >= len(riding) - 2, shown
 
 
