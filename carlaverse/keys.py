@@ -19,7 +19,7 @@ _TOKEN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$")
 EGO_CHANNELS = ("pose", "skeleton", "state", "override")
 WORLD_CHANNELS = ("npc", "lights", "weather", "events")
 KEY_AREAS = ("node", "ego", "world", "impulse", "audio", "authority")
-AUTHORITY_QUERIES = ("clock", "join", "snapshot", "map", "scenario", "configs")
+AUTHORITY_QUERIES = ("clock", "join", "leave", "snapshot", "map", "scenario", "configs")
 
 
 class KeySpaceError(ValueError):

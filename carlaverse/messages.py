@@ -9,25 +9,42 @@ fixed 64-byte little-endian layout (`POSE_LAYOUT`), because msgspec writes every
 Conventions: world frame = the road network's frame (x east, y north, z up, metres); angles in
 radians, yaw counter-clockwise from +x; times are session seconds (the authority's clock).
 
-Decoding network input never raises anything but `MessageError` (a ValueError).
+Decoding network input never raises anything but `MessageError` (a ValueError), whatever is
+wrong with it: malformed MessagePack, deep nesting, bad UTF-8, a value out of range — even in a
+field this version does not know. Every float on the wire is finite and every integer fits an
+int64 (the constrained types below); a message that cannot be encoded raises `MessageError` too.
 """
 
 from __future__ import annotations
 
 import math
 import struct
-from typing import Any, Generic, Literal, TypeVar
+from collections.abc import Callable
+from typing import Annotated, Any, Generic, Literal, TypeVar
 
 import msgspec
 import numpy as np
 
-SCHEMA_VERSION = 1
+# 2: the snapshot's pose is the 64-byte pose layout; `spawned` carries the actor kind;
+#    the `authority/leave` query; despawn reasons are a closed set.
+SCHEMA_VERSION = 2
 
 T = TypeVar("T")
 
 
 class MessageError(ValueError):
     """A payload that does not decode into the expected message type."""
+
+
+# Constrained wire types: a NaN, an infinity or an integer that overflows int64 is refused at
+# decode time with the field's path, so no consumer (physics, recorder, renderer) ever sees one.
+FLOAT_LIMIT = 1e15  # any physical quantity here is far smaller; NaN fails every bound
+TIME_LIMIT_S = 1e12  # [s] session times are Unix-aligned (~1.7e9 s today)
+Finite = Annotated[float, msgspec.Meta(ge=-FLOAT_LIMIT, le=FLOAT_LIMIT)]
+Time = Annotated[float, msgspec.Meta(ge=-TIME_LIMIT_S, le=TIME_LIMIT_S)]  # [s] session time
+Seq = Annotated[int, msgspec.Meta(ge=0, le=2**63 - 1)]
+Int64 = Annotated[int, msgspec.Meta(ge=-(2**63), le=2**63 - 1)]
+Vec3 = tuple[Finite, Finite, Finite]
 
 
 # --------------------------------------------------------------------------- pose
@@ -71,7 +88,7 @@ def encode_pose(p: Pose) -> bytes:
             p.x, p.y, p.z, p.roll, p.pitch, p.yaw, p.vx, p.vy, p.vz,
             p.wx, p.wy, p.wz, p.ax, p.ay, p.az,
         )  # fmt: skip
-    except (struct.error, OverflowError) as exc:
+    except (struct.error, OverflowError, TypeError) as exc:
         raise MessageError(f"pose does not fit the wire layout: {exc}") from exc
 
 
@@ -84,6 +101,8 @@ def decode_pose(buf: bytes | bytearray | memoryview) -> Pose:
     values = v[4:]
     if not all(math.isfinite(f) for f in values):
         raise MessageError("pose: non-finite value")
+    if abs(v[4]) > TIME_LIMIT_S:
+        raise MessageError(f"pose: time {v[4]!r} s is out of range")
     return Pose(v[3], *values, flags=v[1])
 
 
@@ -106,34 +125,41 @@ LIGHT_RIGHT_BLINKER = 0x100
 class EgoState(msgspec.Struct, frozen=True):
     """Discrete vehicle/rider state, published on change (reliable)."""
 
-    seq: int
-    t: float
-    lights: int = 0
+    seq: Seq
+    t: Time
+    lights: Int64 = 0
     indicator: Indicator = "off"
-    gear: int = 0  # -1 reverse, 0 neutral, 1.. forward
-    speed_mps: float = 0.0
+    gear: Int64 = 0  # -1 reverse, 0 neutral, 1.. forward
+    speed_mps: Finite = 0.0
     adas: str = ""  # active override source, "" when the human drives alone
 
 
 class Override(msgspec.Struct, frozen=True):
     """ADAS override injected by an external program on ego/<id>/override."""
 
-    seq: int
-    t: float
+    seq: Seq
+    t: Time
     source: str  # e.g. "acc-study-v2"
     active: bool = True
-    cruise_speed_mps: float | None = None
-    lane_keep_torque_nm: float | None = None
-    expires_t: float | None = None  # [s] session time after which the override lapses
+    cruise_speed_mps: Finite | None = None
+    lane_keep_torque_nm: Finite | None = None
+    expires_t: Time | None = None  # [s] session time after which the override lapses
 
 
 class Skeleton(msgspec.Struct, frozen=True, array_like=True):
     """Avatar joint angles from a walk node (~30 Hz)."""
 
-    seq: int
-    t: float
+    seq: Seq
+    t: Time
     joints: list[str]
     angles: bytes  # float32 little-endian, 3 per joint (roll, pitch, yaw) [rad]
+
+
+def _check_skeleton(skeleton: Skeleton) -> None:
+    need = 12 * len(skeleton.joints)
+    if len(skeleton.angles) != need:
+        raise MessageError(f"skeleton: {len(skeleton.joints)} joints need {need} bytes of angles, "
+                           f"got {len(skeleton.angles)}")  # fmt: skip
 
 
 # --------------------------------------------------------------------------- world
@@ -149,13 +175,14 @@ NPC_DTYPE = np.dtype(
         ("kind", "u1"), ("reserved", "u1"), ("lights", "<u2"),
     ]
 )  # fmt: skip
+_NPC_FLOAT_FIELDS = [name for name in NPC_DTYPE.names if NPC_DTYPE[name].kind == "f"]
 
 
 class NpcBatch(msgspec.Struct, frozen=True, array_like=True):
     """All NPCs at one instant, packed as arrays rather than one message per NPC."""
 
-    seq: int
-    t: float
+    seq: Seq
+    t: Time
     ids: list[str]
     rows: bytes  # len(ids) rows of NPC_DTYPE
 
@@ -168,59 +195,74 @@ class NpcBatch(msgspec.Struct, frozen=True, array_like=True):
         return cls(seq, t, ids, np.ascontiguousarray(rows, dtype=NPC_DTYPE).tobytes())
 
 
+def _check_npc_batch(batch: NpcBatch) -> None:
+    if len(batch.rows) != len(batch.ids) * NPC_DTYPE.itemsize:
+        raise MessageError(f"npc batch: {len(batch.ids)} ids but {len(batch.rows)} bytes of rows")
+    rows = batch.array()
+    if not all(np.isfinite(rows[f]).all() for f in _NPC_FLOAT_FIELDS):
+        raise MessageError("npc batch: non-finite value in the rows")
+
+
 class TrafficLight(msgspec.Struct, frozen=True, array_like=True):
     id: str
     state: str  # one char per controlled link, SUMO style: r y g G o O s u
-    phase: int
-    remaining_s: float  # [s] until the next phase switch
+    phase: Int64
+    remaining_s: Finite  # [s] until the next phase switch
 
 
 class LightsState(msgspec.Struct, frozen=True):
-    seq: int
-    t: float
+    seq: Seq
+    t: Time
     lights: list[TrafficLight]
 
 
 class Weather(msgspec.Struct, frozen=True):
-    seq: int
-    t: float
-    sun_altitude_deg: float = 45.0
-    sun_azimuth_deg: float = 180.0
-    cloudiness: float = 0.0  # 0..1
-    precipitation: float = 0.0  # 0..1
-    fog_density: float = 0.0  # 0..1
-    wetness: float = 0.0  # 0..1
-    wind_speed_mps: float = 0.0
-    wind_direction_deg: float = 0.0
+    seq: Seq
+    t: Time
+    sun_altitude_deg: Finite = 45.0
+    sun_azimuth_deg: Finite = 180.0
+    cloudiness: Finite = 0.0  # 0..1
+    precipitation: Finite = 0.0  # 0..1
+    fog_density: Finite = 0.0  # 0..1
+    wetness: Finite = 0.0  # 0..1
+    wind_speed_mps: Finite = 0.0
+    wind_direction_deg: Finite = 0.0
 
 
 class Spawned(msgspec.Struct, frozen=True, tag="spawned"):
-    seq: int
-    t: float
+    seq: Seq
+    t: Time
     node_id: str
-    kind: str
+    kind: str  # the node kind (drive, scripted, observer ...)
+    actor_kind: str = ""  # one of ACTOR_KINDS; "" for a node without an actor (observer)
+
+
+# Why a node left the session: it said so (`authority/leave`); its liveliness token was lost
+# (lease expiry, a crash); its telemetry went silent for the despawn timeout; the authority
+# removed it (a re-join from a new process under the same id replaces the old one).
+DespawnReason = Literal["left", "liveliness", "timeout", "authority"]
 
 
 class Despawned(msgspec.Struct, frozen=True, tag="despawned"):
-    seq: int
-    t: float
+    seq: Seq
+    t: Time
     node_id: str
-    reason: str  # "left" | "timeout" | "liveliness" | "authority"
+    reason: DespawnReason
 
 
 class ContactStarted(msgspec.Struct, frozen=True, tag="contact_started"):
-    seq: int
-    t: float
-    contact_id: int
+    seq: Seq
+    t: Time
+    contact_id: Int64
     a: str
     b: str
-    relative_speed_mps: float = 0.0
+    relative_speed_mps: Finite = 0.0
 
 
 class ContactEnded(msgspec.Struct, frozen=True, tag="contact_ended"):
-    seq: int
-    t: float
-    contact_id: int
+    seq: Seq
+    t: Time
+    contact_id: Int64
     a: str
     b: str
 
@@ -231,57 +273,72 @@ WorldEvent = Spawned | Despawned | ContactStarted | ContactEnded
 class Impulse(msgspec.Struct, frozen=True):
     """Collision impulse for one ego, decided by the authority."""
 
-    seq: int
-    t: float  # [s] session time at which to apply it
-    contact_id: int
-    impulse: tuple[float, float, float]  # [N·s] world frame, acting on this ego
-    point: tuple[float, float, float]  # [m] contact point, world frame
-    normal: tuple[float, float, float]  # unit, pointing from the other actor into this ego
+    seq: Seq
+    t: Time  # [s] session time at which to apply it
+    contact_id: Int64
+    impulse: Vec3  # [N·s] world frame, acting on this ego
+    point: Vec3  # [m] contact point, world frame
+    normal: Vec3  # unit, pointing from the other actor into this ego
     other_id: str
     other_kind: str
-    relative_speed_mps: float
+    relative_speed_mps: Finite
 
 
 # --------------------------------------------------------------------------- queries
 
 
 class Extent(msgspec.Struct, frozen=True, array_like=True):
-    length: float = 4.5  # [m]
-    width: float = 1.8  # [m]
-    height: float = 1.5  # [m]
+    length: Finite = 4.5  # [m]
+    width: Finite = 1.8  # [m]
+    height: Finite = 1.5  # [m]
 
 
 class SpawnPoint(msgspec.Struct, frozen=True, array_like=True):
-    x: float
-    y: float
-    z: float = 0.0
-    yaw: float = 0.0
+    x: Finite
+    y: Finite
+    z: Finite = 0.0
+    yaw: Finite = 0.0
 
 
 class JoinRequest(msgspec.Struct, frozen=True):
-    schema: int
+    schema: Int64
     node_id: str
     instance: str  # random per process run: tells a re-join from a duplicate id
     kind: str  # node kind: drive, bike, walk, scripted, observer ...
     actor_kind: str = "car"  # one of ACTOR_KINDS; observers have no actor
     extent: Extent = Extent()
-    mass_kg: float = 1500.0
+    mass_kg: Finite = 1500.0
     site: str = ""
     hostname: str = ""
     version: str = ""
-    pose_rate_hz: float = 50.0
+    pose_rate_hz: Finite = 50.0
     config_yaml: str = ""  # the node's effective config, archived with recordings
 
 
 class JoinReply(msgspec.Struct, frozen=True):
-    schema: int
+    schema: Int64
     accepted: bool
     reason: str = ""
     session: str = ""
     spawn: SpawnPoint | None = None
-    despawn_timeout_s: float = 3.0
-    tick_hz: float = 50.0
+    despawn_timeout_s: Finite = 3.0
+    tick_hz: Finite = 50.0
     authority_instance: str = ""
+
+
+class LeaveRequest(msgspec.Struct, frozen=True):
+    """A node leaving on purpose, sent on `authority/leave` before it drops its token.
+
+    `instance` must be the one the node joined with: only the joined process can make its id
+    leave (the instance travels nowhere but in its own join request).
+    """
+
+    node_id: str
+    instance: str
+
+
+class LeaveReply(msgspec.Struct, frozen=True):
+    left: bool  # False: the authority did not know this node (already gone, or not it)
 
 
 class ClockRequest(msgspec.Struct, frozen=True):
@@ -289,24 +346,41 @@ class ClockRequest(msgspec.Struct, frozen=True):
 
 
 class ClockReply(msgspec.Struct, frozen=True, array_like=True):
-    t: float  # [s] session time when the authority answered
+    t: Time  # [s] session time when the authority answered
     known: bool = False  # whether the asking node is currently joined
 
 
 class EgoInfo(msgspec.Struct, frozen=True):
+    """One joined node as the snapshot lists it.
+
+    The pose travels in the one pose layout (`POSE_LAYOUT`, 64 bytes) under the wire name
+    `pose`; `pose_wire` holds those bytes and `.pose` decodes them. For convenience a `Pose` may
+    be passed where the bytes go; it is encoded on construction.
+    """
+
     node_id: str
     kind: str
     actor_kind: str
     extent: Extent
-    mass_kg: float
+    mass_kg: Finite
     site: str = ""
-    pose: Pose | None = None
+    pose_wire: bytes | None = msgspec.field(default=None, name="pose")
     state: EgoState | None = None
+
+    def __post_init__(self) -> None:
+        if isinstance(self.pose_wire, Pose):
+            msgspec.structs.force_setattr(self, "pose_wire", encode_pose(self.pose_wire))
+        elif self.pose_wire is not None:
+            decode_pose(self.pose_wire)  # refuse a bad layout at decode time, with the reason
+
+    @property
+    def pose(self) -> Pose | None:
+        return None if self.pose_wire is None else decode_pose(self.pose_wire)
 
 
 class Snapshot(msgspec.Struct, frozen=True):
-    schema: int
-    t: float
+    schema: Int64
+    t: Time
     egos: list[EgoInfo]
     npc: NpcBatch | None = None
     lights: LightsState | None = None
@@ -316,43 +390,43 @@ class Snapshot(msgspec.Struct, frozen=True):
 class MapLane(msgspec.Struct, frozen=True, array_like=True):
     id: str
     kind: str  # road | sidewalk | bike | crossing | walkingarea | rail
-    width: float  # [m]
-    centerline: list[tuple[float, float]]  # [m]
+    width: Finite  # [m]
+    centerline: list[tuple[Finite, Finite]]  # [m]
     allow: list[str] = []
 
 
 class MapArea(msgspec.Struct, frozen=True, array_like=True):
     id: str
     kind: str  # junction | vegetation | water | building
-    polygon: list[tuple[float, float]]
+    polygon: list[tuple[Finite, Finite]]
 
 
 class MapLight(msgspec.Struct, frozen=True, array_like=True):
     id: str  # traffic light (SUMO tls) id
-    position: tuple[float, float]
+    position: tuple[Finite, Finite]
     controlled_lanes: list[str]  # one entry per link index of the light's state string
 
 
 class MapReply(msgspec.Struct, frozen=True):
-    schema: int
+    schema: Int64
     name: str
-    bounds: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax [m]
+    bounds: tuple[Finite, Finite, Finite, Finite]  # xmin, ymin, xmax, ymax [m]
     lanes: list[MapLane]
     areas: list[MapArea] = []
     lights: list[MapLight] = []
 
 
 class ScenarioReply(msgspec.Struct, frozen=True):
-    schema: int
+    schema: Int64
     name: str
     yaml: str  # the scenario file as run, byte-for-byte
-    seed: int = 0
+    seed: Int64 = 0
 
 
 class ConfigsReply(msgspec.Struct, frozen=True):
     """Every joined node's effective config, for archiving with a recording."""
 
-    schema: int
+    schema: Int64
     nodes: dict[str, str]  # node id -> config YAML as the node sent it at join
     scenario_yaml: str = ""
     hostnames: dict[str, str] = {}  # node id -> host it joined from
@@ -362,21 +436,39 @@ class ConfigsReply(msgspec.Struct, frozen=True):
 
 
 class Codec(Generic[T]):
-    """Encoder and decoder for one message type, built once."""
+    """Encoder and decoder for one message type, built once.
 
-    def __init__(self, type_: Any) -> None:
+    `check` validates what the type system cannot say (a byte blob's length, the values packed
+    in it); it runs on every decode and raises MessageError.
+    """
+
+    def __init__(self, type_: Any, check: Callable[[Any], None] | None = None) -> None:
         self.type = type_
+        self._check = check
         self._encoder = msgspec.msgpack.Encoder()
         self._decoder = msgspec.msgpack.Decoder(type_)
 
     def encode(self, msg: T) -> bytes:
-        return self._encoder.encode(msg)
+        try:
+            return self._encoder.encode(msg)
+        except Exception as exc:  # OverflowError, UnicodeEncodeError, TypeError: all one case
+            raise MessageError(f"{_type_name(self.type)} cannot be encoded: {exc}") from exc
 
     def decode(self, buf: bytes | bytearray | memoryview) -> T:
         try:
-            return self._decoder.decode(buf)
+            message = self._decoder.decode(buf)
+            if self._check is not None:
+                self._check(message)
+            return message
+        except MessageError:
+            raise
         except (msgspec.DecodeError, msgspec.ValidationError) as exc:
             raise MessageError(f"{_type_name(self.type)}: {exc}") from exc
+        # Untrusted bytes can make msgspec raise more than its own errors (RecursionError on
+        # deep nesting, UnicodeDecodeError, MemoryError on absurd lengths): to every caller
+        # they are one thing, a payload that is not this message.
+        except Exception as exc:
+            raise MessageError(f"{_type_name(self.type)}: {type(exc).__name__}: {exc}") from exc
 
 
 class PoseCodec(Codec[Pose]):
@@ -387,7 +479,12 @@ class PoseCodec(Codec[Pose]):
         return encode_pose(msg)
 
     def decode(self, buf: bytes | bytearray | memoryview) -> Pose:
-        return decode_pose(buf)
+        try:
+            return decode_pose(buf)
+        except MessageError:
+            raise
+        except Exception as exc:  # e.g. a buffer-protocol object that is not bytes
+            raise MessageError(f"pose: {type(exc).__name__}: {exc}") from exc
 
 
 def _type_name(type_: Any) -> str:
@@ -397,14 +494,16 @@ def _type_name(type_: Any) -> str:
 POSE = PoseCodec()
 EGO_STATE: Codec[EgoState] = Codec(EgoState)
 OVERRIDE: Codec[Override] = Codec(Override)
-SKELETON: Codec[Skeleton] = Codec(Skeleton)
-NPC_BATCH: Codec[NpcBatch] = Codec(NpcBatch)
+SKELETON: Codec[Skeleton] = Codec(Skeleton, _check_skeleton)
+NPC_BATCH: Codec[NpcBatch] = Codec(NpcBatch, _check_npc_batch)
 LIGHTS: Codec[LightsState] = Codec(LightsState)
 WEATHER: Codec[Weather] = Codec(Weather)
 WORLD_EVENT: Codec[WorldEvent] = Codec(WorldEvent)
 IMPULSE: Codec[Impulse] = Codec(Impulse)
 JOIN_REQUEST: Codec[JoinRequest] = Codec(JoinRequest)
 JOIN_REPLY: Codec[JoinReply] = Codec(JoinReply)
+LEAVE_REQUEST: Codec[LeaveRequest] = Codec(LeaveRequest)
+LEAVE_REPLY: Codec[LeaveReply] = Codec(LeaveReply)
 CLOCK_REQUEST: Codec[ClockRequest] = Codec(ClockRequest)
 CLOCK_REPLY: Codec[ClockReply] = Codec(ClockReply)
 SNAPSHOT: Codec[Snapshot] = Codec(Snapshot)
@@ -424,9 +523,17 @@ CHANNEL_CODECS: dict[tuple[str, str], Codec[Any]] = {
     ("world", "events"): WORLD_EVENT,
     ("impulse", ""): IMPULSE,
     ("authority", "join"): JOIN_REPLY,
+    ("authority", "leave"): LEAVE_REPLY,
     ("authority", "clock"): CLOCK_REPLY,
     ("authority", "snapshot"): SNAPSHOT,
     ("authority", "map"): MAP,
     ("authority", "scenario"): SCENARIO,
     ("authority", "configs"): CONFIGS,
+}
+
+# What the authority's queryables expect as the query payload (the requests).
+REQUEST_CODECS: dict[str, Codec[Any]] = {
+    "join": JOIN_REQUEST,
+    "leave": LEAVE_REQUEST,
+    "clock": CLOCK_REQUEST,
 }

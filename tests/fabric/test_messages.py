@@ -2,6 +2,7 @@ from __future__ import annotations
 
 import math
 
+import msgspec
 import numpy as np
 import pytest
 from hypothesis import given
@@ -53,6 +54,8 @@ def examples() -> list[tuple[m.Codec, object]]:
             m.JoinRequest(m.SCHEMA_VERSION, "n", "abc", "drive", config_yaml="a: 1\n"),
         ),
         (m.JOIN_REPLY, m.JoinReply(m.SCHEMA_VERSION, True, spawn=m.SpawnPoint(1, 2, 0, 0.5))),
+        (m.LEAVE_REQUEST, m.LeaveRequest("n", "abc")),
+        (m.LEAVE_REPLY, m.LeaveReply(True)),
         (m.CLOCK_REQUEST, m.ClockRequest("n")),
         (m.CLOCK_REPLY, m.ClockReply(1.5, True)),
         (
@@ -60,7 +63,7 @@ def examples() -> list[tuple[m.Codec, object]]:
             m.Snapshot(
                 m.SCHEMA_VERSION,
                 1.0,
-                [m.EgoInfo("n", "drive", "car", m.Extent(), 1500.0, pose=POSE)],
+                [m.EgoInfo("n", "drive", "car", m.Extent(), 1500.0, pose_wire=m.encode_pose(POSE))],
                 batch,
                 lights,
                 weather,
@@ -85,9 +88,19 @@ def test_every_message_round_trips(codec: m.Codec, msg: object) -> None:
     assert codec.decode(codec.encode(msg)) == msg
 
 
-def test_every_channel_type_has_an_example() -> None:
+def test_every_channel_and_request_type_has_an_example() -> None:
     covered = {id(codec) for codec, _ in examples()}
-    assert all(id(codec) in covered for codec in m.CHANNEL_CODECS.values())
+    codecs = [*m.CHANNEL_CODECS.values(), *m.REQUEST_CODECS.values()]
+    assert all(id(codec) in covered for codec in codecs)
+
+
+def test_the_snapshot_carries_poses_in_the_one_pose_layout() -> None:
+    info = m.EgoInfo("n", "drive", "car", m.Extent(), 1500.0, "lab", POSE)  # a Pose is encoded
+    wire = msgspec.msgpack.decode(m.SNAPSHOT.encode(m.Snapshot(m.SCHEMA_VERSION, 1.0, [info])))
+    assert wire["egos"][0]["pose"] == m.encode_pose(POSE)  # 64 bytes, the `ego/*/pose` layout
+    assert m.SNAPSHOT.decode(m.SNAPSHOT.encode(m.Snapshot(2, 1.0, [info]))).egos[0].pose == (
+        m.decode_pose(m.encode_pose(POSE))
+    )
 
 
 def test_pose_fits_in_64_bytes_with_float32_precision() -> None:
