@@ -8,10 +8,10 @@
     for view in client.world.ego_views(now): draw(view)
     client.close()
 
-Threads: Zenoh's callbacks decode and enqueue, never wait; a publisher thread sends the ego
-pose at the configured rate; a control thread joins (and re-joins after an authority restart
-or a partition), keeps the session clock in sync, and nothing else. The node's own control
-loop never calls into Zenoh.
+Threads: Zenoh's callbacks (`fabric.inbound`) decode, check and enqueue, never wait or raise;
+a publisher thread sends the ego pose at the configured rate; a control thread joins (and
+re-joins after an authority restart or a partition), keeps the session clock in sync, and
+nothing else. The node's own control loop never calls into Zenoh.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ import logging
 import socket
 import threading
 import uuid
-from collections import Counter, deque
+from collections import deque
 from collections.abc import Callable
 
 import msgspec
@@ -30,9 +30,11 @@ from carlaverse import __version__
 from carlaverse import messages as m
 from carlaverse.config import StrictStruct
 from carlaverse.fabric.clock import Clock, SessionClock
+from carlaverse.fabric.guard import Tally
+from carlaverse.fabric.inbound import Inbound
 from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.world_view import WorldView
-from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, check_token, parse
+from carlaverse.keys import AUTHORITY_ID, Keys, check_token
 
 log = logging.getLogger(__name__)
 
@@ -41,6 +43,15 @@ PoseSource = Callable[[float], m.Pose | None]
 
 class JoinRefused(RuntimeError):
     """The authority refused this node (a duplicate id, a schema mismatch)."""
+
+
+class FabricCounters(msgspec.Struct, frozen=True):
+    """What a node's fabric layer counted: for its exit summary and `stats`."""
+
+    dropped: dict[str, int]  # undecodable payloads, by channel (and failed queries' replies)
+    rejected: dict[str, int]  # well-formed but refused, by `<channel>/<why>`
+    handler_errors: dict[str, int]  # unexpected exceptions in callbacks, by handler
+    impulses_accepted: int  # impulses handed to the node after de-duplication
 
 
 class NodeSettings(StrictStruct):
@@ -76,9 +87,10 @@ class NodeClient:
         self.instance = uuid.uuid4().hex
         self.config_yaml = config_yaml
         self.world = WorldView(settings.node_id, settings.interpolation)
-        self.impulses: deque[m.Impulse] = deque(maxlen=256)
-        self.overrides: deque[m.Override] = deque(maxlen=64)
-        self.dropped: Counter[str] = Counter()
+        self.inbound = Inbound(settings.node_id, self.world, self.clock, self._authority_lost)
+        self.impulses: deque[m.Impulse] = self.inbound.impulses
+        self.overrides: deque[m.Override] = self.inbound.overrides
+        self.dropped: Tally = self.inbound.dropped
         self.joined = threading.Event()  # accepted by the current authority
         self.admitted = threading.Event()  # accepted at least once: poses may flow
         self.refused: str | None = None
@@ -118,8 +130,17 @@ class NodeClient:
 
     # ------------------------------------------------------------ lifecycle
 
+    def counters(self) -> FabricCounters:
+        inbound = self.inbound
+        return FabricCounters(
+            dropped=inbound.dropped.snapshot(),
+            rejected=inbound.rejected.snapshot(),
+            handler_errors=inbound.guard.errors.snapshot(),
+            impulses_accepted=inbound.accepted["impulse"],
+        )
+
     def start(self, pose_source: PoseSource | None = None) -> NodeClient:
-        self._subscribe()
+        self._entities += self.inbound.subscribe(self.session, self.keys)
         self._spawn(self._control_loop, "control")
         if pose_source is not None:
             self._spawn(lambda: self._publish_loop(pose_source), "pose")
@@ -134,12 +155,14 @@ class NodeClient:
         return True
 
     def close(self) -> None:
+        """Leave the session on purpose (despawn reason `left`), then drop everything."""
         self._stop.set()
         self._wake.set()
         for thread in self._threads:
             thread.join(timeout=3)
         if self._token is not None:
-            self._token.undeclare()  # peers and the authority despawn us at once
+            self._leave()
+            self._token.undeclare()  # whoever missed the `left` event despawns us now
             self._token = None
         for entity in self._entities:
             entity.undeclare()  # type: ignore[attr-defined]
@@ -176,7 +199,7 @@ class NodeClient:
                 if pose is not None:
                     self.publish_pose(pose)
             except Exception:  # a broken source must not kill presence; say so loudly
-                self.dropped["pose_source"] += 1
+                self.dropped.add("pose_source")
                 log.exception("pose source of %s failed", self.node_id)
             next_t += period
             delay = next_t - local.now()
@@ -191,108 +214,6 @@ class NodeClient:
         now = self.now()
         self.world.update(now)
         return now
-
-    # ------------------------------------------------------------ subscriptions
-
-    def _subscribe(self) -> None:
-        k, s = self.keys, self.session
-        remote = zenoh.Locality.REMOTE
-        self._entities += [
-            s.declare_subscriber(k.all_ego("pose"), self._on_pose, allowed_origin=remote),
-            s.declare_subscriber(k.all_ego("state"), self._on_state),
-            s.declare_subscriber(k.override(self.node_id), self._on_override),
-            s.declare_subscriber(k.world("npc"), self._on_npc),
-            s.declare_subscriber(k.world("lights"), self._on_lights),
-            s.declare_subscriber(k.world("weather"), self._on_weather),
-            s.declare_subscriber(k.world("events"), self._on_event),
-            s.declare_subscriber(k.impulse(self.node_id), self._on_impulse),
-            s.liveliness().declare_subscriber(k.all_nodes, self._on_presence, history=True),
-        ]
-
-    def _decode(self, sample: zenoh.Sample, codec: m.Codec, channel: str) -> object | None:
-        try:
-            return codec.decode(sample.payload.to_bytes())
-        except m.MessageError as exc:
-            self.dropped[channel] += 1
-            log.debug("dropped %s on %s: %s", channel, sample.key_expr, exc)
-            return None
-
-    def _sender(self, sample: zenoh.Sample, channel: str) -> str | None:
-        try:
-            return parse(str(sample.key_expr)).node_id
-        except KeySpaceError:
-            self.dropped[channel] += 1
-            return None
-
-    def _on_pose(self, sample: zenoh.Sample) -> None:
-        rx_t = self.now()
-        node_id = self._sender(sample, "pose")
-        pose = self._decode(sample, m.POSE, "pose")
-        if node_id is not None and pose is not None:
-            self.world.push_pose(node_id, pose, rx_t)  # type: ignore[arg-type]
-
-    def _on_state(self, sample: zenoh.Sample) -> None:
-        node_id = self._sender(sample, "state")
-        state = self._decode(sample, m.EGO_STATE, "state")
-        if node_id is not None and state is not None:
-            self.world.inbox.append(("state", node_id, state))
-
-    def _on_override(self, sample: zenoh.Sample) -> None:
-        override = self._decode(sample, m.OVERRIDE, "override")
-        if override is not None:
-            self.overrides.append(override)  # type: ignore[arg-type]
-
-    def _on_npc(self, sample: zenoh.Sample) -> None:
-        rx_t = self.now()
-        batch = self._decode(sample, m.NPC_BATCH, "npc")
-        if batch is None:
-            return
-        if len(batch.rows) != len(batch.ids) * m.NPC_DTYPE.itemsize:  # type: ignore[attr-defined]
-            self.dropped["npc"] += 1
-            return
-        self.world.push_npc(batch, rx_t)  # type: ignore[arg-type]
-
-    def _on_lights(self, sample: zenoh.Sample) -> None:
-        lights = self._decode(sample, m.LIGHTS, "lights")
-        if lights is not None:
-            self.world.lights = lights  # type: ignore[assignment]
-
-    def _on_weather(self, sample: zenoh.Sample) -> None:
-        weather = self._decode(sample, m.WEATHER, "weather")
-        if weather is not None:
-            self.world.weather = weather  # type: ignore[assignment]
-
-    def _on_event(self, sample: zenoh.Sample) -> None:
-        event = self._decode(sample, m.WORLD_EVENT, "events")
-        if isinstance(event, m.Despawned):
-            if event.node_id == self.node_id:
-                self.joined.clear()  # the authority dropped us (a partition): join again
-                self._wake.set()
-            else:
-                self.world.push_gone(event.node_id, event.reason, self.now())
-        elif isinstance(event, m.Spawned):
-            self.world.push_present(event.node_id)
-
-    def _on_impulse(self, sample: zenoh.Sample) -> None:
-        impulse = self._decode(sample, m.IMPULSE, "impulse")
-        if impulse is not None:
-            self.impulses.append(impulse)  # type: ignore[arg-type]
-
-    def _on_presence(self, sample: zenoh.Sample) -> None:
-        node_id = self._sender(sample, "presence")
-        if node_id is None:
-            return
-        alive = sample.kind == zenoh.SampleKind.PUT
-        if node_id == AUTHORITY_ID:
-            if alive:
-                self.clock.reset()
-            self.joined.clear()  # a new authority knows nothing of us; a gone one neither
-            self._wake.set()
-        elif node_id != self.node_id:
-            if alive:
-                self.world.push_present(node_id)
-            else:
-                self.world.push_gone(node_id, "liveliness", self.now())
 
     # ------------------------------------------------------------ control thread
 
@@ -314,14 +235,42 @@ class NodeClient:
             self._wake.wait(max(0.01, wait))
             self._wake.clear()
 
+    def _authority_lost(self) -> None:
+        """The authority forgot us (restart, partition, despawn): join again."""
+        self.joined.clear()
+        self._wake.set()
+
+    def _leave(self) -> None:
+        """Tell the authority we leave, and wait briefly for its `left` event to go out.
+
+        Design: a query rather than a notice on a key, so that only the process that joined
+        (it alone knows its `instance`) can make its id leave, and the node knows when the
+        authority has heard it. The token is dropped after the `left` event was seen, so peers
+        learn the reason before the liveliness DELETE (which alone would read as a loss).
+        Without an authority, the token's DELETE despawns us as before.
+        """
+        if not self.joined.is_set():
+            return
+        request = m.LeaveRequest(self.node_id, self.instance)
+        raw = self._query(self.keys.authority("leave"), m.LEAVE_REQUEST.encode(request), 0.5)
+        if raw is not None:
+            self.inbound.left.wait(0.5)
+
     def _query(self, key: str, payload: bytes, timeout: float) -> bytes | None:
+        return self._ask(key, payload, timeout)[0]
+
+    def _ask(self, key: str, payload: bytes, timeout: float) -> tuple[bytes | None, str]:
+        """The first good reply's payload, else None and the error reply's text (or "")."""
+        error = ""
         try:
             for reply in self.session.get(key, payload=payload, timeout=timeout):
                 if reply.ok is not None:
-                    return reply.ok.payload.to_bytes()
+                    return reply.ok.payload.to_bytes(), ""
+                error = _error_text(reply.err)
+                log.warning("query %s answered with an error: %s", key, error)
         except zenoh.ZError as exc:
             log.debug("query %s failed: %s", key, exc)
-        return None
+        return None, error
 
     def _try_join(self) -> None:
         s = self.settings
@@ -332,21 +281,22 @@ class NodeClient:
             config_yaml=self.config_yaml,
         )  # fmt: skip
         payload = m.JOIN_REQUEST.encode(request)
-        raw = self._query(self.keys.authority("join"), payload, s.join_timeout_s)
+        raw, error = self._ask(self.keys.authority("join"), payload, s.join_timeout_s)
         if raw is None:
+            if error:  # the authority cannot read our request; asking again will not help
+                self._refuse(error)
             return
         try:
             reply = m.JOIN_REPLY.decode(raw)
         except m.MessageError as exc:
-            self.dropped["join"] += 1
+            self.dropped.add("join")
             log.warning("unreadable join reply: %s", exc)
             return
         if not reply.accepted:
-            self.refused = reply.reason
-            log.error("join refused: %s", reply.reason)
-            self._settled.set()
+            self._refuse(reply.reason)
             return
         self.join_reply = reply
+        self.inbound.authority_id = reply.authority_instance
         self.joins += 1
         if self._token is None:
             self._token = self.session.liveliness().declare_token(self.keys.node(self.node_id))
@@ -356,6 +306,11 @@ class NodeClient:
         self._fetch_snapshot()
         log.info("joined session %s as %s (join #%d)", s.session, s.node_id, self.joins)
 
+    def _refuse(self, reason: str) -> None:
+        self.refused = reason
+        log.error("join refused: %s", reason)
+        self._settled.set()
+
     def _fetch_snapshot(self) -> None:
         """Seed the world with everything present now, so a late joiner misses nothing."""
         raw = self._query(self.keys.authority("snapshot"), b"", self.settings.join_timeout_s)
@@ -364,7 +319,7 @@ class NodeClient:
         try:
             snapshot = m.SNAPSHOT.decode(raw)
         except m.MessageError as exc:
-            self.dropped["snapshot"] += 1
+            self.dropped.add("snapshot")
             log.warning("unreadable snapshot: %s", exc)
             return
         self.snapshot = snapshot
@@ -381,9 +336,15 @@ class NodeClient:
         try:
             reply = m.CLOCK_REPLY.decode(raw)
         except m.MessageError:
-            self.dropped["clock"] += 1
+            self.dropped.add("clock")
             return
         self.clock.add_exchange(t0, reply.t, t1)
         if not reply.known and self.joined.is_set() and self.refused is None:
             self.joined.clear()  # the authority lost us (restart, partition): join again
             self._wake.set()
+
+
+def _error_text(err: zenoh.ReplyError | None) -> str:
+    if err is None:
+        return "no reply"
+    return err.payload.to_bytes().decode("utf-8", "replace")[:300]

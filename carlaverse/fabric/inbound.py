@@ -1,0 +1,211 @@
+"""What a node accepts from the fabric: decode, check the sender, count, hand over.
+
+Every subscriber callback of a `NodeClient` lives here. None of them waits or raises: a payload
+that does not decode is counted in `dropped` under its channel; a well-formed message that is
+refused (not from the authority, a duplicate impulse, a reserved id) is counted in `rejected`
+under `<channel>/<why>`; anything unexpected is counted by the guard and logged at a bounded
+rate. Accepted input goes to the world view's inbox or to the node's queues.
+
+Who may speak for the authority. World messages (`world/*`) and impulses must come from the
+Zenoh session of the authority this node joined. The authority stamps each of them with a Zenoh
+timestamp from its own session (`Session.new_timestamp()`, whose id is the session's zid) and
+names that zid in its join reply (`JoinReply.authority_instance`); samples whose timestamp id
+differs, or that carry none, are rejected. Limits, honestly: Zenoh does not authenticate
+timestamps. In an open session anyone who learns the authority's zid (it is in every join
+reply) can stamp a forged put with it; this check stops stray publishers, replays of old
+recordings, a second authority and naive injection, not a determined forger. With `--roster`
+the router's ACL allows puts on `world/**` and `impulse/**` only from the authority's
+credentials, and that is what enforces it.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import deque
+from collections.abc import Callable
+
+import zenoh
+
+from carlaverse import messages as m
+from carlaverse.fabric.clock import SessionClock
+from carlaverse.fabric.guard import HandlerGuard, Tally
+from carlaverse.fabric.world_view import WorldView
+from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse
+
+log = logging.getLogger(__name__)
+
+SEEN_CONTACTS = 1024  # impulses remembered per node to drop re-deliveries
+
+
+class Inbound:
+    """A node's subscriptions; `lost()` is called when the authority forgot this node."""
+
+    def __init__(
+        self, node_id: str, world: WorldView, clock: SessionClock, lost: Callable[[], None]
+    ) -> None:
+        self.node_id = node_id
+        self.world = world
+        self.clock = clock
+        self._lost = lost
+        self.impulses: deque[m.Impulse] = deque(maxlen=256)
+        self.overrides: deque[m.Override] = deque(maxlen=64)
+        self.dropped = Tally()  # undecodable payloads, by channel
+        self.rejected = Tally()  # well-formed but refused, by `<channel>/<why>`
+        self.accepted = Tally()  # impulses handed to the node, and whatever else is worth a count
+        self.guard = HandlerGuard(log)
+        self.authority_id = ""  # zid of the joined authority's session; "" before a join
+        self.left = threading.Event()  # the authority announced our own `left` despawn
+        self._contacts: deque[tuple[str, int]] = deque(maxlen=SEEN_CONTACTS)
+        self._contact_set: set[tuple[str, int]] = set()
+        self._contacts_lock = threading.Lock()
+
+    def subscribe(self, session: zenoh.Session, keys: Keys) -> list[object]:
+        g, remote = self.guard, zenoh.Locality.REMOTE
+        world = {"npc": self._on_npc, "lights": self._on_lights, "weather": self._on_weather,
+                 "events": self._on_event}  # fmt: skip
+        entities: list[object] = [
+            session.declare_subscriber(
+                keys.all_ego("pose"), g.sample("pose", self._on_pose), allowed_origin=remote
+            ),
+            session.declare_subscriber(keys.all_ego("state"), g.sample("state", self._on_state)),
+            session.declare_subscriber(
+                keys.override(self.node_id), g.sample("override", self._on_override)
+            ),
+            session.declare_subscriber(
+                keys.impulse(self.node_id), g.sample("impulse", self._on_impulse)
+            ),
+            session.liveliness().declare_subscriber(
+                keys.all_nodes, g.sample("presence", self._on_presence), history=True
+            ),
+        ]
+        for channel, handler in world.items():
+            guarded = g.sample(channel, handler)
+            entities.append(session.declare_subscriber(keys.world(channel), guarded))
+        return entities
+
+    # ------------------------------------------------------------ checks
+
+    def _decode(self, sample: zenoh.Sample, codec: m.Codec, channel: str) -> object | None:
+        try:
+            return codec.decode(sample.payload.to_bytes())
+        except m.MessageError as exc:
+            self.dropped.add(channel)
+            log.debug("dropped %s on %s: %s", channel, sample.key_expr, exc)
+            return None
+
+    def _sender(self, sample: zenoh.Sample, channel: str) -> str | None:
+        try:
+            return parse(str(sample.key_expr)).node_id
+        except KeySpaceError:
+            self.dropped.add(channel)
+            return None
+
+    def _from_authority(self, sample: zenoh.Sample, channel: str) -> bool:
+        """Whether the sample was stamped by the joined authority's session (module docstring)."""
+        stamp = sample.timestamp
+        if stamp is not None and self.authority_id and str(stamp.get_id()) == self.authority_id:
+            return True
+        self.rejected.add(f"{channel}/not_from_authority")
+        return False
+
+    def _authority_message(self, sample: zenoh.Sample, codec: m.Codec, channel: str) -> object:
+        """Decode a world message or impulse; None if undecodable or not the authority's."""
+        message = self._decode(sample, codec, channel)
+        if message is None or not self._from_authority(sample, channel):
+            return None
+        return message
+
+    # ------------------------------------------------------------ egos
+
+    def _on_pose(self, sample: zenoh.Sample) -> None:
+        rx_t = self.clock.now()
+        node_id = self._sender(sample, "pose")
+        pose = self._decode(sample, m.POSE, "pose")
+        if node_id is not None and pose is not None:
+            self.world.push_pose(node_id, pose, rx_t)  # type: ignore[arg-type]
+
+    def _on_state(self, sample: zenoh.Sample) -> None:
+        node_id = self._sender(sample, "state")
+        state = self._decode(sample, m.EGO_STATE, "state")
+        if node_id is not None and state is not None:
+            self.world.inbox.append(("state", node_id, state))
+
+    def _on_override(self, sample: zenoh.Sample) -> None:
+        override = self._decode(sample, m.OVERRIDE, "override")
+        if override is not None:
+            self.overrides.append(override)  # type: ignore[arg-type]
+
+    def _on_presence(self, sample: zenoh.Sample) -> None:
+        node_id = self._sender(sample, "presence")
+        if node_id is None:
+            return
+        alive = sample.kind == zenoh.SampleKind.PUT
+        if node_id == AUTHORITY_ID:
+            if alive:
+                self.clock.reset()
+            self._lost()  # a new authority knows nothing of us; a gone one neither
+        elif node_id != self.node_id:
+            if alive:
+                self.world.push_present(node_id)
+            else:
+                self.world.push_gone(node_id, "liveliness", self.clock.now())
+
+    # ------------------------------------------------------------ the authority's
+
+    def _on_npc(self, sample: zenoh.Sample) -> None:
+        rx_t = self.clock.now()
+        batch = self._authority_message(sample, m.NPC_BATCH, "npc")
+        if batch is not None:
+            self.world.push_npc(batch, rx_t)  # type: ignore[arg-type]
+
+    def _on_lights(self, sample: zenoh.Sample) -> None:
+        lights = self._authority_message(sample, m.LIGHTS, "lights")
+        if lights is not None:
+            self.world.lights = lights  # type: ignore[assignment]
+
+    def _on_weather(self, sample: zenoh.Sample) -> None:
+        weather = self._authority_message(sample, m.WEATHER, "weather")
+        if weather is not None:
+            self.world.weather = weather  # type: ignore[assignment]
+
+    def _on_event(self, sample: zenoh.Sample) -> None:
+        event = self._authority_message(sample, m.WORLD_EVENT, "events")
+        if isinstance(event, m.Despawned):
+            self._on_despawned(event)
+        elif isinstance(event, m.Spawned):
+            if event.node_id == AUTHORITY_ID:
+                self.rejected.add("events/reserved_id")  # no actor for the authority, ever
+            elif event.node_id != self.node_id:
+                self.world.push_present(event.node_id)
+
+    def _on_despawned(self, event: m.Despawned) -> None:
+        if event.node_id != self.node_id:
+            self.world.push_gone(event.node_id, event.reason, self.clock.now())
+        elif event.reason == "left":
+            self.left.set()  # our own leave, acknowledged: the token may go now
+        else:
+            log.warning("the authority despawned this node (%s): joining again", event.reason)
+            self._lost()
+
+    def _on_impulse(self, sample: zenoh.Sample) -> None:
+        impulse = self._authority_message(sample, m.IMPULSE, "impulse")
+        if impulse is None:
+            return
+        # What identifies an impulse is who decided it and for which contact; sequence numbers
+        # are shared with other messages and restart with the authority.
+        if not self._first_time((self.authority_id, impulse.contact_id)):  # type: ignore[attr-defined]
+            self.rejected.add("impulse/duplicate")
+            return
+        self.accepted.add("impulse")
+        self.impulses.append(impulse)  # type: ignore[arg-type]
+
+    def _first_time(self, contact: tuple[str, int]) -> bool:
+        with self._contacts_lock:
+            if contact in self._contact_set:
+                return False
+            if len(self._contacts) == self._contacts.maxlen:
+                self._contact_set.discard(self._contacts[0])
+            self._contacts.append(contact)
+            self._contact_set.add(contact)
+            return True
