@@ -3,6 +3,10 @@
 NPC batches may drop under congestion (the next batch supersedes them); lights, weather,
 events and impulses must arrive, so they are reliable with congestion control BLOCK and carry
 sequence numbers for idempotent receivers (DESIGN §4).
+
+Every put carries a timestamp from the authority's own session: its id is the session's zid,
+which the join reply names, so nodes can tell the authority's world messages from anyone
+else's (see `carlaverse.fabric.inbound` for what that does and does not prove).
 """
 
 from __future__ import annotations
@@ -41,19 +45,19 @@ class ZenohOutbox:
         self.sent[channel] = self.sent.get(channel, 0) + 1
 
     def npc(self, batch: m.NpcBatch) -> None:
-        self._npc.put(m.NPC_BATCH.encode(batch))
+        self._npc.put(m.NPC_BATCH.encode(batch), timestamp=self._session.new_timestamp())
         self._count("npc")
 
     def lights(self, state: m.LightsState) -> None:
-        self._lights.put(m.LIGHTS.encode(state))
+        self._lights.put(m.LIGHTS.encode(state), timestamp=self._session.new_timestamp())
         self._count("lights")
 
     def weather(self, state: m.Weather) -> None:
-        self._weather.put(m.WEATHER.encode(state))
+        self._weather.put(m.WEATHER.encode(state), timestamp=self._session.new_timestamp())
         self._count("weather")
 
     def event(self, event: m.WorldEvent) -> None:
-        self._events.put(m.WORLD_EVENT.encode(event))
+        self._events.put(m.WORLD_EVENT.encode(event), timestamp=self._session.new_timestamp())
         self._count("events")
 
     def impulse(self, node_id: str, impulse: m.Impulse) -> None:
@@ -62,5 +66,6 @@ class ZenohOutbox:
             m.IMPULSE.encode(impulse),
             congestion_control=zenoh.CongestionControl.BLOCK,
             priority=zenoh.Priority.INTERACTIVE_HIGH,
+            timestamp=self._session.new_timestamp(),
         )
         self._count("impulse")

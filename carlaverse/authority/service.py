@@ -1,8 +1,15 @@
 """The authority process: presence, joins, the session clock, despawns and the world tick.
 
 Queries are answered in Zenoh's callbacks (they only read or update the roster under a short
-lock); poses are queued and applied by the tick thread, which also runs the global domain
-and publishes what it decided. The tick runs at a fixed rate and measures itself.
+lock, and never publish); poses are queued and applied by the tick thread, which also
+announces spawns and despawns, runs the global domain and publishes what it decided. The tick
+runs at a fixed rate and measures itself. No callback raises into Zenoh: a bad payload is
+counted in `drops` under its key, a well-formed but refused one in `rejected`, anything
+unexpected in `guard.errors`; every query gets a reply, an error reply naming the reason if
+the request cannot be read.
+
+Despawn reasons: `left` (the node said so on `authority/leave`), `liveliness` (its token was
+lost), `timeout` (silent for the despawn timeout), `authority` (a new process took over the id).
 """
 
 from __future__ import annotations
@@ -10,7 +17,6 @@ from __future__ import annotations
 import logging
 import threading
 import time
-import uuid
 from collections import deque
 
 import msgspec
@@ -22,10 +28,14 @@ from carlaverse.authority.membership import Roster
 from carlaverse.authority.outbox import ZenohOutbox
 from carlaverse.config import StrictStruct
 from carlaverse.fabric.clock import Clock
+from carlaverse.fabric.guard import HandlerGuard, Tally, reply_err
 from carlaverse.fabric.stats import percentile
 from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse
 
 log = logging.getLogger(__name__)
+
+
+DESPAWN_LOG = 10_000  # (node id, reason) pairs kept for the summary
 
 
 class AuthoritySettings(StrictStruct):
@@ -54,18 +64,23 @@ class Authority:
         self.clock = clock
         self.domain = domain
         self.keys = Keys(settings.session)
-        self.instance = uuid.uuid4().hex
+        # The session's zid: nodes accept world messages stamped with it (see the outbox).
+        self.instance = str(session.zid())
         self.roster = Roster(settings.despawn_timeout_s)
         self.outbox = ZenohOutbox(session, self.keys)
-        self.dropped: dict[str, int] = {}
-        self.despawned: list[tuple[str, str]] = []  # (node id, reason)
+        self.drops = Tally()  # undecodable payloads, by key
+        self.rejected = Tally()  # well-formed but refused, by `<key>/<why>`
+        self.guard = HandlerGuard(log)
+        self.despawned: list[tuple[str, str]] = []  # (node id, reason), the last DESPAWN_LOG
         self.tick_ms: deque[float] = deque(maxlen=10_000)
         self.ticks = 0
         self.overruns = 0
         self._lock = threading.Lock()
         self._poses: deque[tuple[str, m.Pose, float]] = deque(maxlen=100_000)
-        self._gone: deque[str] = deque()
-        self._spawned: deque[m.Spawned] = deque()  # published by the tick, not the callback
+        self._gone: deque[tuple[str, str]] = deque()  # (node id, reason) for the tick
+        # Spawns and despawns decided in callbacks, announced by the tick: a callback never
+        # publishes (a reliable put may block under congestion).
+        self._spawned: deque[m.WorldEvent] = deque()
         self._stop = threading.Event()
         self._entities: list[object] = []
         self._token: zenoh.LivelinessToken | None = None
@@ -74,8 +89,10 @@ class Authority:
 
     def start(self) -> Authority:
         k, s = self.keys, self.session
+        g = self.guard
         queries = {
             "join": self._on_join,
+            "leave": self._on_leave,
             "clock": self._on_clock,
             "snapshot": self._on_snapshot,
             "configs": self._on_configs,
@@ -83,11 +100,13 @@ class Authority:
             "scenario": self._on_scenario,
         }
         for name, handler in queries.items():
-            self._entities.append(s.declare_queryable(k.authority(name), handler))
-        self._entities.append(s.declare_subscriber(k.all_ego("pose"), self._on_pose))
-        self._entities.append(s.declare_subscriber(k.all_ego("state"), self._on_state))
+            self._entities.append(s.declare_queryable(k.authority(name), g.query(name, handler)))
+        pose, state = g.sample("pose", self._on_pose), g.sample("state", self._on_state)
+        self._entities.append(s.declare_subscriber(k.all_ego("pose"), pose))
+        self._entities.append(s.declare_subscriber(k.all_ego("state"), state))
+        presence = g.sample("presence", self._on_presence)
         self._entities.append(
-            s.liveliness().declare_subscriber(k.all_nodes, self._on_presence, history=True)
+            s.liveliness().declare_subscriber(k.all_nodes, presence, history=True)
         )
         # Declared last: nodes re-join when they see it, so the queryables must be up first.
         self._token = s.liveliness().declare_token(k.node(AUTHORITY_ID))
@@ -125,6 +144,11 @@ class Authority:
         self._entities.clear()
         self.domain.close()
 
+    @property
+    def dropped(self) -> dict[str, int]:
+        """Undecodable payloads by key, and refused-but-well-formed ones as `<key>/<why>`."""
+        return {**self.drops.snapshot(), **self.rejected.snapshot()}
+
     def summary(self) -> TickSummary:
         ticks = list(self.tick_ms)
         return TickSummary(
@@ -140,36 +164,32 @@ class Authority:
         """One step of the world at session time t."""
         self.ticks += 1
         with self._lock:
-            while self._poses:
-                self.roster.pose(*self._poses.popleft())
-            gone = [(n, "liveliness") for n in self._drain_gone()]
+            self._apply_poses()
+            gone = _drain(self._gone)
             gone += [(n, "timeout") for n in self.roster.expired(t)]
             for node_id, reason in gone:
                 self._despawn(node_id, reason, t)
             tracks = dict(self.roster.tracks)
-        while self._spawned:
-            event = self._spawned.popleft()
-            self.outbox.event(msgspec.structs.replace(event, seq=self.outbox.next_seq()))
+        for event in _drain(self._spawned):
+            self.outbox.event(msgspec.structs.replace(event, seq=self.outbox.next_seq(), t=t))
         self.domain.tick(t, tracks, self.outbox)
 
-    def _drain_gone(self) -> list[str]:
-        out = []
-        while self._gone:
-            out.append(self._gone.popleft())
-        return out
+    def _apply_poses(self) -> None:
+        while self._poses:
+            refused = self.roster.pose(*self._poses.popleft())
+            if refused:
+                self.rejected.add(f"pose/{refused}")
 
     def _despawn(self, node_id: str, reason: str, t: float) -> None:
         if self.roster.remove(node_id) is None:
             return
         self.despawned.append((node_id, reason))
+        del self.despawned[:-DESPAWN_LOG]
         log.info("despawn %s (%s)", node_id, reason)
         self.domain.ego_left(node_id)
         self.outbox.event(m.Despawned(self.outbox.next_seq(), t, node_id, reason))
 
     # ------------------------------------------------------------ subscriptions
-
-    def _count_drop(self, what: str) -> None:
-        self.dropped[what] = self.dropped.get(what, 0) + 1
 
     def _on_pose(self, sample: zenoh.Sample) -> None:
         rx_t = self.clock.now()
@@ -177,7 +197,7 @@ class Authority:
             node_id = parse(str(sample.key_expr)).node_id
             pose = m.POSE.decode(sample.payload.to_bytes())
         except (KeySpaceError, m.MessageError):
-            self._count_drop("pose")
+            self.drops.add("pose")
             return
         self._poses.append((node_id, pose, rx_t))
 
@@ -186,47 +206,47 @@ class Authority:
             node_id = parse(str(sample.key_expr)).node_id
             state = m.EGO_STATE.decode(sample.payload.to_bytes())
         except (KeySpaceError, m.MessageError):
-            self._count_drop("state")
+            self.drops.add("state")
             return
         with self._lock:
             track = self.roster.tracks.get(node_id)
             if track is not None:
                 track.info = msgspec.structs.replace(track.info, state=state)
+            else:
+                self.rejected.add("state/not_joined")
 
     def _on_presence(self, sample: zenoh.Sample) -> None:
         try:
             node_id = parse(str(sample.key_expr)).node_id
         except KeySpaceError:
-            self._count_drop("presence")
+            self.drops.add("presence")
             return
         if node_id == AUTHORITY_ID:
             return
         with self._lock:
             if self.roster.token(node_id, sample.kind == zenoh.SampleKind.PUT):
-                self._gone.append(node_id)
+                self._gone.append((node_id, "liveliness"))
 
     # ------------------------------------------------------------ queries
 
-    def _request(self, query: zenoh.Query, codec: m.Codec, what: str) -> object | None:
+    def _request(self, query: zenoh.Query, what: str) -> object | None:
+        """The query's request decoded, or None after an error reply naming the problem."""
         try:
             payload = query.payload
-            return codec.decode(payload.to_bytes() if payload is not None else b"")
+            return m.REQUEST_CODECS[what].decode(payload.to_bytes() if payload else b"")
         except m.MessageError as exc:
-            self._count_drop(what)
-            query.reply_err(f"bad {what} request: {exc}".encode())
+            self.drops.add(what)
+            reply_err(query, f"bad {what} request: {exc}")
             return None
 
     def _on_join(self, query: zenoh.Query) -> None:
-        req = self._request(query, m.JOIN_REQUEST, "join")
-        if req is None:
+        req = self._request(query, "join")
+        if not isinstance(req, m.JoinRequest):
             return
-        assert isinstance(req, m.JoinRequest)
-        t = self.clock.now()
         with self._lock:
-            decision = self.roster.join(req, t)
+            decision = self.roster.join(req, self.clock.now())
             if decision.accepted and decision.new and decision.track is not None:
-                self.domain.ego_joined(decision.track)
-                self.outbox.event(m.Spawned(self.outbox.next_seq(), t, req.node_id, req.kind))
+                self._announce_join(req, decision.replaced, decision.track)
         spawn = self.domain.spawn_point(req.kind, req.node_id) if decision.accepted else None
         reply = m.JoinReply(
             schema=m.SCHEMA_VERSION,
@@ -239,15 +259,37 @@ class Authority:
             authority_instance=self.instance,
         )
         if not decision.accepted:
-            log.warning("refused join of %r: %s", req.node_id, decision.reason)
+            self.rejected.add("join/refused")
+            self.guard.log.warning("join", "refused join of %r: %s", req.node_id, decision.reason)
         query.reply(query.key_expr, m.JOIN_REPLY.encode(reply))
+
+    def _announce_join(self, req: m.JoinRequest, replaced: bool, track: EgoTrack) -> None:
+        """Queue the events of an accepted first join for the tick (t and seq set there)."""
+        if replaced:  # another process held the id and is gone: the authority removes it
+            self.domain.ego_left(req.node_id)
+            self._spawned.append(m.Despawned(0, 0.0, req.node_id, "authority"))
+        self.domain.ego_joined(track)
+        self._spawned.append(m.Spawned(0, 0.0, req.node_id, req.kind, req.actor_kind))
+
+    def _on_leave(self, query: zenoh.Query) -> None:
+        req = self._request(query, "leave")
+        if not isinstance(req, m.LeaveRequest):
+            return
+        with self._lock:
+            track = self.roster.tracks.get(req.node_id)
+            left = track is not None and track.instance == req.instance
+            if left:
+                self._gone.append((req.node_id, "left"))
+            else:
+                self.rejected.add("leave/unknown_instance")
+        query.reply(query.key_expr, m.LEAVE_REPLY.encode(m.LeaveReply(left)))
 
     def _on_clock(self, query: zenoh.Query) -> None:
         t = self.clock.now()  # first, so the reply's time is as close to the answer as can be
-        req = self._request(query, m.CLOCK_REQUEST, "clock")
-        if req is None:
+        req = self._request(query, "clock")
+        if not isinstance(req, m.ClockRequest):
             return
-        known = getattr(req, "node_id", "") in self.roster.tracks
+        known = req.node_id in self.roster.tracks
         query.reply(query.key_expr, m.CLOCK_REPLY.encode(m.ClockReply(t, known)))
 
     def snapshot(self) -> m.Snapshot:
@@ -284,4 +326,13 @@ class Authority:
 
 
 def _ego_info(track: EgoTrack) -> m.EgoInfo:
-    return msgspec.structs.replace(track.info, pose=track.last_pose)
+    pose = None if track.last_pose is None else m.encode_pose(track.last_pose)
+    return msgspec.structs.replace(track.info, pose_wire=pose)
+
+
+def _drain(queue: deque) -> list:
+    """Everything in a deque that callbacks append to, oldest first."""
+    out = []
+    while queue:
+        out.append(queue.popleft())
+    return out
