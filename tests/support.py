@@ -14,7 +14,9 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from carlaverse.fabric.clock import MonotonicClock
+from carlaverse.authority.domain import EmptyDomain
+from carlaverse.authority.service import Authority, AuthoritySettings
+from carlaverse.fabric.clock import MonotonicClock, WallAlignedClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
 from carlaverse.fabric.session import FabricSettings, open_session
 
@@ -150,3 +152,30 @@ class Cluster:
             item.close()
         for proc in self.procs:
             proc.stop(signal.SIGKILL if not proc.alive() else signal.SIGINT)
+
+
+class InProcessAuthority:
+    """An authority (membership only) on its own session in this process: tests that must
+    speak as the authority (impulses, world messages) use its `outbox`. Restartable."""
+
+    def __init__(self, endpoint: str, despawn_timeout_s: float = 3.0) -> None:
+        self.endpoint = endpoint
+        self.despawn_timeout_s = despawn_timeout_s
+        self.authority: Authority | None = None
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> Authority:
+        settings = AuthoritySettings(session="t", despawn_timeout_s=self.despawn_timeout_s)
+        session = open_session(FabricSettings(connect=[self.endpoint]))
+        self.authority = Authority(session, settings, WallAlignedClock(), EmptyDomain()).start()
+        self._thread = threading.Thread(target=self.authority.run, daemon=True)
+        self._thread.start()
+        return self.authority
+
+    def stop(self) -> None:
+        if self.authority is None or self._thread is None:
+            return
+        self.authority.close()
+        self._thread.join(5)
+        self.authority.session.close()
+        self.authority = None

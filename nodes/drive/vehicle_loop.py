@@ -35,7 +35,7 @@ log = logging.getLogger(__name__)
 
 MAX_PHYSICS_DT_S = 0.005  # [s] a late tick is sub-stepped so the chassis stays stable
 MAX_IMPULSE_DV_MPS = 50.0  # [m/s] a larger Δv from one impulse is a bad message
-SEEN_IMPULSES = 256  # sequence numbers remembered to drop re-deliveries
+SEEN_IMPULSES = 256  # impulses remembered to drop a re-delivered copy
 
 
 @dataclass(slots=True)
@@ -113,7 +113,7 @@ class DriveLoop:
         self.lca_active = False
         self._manual = vehicle.transmission.mode == "manual"
         self._pending: list[Impulse] = []
-        self._seen: deque[int] = deque(maxlen=SEEN_IMPULSES)
+        self._seen: deque[Impulse] = deque(maxlen=SEEN_IMPULSES)
         self.impulses_dropped = 0
         self._last_state: tuple[object, ...] = ()
         self._substeps = config.loop.physics_substeps
@@ -213,15 +213,18 @@ class DriveLoop:
         return len(due)
 
     def _accept_impulse(self, impulse: Impulse) -> None:
-        if impulse.seq in self._seen:
-            return  # re-delivery of an event already applied: impulses are idempotent
+        # The NodeClient already drops re-deliveries by what identifies an impulse (authority
+        # instance, contact id); here only an identical message twice is one. Never by `seq`
+        # alone: it restarts with the authority, and the new one's first impulse must apply.
+        if impulse in self._seen:
+            return
         values = (*impulse.impulse, *impulse.point, impulse.t)
         dv = math.sqrt(sum(j * j for j in impulse.impulse)) / self.vehicle.body.mass_kg
         if not all(math.isfinite(v) for v in values) or dv > MAX_IMPULSE_DV_MPS:
             self.impulses_dropped += 1
             log.warning("dropped impulse seq %d: non-finite or Δv %.1f m/s", impulse.seq, dv)
             return
-        self._seen.append(impulse.seq)
+        self._seen.append(impulse)
         self._pending.append(impulse)
 
     def _physics(

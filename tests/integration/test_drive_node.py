@@ -16,7 +16,7 @@ from carlaverse.hal.ffb_server.actuator import LogActuatorOptions
 from carlaverse.hal.motion_server import LogPlatform, MotionServer
 from carlaverse.hal.motion_server.platform import LogPlatformOptions
 from carlaverse.keys import Keys
-from tests.support import Cluster, wait_until
+from tests.support import Cluster, InProcessAuthority, wait_until
 
 
 def drive_config(tmp: Path, ffb_port: int, motion_port: int) -> Path:
@@ -80,7 +80,9 @@ def test_demo_with_a_drive_node_reaches_the_ffb_and_motion_servers(tmp_path: Pat
 
 def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> None:
     cluster.router()
-    cluster.authority()
+    # in this process: nodes take impulses only from the authority's own session
+    authority = InProcessAuthority(cluster.endpoint)
+    outbox = authority.start().outbox
     drive = cluster.start(
         "join",
         "drive",
@@ -103,8 +105,8 @@ def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> No
         1, obs.now(), 7, (-3000.0, 0.0, 0.0), (0.0, 0.0, 0.5), (-1.0, 0.0, 0.0), "npc-1", "car", 2.0
     )
     session = cluster.sessions[0]
-    session.put(Keys("t").impulse("car"), m.IMPULSE.encode(impulse))
-    session.put(Keys("t").impulse("car"), m.IMPULSE.encode(impulse))  # a duplicate: once only
+    outbox.impulse("car", impulse)
+    outbox.impulse("car", impulse)  # a duplicate: once only
     # an ADAS program takes over the pedals: the car's published state says so
     cruise = m.Override(1, obs.now(), "acc-test", cruise_speed_mps=8.0, expires_t=obs.now() + 30)
     session.put(Keys("t").override("car"), m.OVERRIDE.encode(cruise))
@@ -116,6 +118,7 @@ def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> No
 
     wait_until(adas_visible, 5, "the override in the car's ego state")
     assert drive.wait(40) == 0
+    authority.stop()
     loop = drive.json()["extra"]["loop"]
     assert loop["impulses_applied"] == 1
     assert loop["ticks"] > 3000 and loop["distance_m"] > 10

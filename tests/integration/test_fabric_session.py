@@ -90,9 +90,12 @@ def test_clean_exit_despawns_at_once(cluster: Cluster) -> None:
     began = time.monotonic()
     leaver.stop(signal.SIGINT)
     wait_until(lambda: obs.update() and "b" not in obs.world.egos, 1.0, "despawn of b")
-    # far quicker than the telemetry timeout: the liveliness DELETE did it
+    # far quicker than the telemetry timeout, and said for what it is: b left on purpose
     assert time.monotonic() - began < 1.0
-    assert ("b", "liveliness") in [(d.actor_id, d.reason) for d in obs.world.despawns]
+    assert ("b", "left") in [(d.actor_id, d.reason) for d in obs.world.despawns]
+    authority = next(p for p in cluster.procs if p.name == "authority")
+    authority.stop()
+    assert ["b", "left"] in authority.json()["despawned"]
 
 
 def test_late_joiner_receives_the_current_world(cluster: Cluster) -> None:
@@ -130,7 +133,9 @@ def _snapshot_ids(client) -> set[str]:  # type: ignore[no-untyped-def]
 def test_garbage_on_every_subscribed_key_is_counted_and_dropped(cluster: Cluster) -> None:
     start_pair(cluster)
     obs = cluster.observer()
-    wait_until(lambda: obs.update() and {"a", "b"} <= set(obs.world.egos), 20, "actors")
+    # Live poses, not just the actors: the snapshot alone creates them, without stream stats
+    # (waiting on `egos` only made `stats["a"]` below fail when the snapshot came first).
+    wait_until(lambda: obs.update() and {"a", "b"} <= set(obs.world.stats), 20, "a's and b's poses")
     keys = Keys("t")
     targets = [
         keys.pose("mallory"),
