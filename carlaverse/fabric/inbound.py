@@ -39,15 +39,26 @@ SEEN_CONTACTS = 1024  # impulses remembered per node to drop re-deliveries
 
 
 class Inbound:
-    """A node's subscriptions; `lost()` is called when the authority forgot this node."""
+    """A node's subscriptions.
+
+    `lost()` is called when the authority forgot this node (it left, or despawned us);
+    `appeared()` when an authority token appears: it may be the one we joined (a late
+    history sample) or a new one that knows nothing of us, which a clock query tells apart.
+    """
 
     def __init__(
-        self, node_id: str, world: WorldView, clock: SessionClock, lost: Callable[[], None]
+        self,
+        node_id: str,
+        world: WorldView,
+        clock: SessionClock,
+        lost: Callable[[], None],
+        appeared: Callable[[], None],
     ) -> None:
         self.node_id = node_id
         self.world = world
         self.clock = clock
         self._lost = lost
+        self._appeared = appeared
         self.impulses: deque[m.Impulse] = deque(maxlen=256)
         self.overrides: deque[m.Override] = deque(maxlen=64)
         self.dropped = Tally()  # undecodable payloads, by channel
@@ -143,8 +154,9 @@ class Inbound:
         alive = sample.kind == zenoh.SampleKind.PUT
         if node_id == AUTHORITY_ID:
             if alive:
-                self.clock.reset()
-            self._lost()  # a new authority knows nothing of us; a gone one neither
+                self._appeared()
+            else:
+                self._lost()
         elif node_id != self.node_id:
             if alive:
                 self.world.push_present(node_id)

@@ -87,7 +87,9 @@ class NodeClient:
         self.instance = uuid.uuid4().hex
         self.config_yaml = config_yaml
         self.world = WorldView(settings.node_id, settings.interpolation)
-        self.inbound = Inbound(settings.node_id, self.world, self.clock, self._authority_lost)
+        self.inbound = Inbound(
+            settings.node_id, self.world, self.clock, self._authority_lost, self._authority_seen
+        )
         self.impulses: deque[m.Impulse] = self.inbound.impulses
         self.overrides: deque[m.Override] = self.inbound.overrides
         self.dropped: Tally = self.inbound.dropped
@@ -103,6 +105,7 @@ class NodeClient:
         self._state_seq = 0
         self._stop = threading.Event()
         self._wake = threading.Event()
+        self._sync_now = threading.Event()  # an authority appeared: sync (and check) at once
         self._token: zenoh.LivelinessToken | None = None
         self._entities: list[object] = []
         self._threads: list[threading.Thread] = []
@@ -223,6 +226,10 @@ class NodeClient:
         while not self._stop.is_set():
             if not self.joined.is_set():
                 self._try_join()
+            if self._sync_now.is_set():
+                self._sync_now.clear()
+                self.clock.reset()  # a new authority may keep another timeline
+                next_sync = 0.0
             if local.now() >= next_sync:
                 burst = 8 if not self.clock.synced else 3
                 for _ in range(burst):
@@ -238,6 +245,11 @@ class NodeClient:
     def _authority_lost(self) -> None:
         """The authority forgot us (restart, partition, despawn): join again."""
         self.joined.clear()
+        self._wake.set()
+
+    def _authority_seen(self) -> None:
+        """An authority token appeared: ask its clock now; `known` says whether to re-join."""
+        self._sync_now.set()
         self._wake.set()
 
     def _leave(self) -> None:

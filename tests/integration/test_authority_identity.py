@@ -127,7 +127,11 @@ def test_a_node_despawned_for_silence_is_told_and_joins_again(rig: Rig) -> None:
 def test_a_join_without_a_token_is_despawned_for_silence(rig: Rig) -> None:
     authority = rig.start_authority()
     request = m.JoinRequest(m.SCHEMA_VERSION, "tokenless", "i1", "observer", actor_kind="")
-    replies = list(rig.outsider.get(KEYS.authority("join"), payload=m.JOIN_REQUEST.encode(request)))
+    payload = m.JOIN_REQUEST.encode(request)
+    # asked until answered: a fresh session learns of the queryable a moment after it is up
+    replies = wait_until(
+        lambda: list(rig.outsider.get(KEYS.authority("join"), payload=payload)), 10, "a reply"
+    )
     assert m.JOIN_REPLY.decode(replies[0].ok.payload.to_bytes()).accepted
     wait_until(lambda: ("tokenless", "timeout") in authority.despawned, 5, "its despawn")
     assert "tokenless" not in authority.roster.tracks
