@@ -55,6 +55,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--duration", type=float, metavar="S", help="stop after S seconds")
     parser.add_argument("--no-trails", action="store_true", help="do not draw trajectories")
     parser.add_argument(
+        "--raw",
+        action="store_true",
+        help="also draw every pose and NPC sample as received (world/raw/...), for diagnosis",
+    )
+    parser.add_argument(
         "--id",
         dest="node_id",
         default="viewer",
@@ -105,7 +110,7 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _render_file(args: argparse.Namespace, view: ViewOutput, stop: threading.Event) -> int:
-    scene = SceneLogger(view.rec, trails=not args.no_trails)
+    scene = SceneLogger(view.rec, trails=not args.no_trails, raw=args.raw)
     stats = render_recording(args.recording, scene, rate_hz=args.rate)
     print(f"rendered {stats.samples} samples in {stats.frames} frames", file=sys.stderr)
     if view.viewers:  # a served/spawned viewer would vanish with us: keep it until Ctrl-C
@@ -119,7 +124,8 @@ def _watch(args: argparse.Namespace, view: ViewOutput, stop: threading.Event) ->
     keys = Keys(args.session)
     session = open_session(fabric_from_args(args))
     settings = ViewSettings(rate_hz=args.rate, trails=not args.no_trails)
-    live = LiveView(session, keys, SceneLogger(view.rec, trails=settings.trails), settings)
+    scene = SceneLogger(view.rec, trails=settings.trails, raw=args.raw)
+    live = LiveView(session, keys, scene, settings)
     try:
         stats = live.start().run(stop, args.duration)
     finally:

@@ -1,37 +1,53 @@
 """`carlaverse view` on a live session: a raw Zenoh observer feeding a fixed-rate render loop.
 
 Three threads, none of which can slow the fabric:
-- Zenoh callbacks copy the payload into the `SampleStore` (O(1), short lock);
-- a query thread asks the authority for the map (until it has one), a snapshot (at start and
-  after each spawn, for extents and kinds) and the session clock (for one-way latency);
+- Zenoh callbacks copy the payload into the `SampleStore` (O(1), short lock); pose and NPC
+  samples are also decoded and pushed into the `WorldView` inbox (a deque append), stamped
+  with their session receive time;
+- a query thread keeps the session clock synchronised (first, so that receive times are
+  session times) and asks the authority for the map (until it has one) and a snapshot (at
+  start and whenever an ego of unknown kind appears);
 - the caller's thread runs `run()`: every 1/rate s it takes what arrived, updates the model
-  and logs the changes. If a frame takes too long the next ones are skipped, not queued.
+  and the view (`update(now)`), and logs the actors where the view draws them — all at its
+  one render time (`render_time(now)`). If a frame takes too long the next ones are skipped,
+  not queued.
 """
 
 from __future__ import annotations
 
 import logging
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import zenoh
 
 from carlaverse import messages as m
 from carlaverse.fabric.clock import Clock, MonotonicClock, SessionClock
-from carlaverse.keys import Keys
+from carlaverse.fabric.remote_actor import InterpolationSettings
+from carlaverse.fabric.world_view import WorldView
+from carlaverse.keys import Keys, KeySpaceError, parse
+from carlaverse.viz.raw import ActorFeed
 from carlaverse.viz.scene import SceneLogger
 from carlaverse.viz.store import SampleStore
 from carlaverse.viz.world import WorldModel
 
 log = logging.getLogger(__name__)
+VIEW_ID = "carlaverse-view"  # the view's own id in its WorldView: never a node id
+
+
+def viewer_interpolation() -> InterpolationSettings:
+    """A viewer draws where actors were, all at one time (`past`): what it shows is true at
+    the time shown, which is what diagnosis needs; a driver needs `present` instead."""
+    return InterpolationSettings(render_mode="past")
 
 
 @dataclass(frozen=True, slots=True)
 class ViewSettings:
     rate_hz: float = 20.0  # [Hz] render rate
-    despawn_timeout_s: float = 5.0  # [s] an ego silent this long is removed from the view
     trails: bool = True
+    # how actors are drawn, and when a silent one leaves the view (despawn_timeout_s)
+    interpolation: InterpolationSettings = field(default_factory=viewer_interpolation)
     query_timeout_s: float = 2.0  # [s]
     clock_sync_s: float = 2.0  # [s] between session-clock queries
     map_retry_s: float = 2.0  # [s] between map queries until one is answered
@@ -62,7 +78,9 @@ class LiveView:
         self._local = local or MonotonicClock()
         self.clock = SessionClock(self._local)
         self.store = SampleStore()
-        self.world = WorldModel(latency_of=self._latency)
+        self.view = WorldView(VIEW_ID, settings.interpolation)
+        self.feed = ActorFeed(self.view, scene.raw)
+        self.world = WorldModel(self.view, latency_of=self._latency)
         self.stats = ViewStats()
         self._want_snapshot = threading.Event()
         self._stop_queries = threading.Event()
@@ -72,9 +90,12 @@ class LiveView:
     # ------------------------------------------------------------------ lifecycle
 
     def start(self) -> LiveView:
-        self._handles.append(
-            self._session.declare_subscriber(self._keys.everything, self._on_sample)
-        )
+        keys, session = self._keys, self._session
+        self._handles += [
+            session.declare_subscriber(keys.everything, self._on_sample),
+            session.declare_subscriber(keys.all_ego("pose"), self._on_actor_sample),
+            session.declare_subscriber(keys.world("npc"), self._on_actor_sample),
+        ]
         self._handles.append(
             self._session.liveliness().declare_subscriber(
                 self._keys.all_nodes, self._on_sample, history=True
@@ -95,12 +116,22 @@ class LiveView:
     def _on_sample(self, sample: zenoh.Sample) -> None:
         """Zenoh thread: copy and store, nothing more."""
         kind = "delete" if sample.kind == zenoh.SampleKind.DELETE else "put"
-        self.store.offer(str(sample.key_expr), sample.payload.to_bytes(), self._local.now(), kind)
+        self.store.offer(str(sample.key_expr), sample.payload.to_bytes(), self.clock.now(), kind)
 
-    def _latency(self, rx_local: float, msg_t: float) -> float | None:
+    def _on_actor_sample(self, sample: zenoh.Sample) -> None:
+        """Zenoh thread: decode a pose or NPC batch into the view's inbox (no waiting)."""
+        rx_t = self.clock.now()
+        try:
+            key = parse(str(sample.key_expr))
+        except KeySpaceError:
+            self.feed.bad["key"] += 1
+            return
+        self.feed.decoded(key.channel, sample.payload.to_bytes(), key.node_id, rx_t)
+
+    def _latency(self, rx_t: float, msg_t: float) -> float | None:
         if not self.clock.synced:
             return None  # no offset measured yet: a number now would be a guess
-        return rx_local + self.clock.offset - msg_t
+        return rx_t - msg_t
 
     # ------------------------------------------------------------------ render loop
 
@@ -113,7 +144,7 @@ class LiveView:
             now = self._local.now()
             if duration_s is not None and now - start >= duration_s:
                 break
-            self.render_once(now)
+            self.render_once(self.clock.now())
             next_frame += period
             after = self._local.now()
             if after > next_frame:  # overran: skip the frames we missed, do not catch up
@@ -121,19 +152,20 @@ class LiveView:
                 self.stats.skipped_frames += missed
                 next_frame += missed * period
             stop.wait(max(0.0, next_frame - after))
-        self.render_once(self._local.now())
+        self.render_once(self.clock.now())
         return self.stats
 
     def render_once(self, now: float) -> None:
+        """One frame at session time `now` [s]."""
         batch = self.store.take()
         self.stats.samples += sum(batch.counts.values())
         self.world.apply(batch)
         if self.world.newcomers:
             self.world.newcomers = False
             self._want_snapshot.set()  # learn the newcomer's extent and kind
-        self.world.expire(now, self._settings.despawn_timeout_s)
+        self.view.update(now)
         self.world.update_rates(now)
-        self._scene.render(self.world)
+        self._scene.render(self.world, self.view, now)
         self.stats.frames += 1
 
     # ------------------------------------------------------------------ queries
@@ -144,15 +176,15 @@ class LiveView:
         self._want_snapshot.set()
         while not self._stop_queries.is_set():
             now = self._local.now()
+            if now >= next_sync:  # first: receive times are session times once it is synced
+                self._sync_clock()
+                next_sync = now + s.clock_sync_s
             if self.world.map is None and now >= next_map:
                 self._ask("map")
                 next_map = now + s.map_retry_s
             if self._want_snapshot.is_set():
                 self._want_snapshot.clear()
                 self._ask("snapshot")
-            if now >= next_sync:
-                self._sync_clock()
-                next_sync = now + s.clock_sync_s
             self._stop_queries.wait(0.05)
 
     def _ask(self, name: str, payload: bytes | None = None) -> bytes | None:
@@ -164,7 +196,7 @@ class LiveView:
                 if reply.ok is not None:
                     data = reply.ok.payload.to_bytes()
                     if name != "clock":
-                        self.store.offer(key, data, self._local.now())
+                        self.store.offer(key, data, self.clock.now())
                     return data
         except zenoh.ZError as exc:
             log.warning("query %s failed: %s", key, exc)

@@ -1,8 +1,15 @@
 """`carlaverse view FILE.mcap`: render a recording as the live view would have.
 
-Recorded samples go through the same store, model and scene as live ones, with the
-recorder's receive time (MCAP log time) standing in for the local clock, and frames every
-1/rate s of that time. Authority replies kept in the recording supply the map and extents.
+Recorded samples go through the same store, model, world view and scene as live ones, in
+receive order, with the recorder's receive time (MCAP log time) standing in for the receive
+time, and frames every 1/rate s of that time: the view interpolates (one render time per
+frame) from what had arrived by then, exactly as it would have live. Authority replies kept in
+the recording supply the map and extents.
+
+Receive times must be session times for the view. A carlaverse session's time is wall-aligned,
+so log time is used as it is when the first pose's log time minus its own time is a plausible
+latency; otherwise (a synthetic session, a clock far off) log times are moved onto the session
+clock by that difference, and latencies are not shown, since they could not be measured.
 """
 
 from __future__ import annotations
@@ -11,12 +18,19 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from carlaverse.fabric.remote_actor import InterpolationSettings
+from carlaverse.fabric.world_view import WorldView
+from carlaverse.keys import KeySpaceError, parse
 from carlaverse.recording.reading import iter_samples
+from carlaverse.render.recording import first_pose
+from carlaverse.viz.live import VIEW_ID, viewer_interpolation
+from carlaverse.viz.raw import ActorFeed
 from carlaverse.viz.scene import SceneLogger
 from carlaverse.viz.store import SampleStore
 from carlaverse.viz.world import WorldModel
 
 PLAUSIBLE_LATENCY_S = 10.0  # [s] above this (or below 0) the two clocks are not comparable
+ACTOR_CHANNELS = {("ego", "pose"), ("world", "npc")}
 
 
 @dataclass(slots=True)
@@ -26,35 +40,61 @@ class PlaybackStats:
 
 
 def _latency(rx_t: float, msg_t: float) -> float | None:
-    """Log time is wall time; carlaverse session time is wall-aligned, a synthetic one not."""
     latency = rx_t - msg_t
     return latency if 0.0 <= latency < PLAUSIBLE_LATENCY_S else None
 
 
+def receive_offset(path: str | Path) -> tuple[float, bool]:
+    """[s] log time − session time, and whether the two clocks were comparable."""
+    pose = first_pose(path)
+    if pose is None:
+        return 0.0, True
+    offset = (pose.log_time_ns - pose.publish_time_ns) / 1e9
+    comparable = 0.0 <= offset < PLAUSIBLE_LATENCY_S
+    return (0.0 if comparable else offset), comparable
+
+
 def render_recording(
-    path: str | Path, scene: SceneLogger, rate_hz: float = 20.0, despawn_timeout_s: float = 5.0
+    path: str | Path,
+    scene: SceneLogger,
+    rate_hz: float = 20.0,
+    interpolation: InterpolationSettings | None = None,
 ) -> PlaybackStats:
     """Log a whole recording into `scene`'s stream; returns how much was rendered."""
-    store, world, stats = SampleStore(), WorldModel(latency_of=_latency), PlaybackStats()
+    offset, comparable = receive_offset(path)
+    view = WorldView(VIEW_ID, interpolation or viewer_interpolation())
+    feed = ActorFeed(view, scene.raw)
+    store, stats = SampleStore(), PlaybackStats()
+    world = WorldModel(view, latency_of=_latency if comparable else None)
     period = 1.0 / rate_hz
     next_frame: float | None = None
 
     def frame(at: float) -> None:
         world.apply(store.take())
         world.newcomers = False
-        world.expire(at, despawn_timeout_s)
+        view.update(at)
         world.update_rates(at)
-        scene.render(world)
+        scene.render(world, view, at)
         stats.frames += 1
 
     for sample in iter_samples(path):
-        rx = sample.log_time_ns / 1e9
+        rx = sample.log_time_ns / 1e9 - offset
         next_frame = rx + period if next_frame is None else next_frame
         if rx >= next_frame:
             frame(next_frame)
             next_frame += period * (math.floor((rx - next_frame) / period) + 1)  # skip silence
         store.offer(sample.key, sample.payload, rx, sample.kind)
+        _feed_actor(feed, sample.key, sample.payload, rx)
         stats.samples += 1
     if next_frame is not None:
         frame(next_frame)
     return stats
+
+
+def _feed_actor(feed: ActorFeed, key: str, payload: bytes, rx_t: float) -> None:
+    try:
+        parsed = parse(key)
+    except KeySpaceError:
+        return  # the store counts unknown keys
+    if (parsed.area, parsed.channel) in ACTOR_CHANNELS:
+        feed.decoded(parsed.channel, payload, parsed.node_id, rx_t)

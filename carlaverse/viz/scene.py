@@ -1,12 +1,11 @@
-"""Log a `WorldModel` into Rerun on the `sim_time` timeline (session seconds).
+"""Log a session into Rerun on the `sim_time` timeline (session seconds).
 
 Entity layout (what tests and blueprints rely on):
     world/map/lanes/<kind>     LineStrips3D, static: lane centre lines by kind
     world/map/areas/<kind>     LineStrips3D, static: junctions and other polygons
-    world/egos/<node_id>       Boxes3D, one per ego, labelled, coloured by actor kind
-    world/npcs/<npc_id>        Boxes3D, one per NPC
-    world/trails/<node_id>     LineStrips3D: where each ego has been
-    world/trails/npcs          LineStrips3D: the NPCs' recent paths, one entity for all
+    world/egos/, world/npcs/,  the actors where the world view draws them, at its render
+    world/trails/              time (see `actors`)
+    world/raw/                 with `--raw`: the samples as received (see `raw`)
     world/lights/<tls_id>      Points3D: one point per controlled link at its stop line,
                                coloured and labelled by the link's state (r y g G o O s u)
     world/impulses/<node_id>   Arrows3D: collision impulse at the contact point
@@ -14,8 +13,9 @@ Entity layout (what tests and blueprints rely on):
     weather/<quantity>         Scalars, and weather/summary TextDocument
     stats/rate_hz/<node_id>    Scalars: pose rate per node
     stats/latency_ms/<node_id> Scalars: one-way latency per node
-Each actor is logged at its own sample's session time, so positions on the timeline are the
-published poses exactly; an actor that did not change is not logged again.
+Actors come from the fabric's `WorldView` (one render time per frame, interpolated or
+projected as its settings say), everything else from the `WorldModel`; only what changed is
+logged.
 """
 
 from __future__ import annotations
@@ -25,22 +25,16 @@ import math
 import rerun as rr
 
 from carlaverse import messages as m
-from carlaverse.viz.world import Actor, WorldModel
+from carlaverse.fabric.world_view import WorldView
+from carlaverse.viz.actors import KIND_COLORS, ActorLayer, quaternion
+from carlaverse.viz.raw import RawTap
+from carlaverse.viz.world import WorldModel
+
+__all__ = ["KIND_COLORS", "LIGHT_COLORS", "SceneLogger", "quaternion"]
 
 IMPULSE_SCALE = 1e-3  # [m per N·s] arrow length for an impulse
 LANE_LIFT_M = 0.02  # [m] above the ground so lanes do not z-fight with a ground plane
 
-KIND_COLORS: dict[str, tuple[int, int, int]] = {
-    "car": (66, 135, 245),
-    "van": (120, 100, 230),
-    "truck": (150, 90, 40),
-    "bus": (230, 170, 30),
-    "motorcycle": (220, 60, 160),
-    "bicycle": (40, 190, 90),
-    "pedestrian": (250, 120, 40),
-    "other": (150, 150, 150),
-}
-EGO_COLOR_BOOST = 1.25  # egos are drawn brighter than NPCs of the same kind
 LANE_COLORS: dict[str, tuple[int, int, int]] = {
     "road": (90, 90, 90),
     "sidewalk": (170, 170, 150),
@@ -61,61 +55,30 @@ LIGHT_COLORS: dict[str, tuple[int, int, int]] = {
 }
 
 
-def quaternion(roll: float, pitch: float, yaw: float) -> rr.Quaternion:
-    """Body-to-world rotation for intrinsic Z-Y-X (yaw, pitch, roll) angles [rad]."""
-    cr, sr = math.cos(roll / 2), math.sin(roll / 2)
-    cp, sp = math.cos(pitch / 2), math.sin(pitch / 2)
-    cy, sy = math.cos(yaw / 2), math.sin(yaw / 2)
-    return rr.Quaternion(
-        xyzw=[
-            sr * cp * cy - cr * sp * sy,
-            cr * sp * cy + sr * cp * sy,
-            cr * cp * sy - sr * sp * cy,
-            cr * cp * cy + sr * sp * sy,
-        ]
-    )
-
-
-def actor_color(actor: Actor) -> tuple[int, int, int]:
-    base = KIND_COLORS.get(actor.kind, KIND_COLORS["other"])
-    if not actor.ego:
-        return base
-    return tuple(min(255, round(c * EGO_COLOR_BOOST)) for c in base)  # type: ignore[return-value]
-
-
-def actor_path(actor: Actor) -> str:
-    return f"world/{'egos' if actor.ego else 'npcs'}/{actor.id}"
-
-
 class SceneLogger:
-    """Writes what changed in a WorldModel to one explicit recording stream."""
+    """Writes a session to one explicit recording stream: actors every frame, the rest on
+    change."""
 
-    def __init__(self, rec: rr.RecordingStream, trails: bool = True) -> None:
+    def __init__(self, rec: rr.RecordingStream, trails: bool = True, raw: bool = False) -> None:
         self.rec = rec
-        self.trails = trails
+        self.actors = ActorLayer(rec, trails)
+        # with --raw the sources (live, playback) tap the samples here, drawn beside the actors
+        self.raw = RawTap() if raw else None
         self.frames = 0
-        self._styles: dict[str, tuple[str, m.Extent]] = {}  # entity -> what its box last showed
         self.rec.log("world", rr.ViewCoordinates.RIGHT_HAND_Z_UP, static=True)
 
     def _at(self, t: float) -> None:
         self.rec.set_time("sim_time", duration=t)
 
-    def render(self, world: WorldModel) -> None:
-        """Log everything that changed since the last call, and clear the change flags."""
+    def render(self, world: WorldModel, view: WorldView, now: float) -> float:
+        """Log one frame at session time `now`; returns the render time the actors show [s]."""
         if world.map_dirty and world.map is not None:
             self.log_map(world.map)
             world.map_dirty = False
             world.lights_dirty = world.lights is not None  # now they can be placed
-        self._clear_removed(world)
-        for actor in world.egos.values():
-            if actor.dirty:
-                self.log_actor(actor)
-                self._log_trail(actor)
-        moved = [a for a in world.npcs.values() if a.dirty]
-        for actor in moved:
-            self.log_actor(actor)
-        if moved and self.trails:
-            self._log_npc_trails(world, max(a.t for a in moved))
+        render_t = self.actors.draw(view, now, world.looks)
+        if self.raw is not None:
+            self.raw.log(self.rec)
         if world.lights_dirty and world.lights is not None:
             self.log_lights(world.lights, world.map)
             world.lights_dirty = False
@@ -126,6 +89,7 @@ class SceneLogger:
         self._log_events(world)
         self.log_stats(world)
         self.frames += 1
+        return render_t
 
     # ------------------------------------------------------------------ map
 
@@ -148,55 +112,6 @@ class SceneLogger:
             areas.setdefault(area.kind, []).append([*ring, ring[0]] if ring else ring)
         for kind, strips in areas.items():
             self.rec.log(f"world/map/areas/{kind}", rr.LineStrips3D(strips), static=True)
-
-    # ------------------------------------------------------------------ actors
-
-    def log_actor(self, actor: Actor) -> None:
-        """The actor's box at its sample's time; what does not change is logged only once."""
-        self._at(actor.t)
-        e = actor.extent
-        x, y, z = actor.xyz
-        path = actor_path(actor)
-        style = (actor.kind, e)
-        center, rotation = [(x, y, z + e.height / 2)], [quaternion(*actor.rpy)]
-        if self._styles.get(path) == style:
-            # the hot path: rerun keeps the rest (latest-at), so only move the box
-            self.rec.log(path, rr.Boxes3D.from_fields(centers=center, quaternions=rotation))
-        else:
-            self._styles[path] = style
-            box = rr.Boxes3D(
-                centers=center,
-                half_sizes=[(e.length / 2, e.width / 2, e.height / 2)],
-                quaternions=rotation,
-                labels=[actor.id],
-                colors=[actor_color(actor)],
-                fill_mode="solid" if actor.ego else None,
-            )
-            self.rec.log(path, box)
-        actor.dirty = False
-
-    def _log_trail(self, actor: Actor) -> None:
-        if self.trails and len(actor.trail) > 1:
-            strip = rr.LineStrips3D([list(actor.trail)], colors=[actor_color(actor)], radii=[0.08])
-            self.rec.log(f"world/trails/{actor.id}", strip)
-
-    def _log_npc_trails(self, world: WorldModel, t: float) -> None:
-        """All NPC trails as one entity: one call per frame instead of one per NPC."""
-        self._at(t)
-        npcs = [a for a in world.npcs.values() if len(a.trail) > 1]
-        strips = [list(a.trail) for a in npcs]
-        colors = [actor_color(a) for a in npcs]
-        self.rec.log("world/trails/npcs", rr.LineStrips3D(strips, colors=colors, radii=[0.05]))
-
-    def _clear_removed(self, world: WorldModel) -> None:
-        for actor_id, ego, t in world.removed:
-            self._at(t)
-            path = f"world/{'egos' if ego else 'npcs'}/{actor_id}"
-            self.rec.log(path, rr.Clear(recursive=True))
-            self._styles.pop(path, None)
-            if ego:
-                self.rec.log(f"world/trails/{actor_id}", rr.Clear(recursive=True))
-        world.removed.clear()
 
     # ------------------------------------------------------------------ lights, weather
 

@@ -1,45 +1,37 @@
-"""The viewer's model of a session: actors, map, lights, weather, events and node statistics.
+"""The viewer's model of a session around its actors: map, lights, weather, events, stats.
 
 Fed by `Batch`es from the `SampleStore` (live) or by recorded samples (playback), on the
 render thread only. It decodes, validates (bad payloads are counted per key and dropped) and
 marks what changed, so the scene logs only that.
+
+Where actors are drawn is the fabric's `WorldView`'s business (one render time per view), not
+this model's: pose and NPC streams go straight into the view's inbox. The model hands the view
+what decides membership — presence tokens, spawn and despawn events, snapshots — in receive
+order, and keeps what the view does not: each ego's kind and extent (from snapshots).
 """
 
 from __future__ import annotations
 
 import logging
-from collections import Counter, deque
+from collections import Counter
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 from carlaverse import messages as m
+from carlaverse.fabric.world_view import WorldView
 from carlaverse.viz.store import Batch, Sample
 
 log = logging.getLogger(__name__)
 
-TRAIL_EGO = 600  # points kept per ego trail (30 s at 20 Hz)
-TRAIL_NPC = 40  # points kept per NPC trail (2 s at 20 Hz)
 DEFAULT_EXTENT = m.Extent()
 
 
-@dataclass(slots=True)
-class Actor:
-    id: str
-    ego: bool
-    kind: str  # one of messages.ACTOR_KINDS
-    extent: m.Extent
-    t: float = 0.0  # [s] session time of the pose
-    xyz: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [m]
-    rpy: tuple[float, float, float] = (0.0, 0.0, 0.0)  # [rad] roll, pitch, yaw
-    trail: deque[tuple[float, float, float]] = field(default_factory=deque)
-    rx_t: float = 0.0  # [s] local time of the last sample
-    dirty: bool = True
+@dataclass(frozen=True, slots=True)
+class ActorLook:
+    """How an actor is drawn: its kind (one of messages.ACTOR_KINDS, or "other") and extent."""
 
-    def move(
-        self, t: float, xyz: tuple[float, float, float], rpy: tuple[float, float, float]
-    ) -> None:
-        self.t, self.xyz, self.rpy, self.dirty = t, xyz, rpy, True
-        self.trail.append(xyz)
+    kind: str = "car"
+    extent: m.Extent = DEFAULT_EXTENT
 
 
 @dataclass(slots=True)
@@ -62,23 +54,26 @@ class Event:
 class WorldModel:
     """Latest decoded state of a session, with change flags for the scene logger."""
 
-    def __init__(self, latency_of: Callable[[float, float], float | None] | None = None) -> None:
+    def __init__(
+        self,
+        view: WorldView | None = None,
+        latency_of: Callable[[float, float], float | None] | None = None,
+    ) -> None:
+        self.view = view  # told who is present; None: a model without actors (tests)
         # latency_of(rx_t, msg_t) -> one-way latency [s], or None when clocks are not comparable
         self._latency_of = latency_of
         self.map: m.MapReply | None = None
         self.map_dirty = False
-        self.egos: dict[str, Actor] = {}
-        self.npcs: dict[str, Actor] = {}
+        self.looks: dict[str, ActorLook] = {}  # ego id -> kind and extent, from snapshots
         self.lights: m.LightsState | None = None
         self.lights_dirty = False
         self.weather: m.Weather | None = None
         self.weather_dirty = False
         self.impulses: list[tuple[str, m.Impulse]] = []
         self.events: list[Event] = []
-        self.removed: list[tuple[str, bool, float]] = []  # (actor id, is ego, session time)
         self.nodes: dict[str, NodeStats] = {}
         self.session_t = 0.0  # [s] the newest session time any message carried
-        self.newcomers = False  # an ego appeared: the viewer asks for a snapshot (extents)
+        self.newcomers = False  # an ego without a known look: the viewer asks for a snapshot
         self.bad: Counter[str] = Counter()
         self.dropped_events = 0
 
@@ -98,8 +93,8 @@ class WorldModel:
         if key.area == "node":
             self._presence(key.node_id, sample)
             return
-        if codec is None or sample.kind != "put":
-            return
+        if codec is None or sample.kind != "put" or (key.area, key.channel) == ("world", "npc"):
+            return  # NPC batches go to the view as they are; it validates them
         try:
             msg = codec.decode(sample.payload)
         except m.MessageError as exc:
@@ -114,8 +109,6 @@ class WorldModel:
             self.session_t = max(self.session_t, t)
         if isinstance(msg, m.Pose):
             self._pose(node_id, msg, rx_t)
-        elif isinstance(msg, m.NpcBatch):
-            self._npcs(msg, rx_t)
         elif isinstance(msg, m.LightsState):
             self.lights, self.lights_dirty = msg, True
         elif isinstance(msg, m.Weather):
@@ -123,7 +116,7 @@ class WorldModel:
         elif isinstance(msg, m.Impulse):
             self.impulses.append((node_id, msg))
         elif isinstance(msg, m.Spawned | m.Despawned | m.ContactStarted | m.ContactEnded):
-            self._event(msg)
+            self._event(msg, rx_t)
         elif isinstance(msg, m.MapReply):
             self.map, self.map_dirty = msg, True
         elif isinstance(msg, m.Snapshot):
@@ -131,79 +124,45 @@ class WorldModel:
 
     # ------------------------------------------------------------------ actors
 
-    def _ego(self, node_id: str) -> Actor:
-        actor = self.egos.get(node_id)
-        if actor is None:
-            actor = Actor(node_id, True, "car", DEFAULT_EXTENT, trail=deque(maxlen=TRAIL_EGO))
-            self.egos[node_id] = actor
-            self.newcomers = True
-        return actor
-
     def _pose(self, node_id: str, pose: m.Pose, rx_t: float) -> None:
-        actor = self._ego(node_id)
-        if pose.t < actor.t:
-            return  # an older sample overtaken by a newer one
-        actor.move(pose.t, (pose.x, pose.y, pose.z), (pose.roll, pose.pitch, pose.yaw))
-        actor.rx_t = rx_t
+        """Stream health only: the view draws the actor from its own copy of the stream."""
+        if node_id not in self.looks:
+            self.newcomers = True  # learn its kind and extent
         stats = self.nodes.setdefault(node_id, NodeStats(window_start=rx_t))
         if self._latency_of is not None:
             stats.latency_s = self._latency_of(rx_t, pose.t)
-
-    def _npcs(self, batch: m.NpcBatch, rx_t: float) -> None:
-        try:
-            rows = batch.array()
-        except ValueError:
-            self.bad["world/npc"] += 1
-            return
-        if len(rows) != len(batch.ids):
-            self.bad["world/npc"] += 1
-            return
-        seen = set()
-        for npc_id, row in zip(batch.ids, rows.tolist(), strict=True):
-            seen.add(npc_id)
-            self._npc(npc_id, row, batch.t, rx_t)
-        for gone in set(self.npcs) - seen:
-            del self.npcs[gone]
-            self.removed.append((gone, False, batch.t))
-
-    def _npc(self, npc_id: str, row: tuple, t: float, rx_t: float) -> None:
-        x, y, z, yaw, _vx, _vy, _wz, length, width, height, kind, _r, _lights = row
-        actor = self.npcs.get(npc_id)
-        if actor is None:
-            kind_name = m.ACTOR_KINDS[kind] if kind < len(m.ACTOR_KINDS) else "other"
-            extent = m.Extent(length, width, height)
-            actor = Actor(npc_id, False, kind_name, extent, trail=deque(maxlen=TRAIL_NPC))
-            self.npcs[npc_id] = actor
-        actor.move(t, (x, y, z), (0.0, 0.0, yaw))
-        actor.rx_t = rx_t
 
     def _snapshot(self, snap: m.Snapshot, rx_t: float) -> None:
         for info in snap.egos:
             if not info.actor_kind:
                 continue  # an observer: a member of the session without a body
-            if info.node_id not in self.egos and info.pose is None:
-                continue  # nowhere to draw it yet; its first pose will create it
-            actor = self._ego(info.node_id)
-            actor.extent = info.extent
-            actor.kind = info.actor_kind if info.actor_kind in m.ACTOR_KINDS else "other"
-            actor.dirty = True
-            if info.pose is not None and info.pose.t >= actor.t:
-                self._pose(info.node_id, info.pose, rx_t)
+            kind = info.actor_kind if info.actor_kind in m.ACTOR_KINDS else "other"
+            self.looks[info.node_id] = ActorLook(kind, info.extent)
         if snap.lights is not None and self.lights is None:
             self.lights, self.lights_dirty = snap.lights, True
         if snap.weather is not None and self.weather is None:
             self.weather, self.weather_dirty = snap.weather, True
+        if self.view is not None:
+            self.view.inbox.append(("snapshot", snap, rx_t))
 
     def _presence(self, node_id: str, sample: Sample) -> None:
+        if self.view is None:
+            return
         if sample.kind == "delete":
-            self._remove_ego(node_id, self.session_t, "left (liveliness lost)")
+            self.view.push_gone(node_id, "left (liveliness lost)", sample.rx_t)
+        else:
+            self.view.push_present(node_id)
 
-    def _event(self, event: m.WorldEvent) -> None:
+    def _event(self, event: m.WorldEvent, rx_t: float) -> None:
         if isinstance(event, m.Spawned):
             self.events.append(Event(event.t, f"spawned {event.node_id} ({event.kind})"))
             self.newcomers = True
+            if self.view is not None:
+                self.view.push_present(event.node_id)
         elif isinstance(event, m.Despawned):
-            self._remove_ego(event.node_id, event.t, f"despawned: {event.reason}")
+            # the view reports the removal (with this reason) when it applies it
+            if self.view is not None:
+                self.view.push_gone(event.node_id, f"despawned: {event.reason}", rx_t)
         elif isinstance(event, m.ContactStarted):
             speed = event.relative_speed_mps
             text = f"contact {event.contact_id}: {event.a} × {event.b} at {speed:.1f} m/s"
@@ -211,21 +170,12 @@ class WorldModel:
         else:
             self.events.append(Event(event.t, f"contact {event.contact_id} ended"))
 
-    def _remove_ego(self, node_id: str, t: float, why: str) -> None:
-        if self.egos.pop(node_id, None) is not None:
-            self.removed.append((node_id, True, t))
-            self.events.append(Event(t, f"{node_id} {why}"))
-
-    def expire(self, now_rx: float, timeout_s: float) -> None:
-        """Drop egos silent for `timeout_s` (no ghost actors when a node vanishes)."""
-        for node_id, actor in list(self.egos.items()):
-            if now_rx - actor.rx_t > timeout_s:
-                self._remove_ego(node_id, self.session_t, f"silent for {timeout_s:g} s")
-
     def update_rates(self, now_rx: float, window_s: float = 1.0) -> None:
         """Close a rate window per node once it is `window_s` old."""
         for stats in self.nodes.values():
             span = now_rx - stats.window_start
-            if span >= window_s:
+            if span < 0:  # the session clock stepped back (first sync): start a new window
+                stats.samples, stats.window_start = 0, now_rx
+            elif span >= window_s:
                 stats.rate_hz = stats.samples / span
                 stats.samples, stats.window_start = 0, now_rx

@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import math
 import signal
+import statistics
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -12,7 +15,7 @@ from carlaverse import cli, messages
 from carlaverse.keys import parse
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.sink import McapSink
-from carlaverse.recording.synthetic import light_state, synthetic_map
+from carlaverse.recording.synthetic import ego_pose, light_state, npc_rows, synthetic_map
 from carlaverse.viz.scene import LIGHT_COLORS
 from tests.recording.conftest import World
 from tests.support import Proc, wait_until
@@ -33,27 +36,94 @@ def _published(world: World) -> dict[str, list]:
     return out
 
 
-def _check_scene(rows: dict[str, list[dict]], published: dict[str, list], egos: list[str]) -> None:
-    # an entity per actor, its boxes exactly at published poses (float32 on the wire)
-    for node_id in egos:
+# Interpolating a 50 Hz pose stream of a 10 m/s, 20 m-radius circle with Hermite is exact
+# to ~1e-5 m; what error there is comes from frames whose render time ran past the newest
+# sample (a late delivery on a loaded machine): dead reckoning along the tangent for dt is
+# off by v² dt² / 2r, 2.5 cm at dt = 0.1 s, and is then blended out over 0.1 s. So most
+# frames are within 1 cm, nearly all within 5 cm (dt <= 0.14 s); 0.4 m is the limit of a
+# 0.25 s extrapolation (v² dt² / 2r = 0.16 m) plus the float32 wire.
+MEDIAN_ERROR_M = 0.01  # [m]
+P95_ERROR_M = 0.05  # [m]
+MAX_ERROR_M = 0.4  # [m]
+
+
+def _errors(
+    boxes: list[dict], truth: Callable[[float], tuple[float, float]], span: tuple[float, float]
+) -> list[float]:
+    """Distance of each logged box (at its render time) from the scripted path then."""
+    out = []
+    for row in boxes:
+        t = row["sim_time"]
+        if span[0] <= t <= span[1] and row.get("Boxes3D:centers"):
+            x, y, _ = row["Boxes3D:centers"][0]
+            tx, ty = truth(t)
+            out.append(math.hypot(x - tx, y - ty))
+    return out
+
+
+def _assert_close(errors: list[float], what: str) -> None:
+    assert len(errors) >= 10, f"{what}: only {len(errors)} frames in the published span"
+    median, p95 = statistics.median(errors), statistics.quantiles(errors, n=20)[-1]
+    summary = f"{what}: median {median:.4f} m, p95 {p95:.4f} m, max {max(errors):.4f} m"
+    print(summary)
+    assert median <= MEDIAN_ERROR_M, summary
+    assert p95 <= P95_ERROR_M, summary
+    assert max(errors) <= MAX_ERROR_M, summary
+
+
+def _check_actors(rows: dict[str, list[dict]], published: dict[str, list], egos: list[str]) -> None:
+    """Every ego and NPC at the scripted truth at the render times the view logged it."""
+    for i, node_id in enumerate(egos):
+        poses = published[node_id]
+        span = (poses[0].t, poses[-1].t)
         boxes = rows[f"/world/egos/{node_id}"]
-        truth = {round(p.t, 6): p for p in published[node_id]}
-        assert len(boxes) >= 5, f"{node_id}: only {len(boxes)} frames"
-        for row in boxes:
-            pose = truth[round(row["sim_time"], 6)]
-            x, y, z = row["Boxes3D:centers"][0]
-            assert (x, y) == pytest.approx((pose.x, pose.y), abs=1e-4)
-            assert z == pytest.approx(pose.z + messages.Extent().height / 2, abs=1e-4)
+        errors = _errors(boxes, lambda t, i=i: _xy(ego_pose(i, 0, t)), span)
+        _assert_close(errors, node_id)
+        sample_times = {round(p.t, 6) for p in poses}
+        between = [r for r in boxes if round(r["sim_time"], 6) not in sample_times]
+        assert len(between) > len(boxes) // 2, "drawn at render times, not at the samples' times"
         assert boxes[0]["Boxes3D:labels"] == [node_id]  # then rerun keeps it (latest-at)
         assert boxes[0]["Boxes3D:half_sizes"] and boxes[0]["Boxes3D:colors"]
+        z = boxes[0]["Boxes3D:centers"][0][2]
+        assert z == pytest.approx(messages.Extent().height / 2, abs=1e-4)
         assert rows[f"/world/trails/{node_id}"], "a trajectory per ego"
-    batches = {round(b.t, 6): b for b in published["npc"]}
+    batches = published["npc"]
+    span = (batches[0].t, batches[-1].t)
     assert rows["/world/trails/npcs"], "the NPCs' recent paths"
-    for i, npc_id in enumerate(published["npc"][0].ids):
-        assert rows[f"/world/npcs/{npc_id}"][0]["Boxes3D:labels"] == [npc_id]
-        for row in rows[f"/world/npcs/{npc_id}"]:
-            r = batches[round(row["sim_time"], 6)].array()[i]
-            assert row["Boxes3D:centers"][0][:2] == pytest.approx((r["x"], r["y"]), abs=1e-4)
+    count = len(batches[0].ids)
+    for i, npc_id in enumerate(batches[0].ids):
+        boxes = rows[f"/world/npcs/{npc_id}"]
+        assert boxes[0]["Boxes3D:labels"] == [npc_id]
+        truth = lambda t, i=i: tuple(float(v) for v in npc_rows(count, t)[i][["x", "y"]])  # noqa: E731
+        _assert_close(_errors(boxes, truth, span), npc_id)
+
+
+def _check_raw(rows: dict[str, list[dict]], published: dict[str, list], egos: list[str]) -> None:
+    """`--raw`: every pose and NPC sample exactly as published, at its own time."""
+    for node_id in egos:
+        raw = rows[f"/world/raw/egos/{node_id}"]
+        truth = {round(p.t, 6): p for p in published[node_id]}
+        assert len(raw) == len(truth), f"{node_id}: {len(raw)} raw samples of {len(truth)}"
+        for row in raw:
+            pose = truth[round(row["sim_time"], 6)]
+            assert row["Points3D:positions"][0][:2] == pytest.approx(_xy(pose), abs=1e-4)
+    batches = {round(b.t, 6): b for b in published["npc"]}
+    raw = rows["/world/raw/npcs"]
+    assert len(raw) == len(batches)
+    for row in raw:
+        r = batches[round(row["sim_time"], 6)].array()
+        got = [tuple(p[:2]) for p in row["Points3D:positions"]]
+        assert got == pytest.approx(
+            [(float(a), float(b)) for a, b in zip(r["x"], r["y"], strict=True)], abs=1e-4
+        )
+
+
+def _xy(pose: messages.Pose) -> tuple[float, float]:
+    return pose.x, pose.y
+
+
+def _check_scene(rows: dict[str, list[dict]], published: dict[str, list], egos: list[str]) -> None:
+    _check_actors(rows, published, egos)
     # light states: one point per controlled link, labelled and coloured by its state
     # (the synthetic light program is a function of time, snapshots included)
     light_rows = rows["/world/lights/J0"]
@@ -75,12 +145,16 @@ def _rgba(rgb: tuple[int, int, int]) -> int:
     return (r << 24) | (g << 16) | (b << 8) | 0xFF
 
 
-def test_view_save_holds_actors_lights_and_map(world: World, tmp_path: Path) -> None:
+def test_view_save_holds_interpolated_actors_raw_samples_lights_and_map(
+    world: World, tmp_path: Path
+) -> None:
     rrd = tmp_path / "x.rrd"
     counted: list[int] = []
     observer = world.connect()
     sub = observer.declare_subscriber("carlaverse/view/**", lambda s: counted.append(1))
-    view = Proc(["view", "--session", "view", "--connect", world.endpoint, "--save", str(rrd)])
+    view = Proc(
+        ["view", "--session", "view", "--connect", world.endpoint, "--save", str(rrd), "--raw"]
+    )
     try:
         # the viewer subscribes, then asks for the map: once asked, it listens
         wait_until(lambda: world.synthetic.queries["map"], 20, "the viewer to ask for the map")
@@ -94,7 +168,9 @@ def test_view_save_holds_actors_lights_and_map(world: World, tmp_path: Path) -> 
         code = view.stop(signal.SIGINT)
     assert code == 0, view.output()[-2000:]
     rows = rrd_rows(rrd)
-    _check_scene(rows, _published(world), ["ego-0", "ego-1"])
+    published = _published(world)
+    _check_scene(rows, published, ["ego-0", "ego-1"])
+    _check_raw(rows, published, ["ego-0", "ego-1"])
     assert rows["/world/impulses/ego-0"], "collision impulses as arrows"
     assert any("spawned ego-0" in r["TextLog:text"][0] for r in rows["/events"])
     assert rows["/weather/precipitation"] and rows["/weather/summary"]
@@ -116,9 +192,16 @@ def test_view_renders_a_recording(world: World, tmp_path: Path) -> None:
         recorder.stop()
     finally:
         session.close()
-    rrd = tmp_path / "from-mcap.rrd"
+    published = _published(world)
+    rrd, raw_rrd = tmp_path / "from-mcap.rrd", tmp_path / "from-mcap-raw.rrd"
     assert cli.main(["view", str(mcap), "--save", str(rrd)]) == 0
-    _check_scene(rrd_rows(rrd), _published(world), ["ego-0", "ego-1"])
+    rows = rrd_rows(rrd)
+    _check_scene(rows, published, ["ego-0", "ego-1"])
+    assert not [path for path in rows if path.startswith("/world/raw")], "raw only with --raw"
+    assert cli.main(["view", str(mcap), "--save", str(raw_rrd), "--raw"]) == 0
+    raw_rows = rrd_rows(raw_rrd)
+    _check_raw(raw_rows, published, ["ego-0", "ego-1"])
+    _check_actors(raw_rows, published, ["ego-0", "ego-1"])
 
 
 def test_view_refuses_without_an_output(capsys: pytest.CaptureFixture[str]) -> None:

@@ -1,13 +1,16 @@
-"""The viewer's inbox and model: O(1) hand-over, bounded events, bad input counted."""
+"""The viewer's inbox, model and feed: O(1) hand-over, bounded events, bad input counted."""
 
 from __future__ import annotations
 
 import numpy as np
 
 from carlaverse import messages as m
+from carlaverse.fabric.remote_actor import InterpolationSettings
+from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import Keys
+from carlaverse.viz.raw import ActorFeed, RawTap
 from carlaverse.viz.store import SampleStore
-from carlaverse.viz.world import WorldModel
+from carlaverse.viz.world import ActorLook, WorldModel
 
 KEYS = Keys("w")
 
@@ -25,26 +28,35 @@ def test_store_keeps_newest_state_and_every_event() -> None:
     assert not store.take().latest, "take() hands everything over once"
 
 
-def test_model_counts_bad_payloads_and_tracks_actors() -> None:
-    store, world = SampleStore(), WorldModel(latency_of=lambda rx, t: rx - t)
+def test_model_counts_bad_payloads_and_hands_membership_to_the_view() -> None:
+    view = WorldView("viewer", InterpolationSettings(render_mode="past"))
+    store, world = SampleStore(), WorldModel(view, latency_of=lambda rx, t: rx - t)
     store.offer(KEYS.pose("a"), b"\x00garbage", 0.0)
     store.offer(KEYS.pose("b"), m.POSE.encode(m.Pose(1, 1.0, 3.0, 4.0, yaw=0.5)), 1.01)
-    rows = np.zeros(2, dtype=m.NPC_DTYPE)
-    store.offer(
-        KEYS.world("npc"), m.NPC_BATCH.encode(m.NpcBatch.pack(1, 1.0, ["n1", "n2"], rows)), 1.0
-    )
+    store.offer(KEYS.node("b"), b"", 1.0)  # b's presence token
     world.apply(store.take())
-    assert world.bad["ego/a/pose"] == 1 and world.bad["world/npc"] == 0
-    assert world.egos["b"].xyz == (3.0, 4.0, 0.0)
+    assert world.bad["ego/a/pose"] == 1
     assert abs(world.nodes["b"].latency_s - 0.01) < 1e-9
-    assert set(world.npcs) == {"n1", "n2"}
-    store.offer(KEYS.world("npc"), m.NPC_BATCH.encode(m.NpcBatch(2, 1.1, ["n1"], b"\x01\x02")), 1.1)
+    assert world.newcomers, "an ego of unknown look: ask for a snapshot"
+    view.update(1.02)
+    assert view.present == {"b"}, "presence is the view's to know"
+    ActorFeed(view).pose("b", m.Pose(2, 1.02, 3.0, 4.0), 1.02)
+    info = m.EgoInfo("b", "scripted", "truck", m.Extent(9.0, 2.5, 3.4), 9000.0)
+    store.offer(KEYS.authority("snapshot"), m.SNAPSHOT.encode(m.Snapshot(1, 1.0, [info])), 1.03)
+    store.offer(KEYS.world("events"), m.WORLD_EVENT.encode(m.Despawned(1, 1.04, "b", "left")), 1.05)
     world.apply(store.take())
-    assert world.bad["world/npc"] == 1 and set(world.npcs) == {"n1", "n2"}, "bad batch ignored"
-    store.offer(
-        KEYS.world("npc"), m.NPC_BATCH.encode(m.NpcBatch.pack(3, 1.2, ["n1"], rows[:1])), 1.2
-    )
-    world.apply(store.take())
-    assert set(world.npcs) == {"n1"} and ("n2", False, 1.2) in world.removed
-    world.expire(now_rx=10.0, timeout_s=5.0)
-    assert "b" not in world.egos, "a silent ego leaves the view"
+    assert world.looks["b"] == ActorLook("truck", m.Extent(9.0, 2.5, 3.4))
+    view.update(1.06)
+    assert [(d.actor_id, d.reason) for d in view.despawns] == [("b", "despawned: left")]
+
+
+def test_feed_drops_malformed_npc_batches_and_taps_raw_samples() -> None:
+    view = WorldView("viewer", InterpolationSettings())
+    feed = ActorFeed(view, RawTap())
+    feed.npc(m.NpcBatch(2, 1.1, ["n1"], b"\x01\x02"), 1.1)
+    feed.decoded("pose", b"\x00garbage", "b", 1.1)
+    assert feed.bad == {"npc": 1, "pose": 1} and not view.inbox and not feed.raw.npcs
+    rows = np.zeros(2, dtype=m.NPC_DTYPE)
+    feed.npc(m.NpcBatch.pack(3, 1.2, ["n1", "n2"], rows), 1.2)
+    view.update(1.2)
+    assert list(view.npcs) == ["n1", "n2"] and len(feed.raw.npcs) == 1
