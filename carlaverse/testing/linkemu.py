@@ -27,7 +27,12 @@ bytes without breaking the Zenoh framing inside it:
 `LinkModel` is the pure delivery schedule (also what the in-process stream simulation of
 `tools/bench/bench_wan.py` uses); the relay runs its own asyncio loop in a thread, after an
 optional `thread_setup` (the WAN harness enters a network namespace there). Timing uses the
-loop's monotonic clock with ~1 ms resolution (epoll's): delays are honoured to about ±1 ms.
+loop's monotonic clock with ~1 ms resolution (epoll's): delays are honoured to about ±1 ms
+on an idle host. A user-space relay schedules from when *it* reads the bytes and writes when
+*it* wakes, so on a loaded host both can be late by the host's scheduling latency (tens of
+ms with more runnable threads than cores); `Direction.trace` keeps, per chunk, when it was
+read, when it was due and when it was written, so the schedule the link applied and the
+host's share of the lateness can be told apart.
 """
 
 from __future__ import annotations
@@ -37,7 +42,7 @@ import contextlib
 import logging
 import random
 import threading
-from collections import Counter
+from collections import Counter, deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Literal
@@ -45,6 +50,7 @@ from typing import Literal
 log = logging.getLogger(__name__)
 
 CHUNK = 65536  # [bytes] read size
+TRACE_CHUNKS = 4096  # chunks whose (read, due, written) times a direction keeps
 
 
 Transport = Literal["tcp", "datagram"]
@@ -106,6 +112,8 @@ class Direction(LinkModel):
         self.blocked_until = 0.0  # [s] loop time; a loss burst holds deliveries until then
         self.bytes = 0
         self.chunks = 0
+        # [s] loop time per chunk: read from the sender, due by the schedule, written on
+        self.trace: deque[tuple[float, float, float]] = deque(maxlen=TRACE_CHUNKS)
 
     def schedule(self, now: float) -> float:
         due = super().schedule(now)
@@ -290,28 +298,31 @@ class LinkEmulator:
         self, reader: asyncio.StreamReader, writer: asyncio.StreamWriter, direction: Direction
     ) -> None:
         loop = asyncio.get_running_loop()
-        queue: asyncio.Queue[tuple[float, bytes]] = asyncio.Queue()
+        queue: asyncio.Queue[tuple[float, float, bytes]] = asyncio.Queue()
         sender = asyncio.create_task(self._deliver(queue, writer, direction))
         try:
             while data := await reader.read(CHUNK):
-                queue.put_nowait((direction.schedule(loop.time()), data))
+                read_t = loop.time()
+                queue.put_nowait((read_t, direction.schedule(read_t), data))
         except OSError:
             self.counts["read_error"] += 1
-        queue.put_nowait((direction.schedule(loop.time()), b""))  # end of stream, in order
+        end_t = loop.time()
+        queue.put_nowait((end_t, direction.schedule(end_t), b""))  # end of stream, in order
         await sender
 
     async def _deliver(
-        self, queue: asyncio.Queue[tuple[float, bytes]], writer: asyncio.StreamWriter,
+        self, queue: asyncio.Queue[tuple[float, float, bytes]], writer: asyncio.StreamWriter,
         direction: Direction,
     ) -> None:  # fmt: skip
         loop = asyncio.get_running_loop()
         try:
             while True:
-                due, data = await queue.get()
+                read_t, due, data = await queue.get()
                 await self._hold(loop, due, direction)
                 if not data:
                     break
                 writer.write(data)
+                direction.trace.append((read_t, due, loop.time()))
                 direction.bytes += len(data)
                 direction.chunks += 1
                 await writer.drain()

@@ -1,8 +1,10 @@
 """The WAN link emulator on 127.0.0.1: delay, jitter bounds, order, stalls, cuts, resets.
 
-Timing tolerances: the relay sleeps on epoll (1 ms resolution) and shares two cores with
-other test processes, so a chunk is never early by more than clock granularity, and late by
-a few ms typically; medians are checked tightly, maxima loosely.
+Timing: the relay sleeps on epoll (1 ms resolution) and shares two cores with other test
+processes, so a chunk is never early by more than clock granularity, but can be late by the
+host's scheduling latency (tens of ms under load). So the schedule the link applies is
+checked exactly from the relay's own trace (`Direction.trace`), and wall-clock delays
+measured outside the relay only from below (nothing arrives early).
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import socketserver
 import statistics
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 
 import pytest
 
@@ -82,6 +84,20 @@ def one_way(sink: Sink, sent: dict[bytes, float]) -> list[float]:
     return [t - sent[line] for t, line in sink.lines]
 
 
+def assert_schedule(
+    trace: Iterable[tuple[float, float, float]], least_s: float, most_s: float
+) -> list[float]:
+    """From the relay's own trace: every chunk was scheduled between `least_s` and `most_s`
+    after the relay read it, in order, and written no earlier than due. What a loaded host
+    adds (a late read, a late wake-up) is outside the schedule and not asserted here."""
+    chunks = list(trace)
+    scheduled = [due - read for read, due, _ in chunks]
+    assert chunks and all(least_s - 1e-9 <= d <= most_s + 1e-9 for d in scheduled), scheduled
+    assert [due for _, due, _ in chunks] == sorted(due for _, due, _ in chunks), "TCP order"
+    assert all(written >= due - GRANULARITY_S for _, due, written in chunks), "never early"
+    return scheduled
+
+
 def test_delay_is_applied_to_every_chunk(sink: Sink) -> None:
     emu = relay(sink, LinkProfile(delay_s=0.030)).start()
     try:
@@ -90,11 +106,16 @@ def test_delay_is_applied_to_every_chunk(sink: Sink) -> None:
     finally:
         emu.close()
     assert min(delays) >= 0.030 - GRANULARITY_S
-    assert abs(statistics.median(delays) - 0.030) < 0.003
-    assert max(delays) < 0.060
+    assert_schedule(emu.forward.trace, 0.030, 0.030)
 
 
 def test_jitter_stays_in_bounds_and_keeps_order(sink: Sink) -> None:
+    """The relay's own trace says what the link applied: every chunk scheduled within
+    delay ± jitter of when the relay read it, in order, and never written before it was due.
+    End to end only what a loaded host cannot break is checked (order, nothing early): on a
+    busy machine the relay's thread reads and wakes late, which adds the host's scheduling
+    latency to any delay measured outside it (p95 of 58-82 ms seen against a 40 ms bound with
+    two spinning processes on two cores) — a property of the host, not of the link."""
     emu = relay(sink, LinkProfile(delay_s=0.030, jitter_s=0.010)).start()
     try:
         with connect(emu) as sock:
@@ -103,8 +124,9 @@ def test_jitter_stays_in_bounds_and_keeps_order(sink: Sink) -> None:
         emu.close()
     assert [line for _, line in sink.lines] == [f"m{i}".encode() for i in range(60)]
     assert min(delays) >= 0.020 - GRANULARITY_S
-    assert statistics.quantiles(delays, n=20)[-1] <= 0.040 + 0.005  # p95
-    assert statistics.pstdev(delays) > 0.002  # it does jitter
+    scheduled = assert_schedule(emu.forward.trace, 0.020, 0.040)
+    assert len(scheduled) >= 10, f"only {len(scheduled)} chunks: the lines were not paced"
+    assert statistics.pstdev(scheduled) > 0.002  # it does jitter
 
 
 def test_directions_have_their_own_delay() -> None:
@@ -121,8 +143,9 @@ def test_directions_have_their_own_delay() -> None:
         emu.close()
         echo.shutdown()
         echo.server_close()
-    assert 0.010 - GRANULARITY_S <= forward < 0.030
-    assert 0.050 - GRANULARITY_S <= rtt < 0.090
+    assert forward >= 0.010 - GRANULARITY_S and rtt >= 0.050 - GRANULARITY_S
+    assert_schedule(emu.forward.trace, 0.010, 0.010)
+    assert_schedule(emu.backward.trace, 0.040, 0.040)
 
 
 def test_cut_holds_bytes_and_refuses_connections_until_restore(sink: Sink) -> None:
