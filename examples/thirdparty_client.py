@@ -20,7 +20,7 @@ from collections import Counter, deque
 import msgpack
 import zenoh
 
-SCHEMA_VERSION = 1  # docs/protocol.md, "Versions and compatibility"
+SCHEMA_VERSION = 2  # docs/protocol.md, "Versions and compatibility"
 POSE = struct.Struct("<BBHId3f3f3f3e3e")  # the 64-byte pose
 NPC_ROW = struct.Struct("<10fBBH")  # 44 bytes: x y z yaw vx vy yaw_rate l w h, kind, 0, lights
 RATE_HZ = 50.0  # [Hz] pose rate
@@ -36,8 +36,7 @@ def circle_pose(seq: int, t: float) -> bytes:
 
 class Client:
     def __init__(self, args: argparse.Namespace) -> None:
-        config = zenoh.Config()
-        # A 2 s lease (Zenoh's default is 10 s): the router drops us 2 s after we freeze.
+        config = zenoh.Config()  # lease 2 s (Zenoh's default: 10 s): dropped 2 s after we freeze
         for path, value in {"mode": "client", "connect/endpoints": [args.connect],
                             "scouting/multicast/enabled": False, "transport/link/tx/lease": 2000,
                             "transport/link/tx/keep_alive": 4}.items():  # fmt: skip
@@ -47,11 +46,15 @@ class Client:
         self.instance = uuid.uuid4().hex  # one per process: a re-join is not a duplicate
         self.offset = time.time() - time.monotonic()  # session − local [s], until measured
         self.exchanges: list[tuple[float, float]] = []  # (rtt, offset) of the last 16
-        self.joined, self.token = threading.Event(), None
-        self.count: Counter[str] = Counter()
+        self.joined, self.left, self.token = threading.Event(), threading.Event(), None
+        self.authority = ""  # zid of the authority's session: world messages must carry it
         self.egos: dict[str, list[float]] = {}  # id -> last [x, y]
         self.world: dict[str, object] = {"npcs": 0}  # newest lights, weather, NPC count
-        self.events: deque[str] = deque(maxlen=10)
+        self.count, self.events = Counter(), deque(maxlen=10)  # tallies, last 10 world events
+        p = self.prefix
+        self.z.declare_subscriber(f"{p}/ego/*/pose", self.guarded(self.on_pose))
+        presence = self.guarded(self.on_presence)
+        self.z.liveliness().declare_subscriber(f"{p}/node/*", presence, history=True)
 
     def query(self, name: str, request: dict | None) -> bytes | None:
         payload = msgpack.packb(request) if request is not None else b""
@@ -72,13 +75,16 @@ class Client:
         reply = msgpack.unpackb(raw)
         if not reply["accepted"]:
             raise SystemExit(f"join refused: {reply['reason']}")
+        self.authority = reply["authority_instance"]
         if self.token is None:  # presence: without it nobody accepts our poses
             self.token = self.z.liveliness().declare_token(f"{self.prefix}/node/{self.id}")
+            self.z.declare_subscriber(f"{self.prefix}/world/*", self.guarded(self.on_world))
         self.joined.set()
         snapshot = msgpack.unpackb(self.query("snapshot", None) or msgpack.packb({"egos": []}))
-        for ego in snapshot["egos"]:  # observers have no actor kind and no pose
-            if ego["actor_kind"] and ego["node_id"] != self.id:
-                self.egos.setdefault(ego["node_id"], [math.nan, math.nan])
+        for ego in snapshot["egos"]:  # "pose": the 64-byte layout, or nil (observers)
+            if ego["pose"] and ego["node_id"] != self.id:
+                x, y = POSE.unpack(ego["pose"])[5:7]
+                self.egos.setdefault(ego["node_id"], [round(x, 2), round(y, 2)])
 
     def sync_clock(self) -> None:
         t0 = time.monotonic()
@@ -91,15 +97,6 @@ class Client:
         self.offset = min(self.exchanges)[1]  # the lowest round trip bounds the error best
         if not known:
             self.joined.clear()  # the authority lost us (restart, despawn): join again
-
-    def subscribe(self) -> None:
-        p, z = self.prefix, self.z
-        for key, handler in [("ego/*/pose", self.on_pose), ("world/npc", self.on_npc),
-                             ("world/lights", self.on_status), ("world/weather", self.on_status),
-                             ("world/events", self.on_event)]:  # fmt: skip
-            z.declare_subscriber(f"{p}/{key}", self.guarded(handler))
-        presence = self.guarded(self.on_presence)
-        z.liveliness().declare_subscriber(f"{p}/node/*", presence, history=True)
 
     def guarded(self, handler):  # a bad message is counted, never raised into Zenoh's thread
         def run(sample: zenoh.Sample) -> None:
@@ -120,26 +117,31 @@ class Client:
         self.egos[node_id] = [round(values[1], 2), round(values[2], 2)]
         self.count["poses"] += 1
 
-    def on_npc(self, sample: zenoh.Sample) -> None:
-        _seq, _t, ids, rows = msgpack.unpackb(sample.payload.to_bytes())  # an array
-        if len(rows) != len(ids) * NPC_ROW.size:
-            raise ValueError("NPC rows do not match the ids")
-        self.world["npcs"] = sum(1 for _row in NPC_ROW.iter_unpack(rows))
-        self.count["npc"] += 1
-
-    def on_status(self, sample: zenoh.Sample) -> None:
-        """Lights and weather: maps, sent on change and once a second."""
-        channel = str(sample.key_expr).rsplit("/", 1)[1]
-        self.world[channel] = msgpack.unpackb(sample.payload.to_bytes())
+    def on_world(self, sample: zenoh.Sample) -> None:
+        """npc, lights, weather, events: only if the authority's own session stamped them."""
+        stamp, channel = sample.timestamp, str(sample.key_expr).rsplit("/", 1)[1]
+        if stamp is None or str(stamp.get_id()) != self.authority:
+            raise ValueError("not from the joined authority")
+        message = msgpack.unpackb(sample.payload.to_bytes())
+        if channel == "npc":
+            _seq, _t, ids, rows = message  # an array
+            if len(rows) != len(ids) * NPC_ROW.size:
+                raise ValueError("NPC rows do not match the ids")
+            self.world["npcs"] = sum(1 for _row in NPC_ROW.iter_unpack(rows))
+        elif channel == "events":
+            self.on_event(message)
+        else:
+            self.world[channel] = message  # lights, weather: maps, on change and at 1 Hz
         self.count[channel] += 1
 
-    def on_event(self, sample: zenoh.Sample) -> None:
-        event = msgpack.unpackb(sample.payload.to_bytes())  # a map tagged by "type"
+    def on_event(self, event: dict) -> None:  # a map tagged by "type"
         who = event.get("node_id") or f"{event['a']}+{event['b']}"
         self.events.append(f"{event['type']}:{who}:{event.get('reason', '')}".rstrip(":"))
         if event["type"] == "despawned":
             self.egos.pop(event["node_id"], None)
-            if event["node_id"] == self.id:
+            if event["node_id"] == self.id and event["reason"] == "left":
+                self.left.set()  # our leave is announced: the token may go
+            elif event["node_id"] == self.id:
                 self.joined.clear()  # the authority dropped us: join again
 
     def on_presence(self, sample: zenoh.Sample) -> None:
@@ -162,12 +164,10 @@ class Client:
 
     def status(self) -> str:
         lights, weather = self.world.get("lights") or {}, self.world.get("weather") or {}
-        return json.dumps({
-            "id": self.id, "joined": self.joined.is_set(), "offset_s": round(self.offset, 6),
-            "egos": dict(sorted(self.egos.items())), "npcs": self.world["npcs"],
-            "lights": len(lights.get("lights", [])), "cloudiness": weather.get("cloudiness"),
-            "events": list(self.events), "counts": dict(self.count),
-        })  # fmt: skip
+        return json.dumps({"id": self.id, "joined": self.joined.is_set(), "egos": dict(self.egos),
+                           "npcs": self.world["npcs"], "lights": len(lights.get("lights", [])),
+                           "cloudiness": weather.get("cloudiness"), "events": list(self.events),
+                           "counts": dict(self.count)})  # fmt: skip
 
 
 def main() -> None:
@@ -180,9 +180,7 @@ def main() -> None:
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop.set())
     client = Client(args)
-    client.subscribe()
-    publisher = threading.Thread(target=client.publish, args=(stop,))
-    publisher.start()
+    (publisher := threading.Thread(target=client.publish, args=(stop,))).start()
     while not stop.wait(1.0 if client.joined.is_set() else 0.5):
         if not client.joined.is_set():
             client.join()  # (again, after an authority restart or a despawn)
@@ -190,8 +188,10 @@ def main() -> None:
             client.sync_clock()  # a burst at first, then one a second
         print(client.status(), flush=True)
     publisher.join()
-    if client.token is not None:
-        client.token.undeclare()  # leave on purpose: everyone despawns us at once
+    if client.token is not None:  # leave on purpose (reason `left`), then drop presence
+        client.query("leave", {"node_id": client.id, "instance": client.instance})
+        client.left.wait(0.5)  # so peers hear `left` before the token's DELETE
+        client.token.undeclare()
     client.z.close()
 
 

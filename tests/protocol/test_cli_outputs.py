@@ -41,7 +41,7 @@ def test_authority_join_and_stats_print_what_the_doc_says(cluster: Cluster) -> N
     printed = authority.json()
     assert set(printed) == documented_keys("`carlaverse authority --json`")
     assert set(printed["tick"]) == fields(TickSummary)
-    assert ["car-1", "liveliness"] in printed["despawned"]
+    assert ["car-1", "left"] in printed["despawned"]  # it ran out its --duration
 
     summary = node.json()
     assert set(summary) == fields(NodeSummary)

@@ -47,6 +47,15 @@ class Example:
                 return json.loads(line)
         return {}
 
+    def wait_for(self, condition: Any, timeout: float, what: str) -> dict[str, Any]:
+        """The first status meeting `condition`; on timeout, fail showing what it printed."""
+        try:
+            return wait_until(lambda: condition(self.status()) and self.status(), timeout, what)
+        except AssertionError as exc:
+            raise AssertionError(
+                f"{exc}; the example printed:\n{''.join(self.lines[-5:])}"
+            ) from None
+
     def kill(self) -> None:
         if self.proc.poll() is None:
             self.proc.kill()
@@ -56,6 +65,9 @@ class Example:
 @pytest.fixture
 def example(cluster: Cluster) -> Any:
     started: list[Example] = []
+    router = cluster.router()
+    # a foreign client in client mode needs its router up: it fails at once otherwise
+    wait_until(lambda: "listening on" in router.output(), 20, "the router to listen")
 
     def start(node_id: str = "partner-1") -> Example:
         started.append(Example(cluster.endpoint, node_id))
@@ -72,23 +84,19 @@ def _decoded_everything(status: dict[str, Any]) -> bool:
         status.get("joined")
         and all(counts.get(k, 0) > 0 for k in ("poses", "npc", "lights", "weather"))
         and status.get("npcs", 0) > 0
-        and "spawned:partner-1" in status.get("events", [])
+        and "spawned:car-1" in status.get("events", [])
     )
 
 
 def test_partner_client_joins_is_seen_decodes_the_world_and_is_despawned_when_killed(
     cluster: Cluster, example: Any
 ) -> None:
-    cluster.router()
     authority = cluster.authority("--scenario", "crossing")
-    node = cluster.scripted("car-1")
-    observer = cluster.observer()
     partner = example()
-    status = wait_until(
-        lambda: _decoded_everything(partner.status()) and partner.status(),
-        40,
-        "the example to decode every world message",
-    )
+    partner.wait_for(lambda s: s.get("joined"), 30, "the example to join")
+    node = cluster.scripted("car-1")  # its spawn is an event the partner must decode
+    observer = cluster.observer()
+    status = partner.wait_for(_decoded_everything, 40, "the example to decode every message")
     assert not [k for k in status["counts"] if k.startswith("dropped")], status
     assert not [line for line in partner.lines if not line.startswith("{")], partner.lines
     x, y = status["egos"]["car-1"]
@@ -121,7 +129,6 @@ def test_partner_client_joins_is_seen_decodes_the_world_and_is_despawned_when_ki
 def test_a_frozen_partner_is_dropped_by_its_lease_before_the_silence_timeout(
     cluster: Cluster, example: Any
 ) -> None:
-    cluster.router()
     cluster.authority()
     observer = cluster.observer()
     partner = example()
@@ -141,5 +148,9 @@ def test_a_frozen_partner_is_dropped_by_its_lease_before_the_silence_timeout(
     assert waited > LEASE_S * 0.5, f"despawned after {waited:.2f} s: not by the lease"
     # Thawed, it finds it was dropped (clock reply `known: false`) and joins again.
     wait_until(lambda: observer.update() and "partner-1" in observer.world.egos, 15, "re-join")
-    wait_until(lambda: partner.status()["events"].count("spawned:partner-1") == 2, 5,
-               "the partner to see its second spawn")  # fmt: skip
+    partner.wait_for(lambda s: s["events"].count("spawned:partner-1") == 2, 5, "its second spawn")
+    # Leaving on purpose (SIGTERM: `authority/leave`, then the token) reads as `left`.
+    partner.proc.send_signal(signal.SIGTERM)
+    assert partner.proc.wait(timeout=10) == 0
+    wait_until(lambda: observer.update() and "partner-1" not in observer.world.egos, 2, "leave")
+    assert [d.reason for d in observer.world.despawns if d.actor_id == "partner-1"][-1] == "left"

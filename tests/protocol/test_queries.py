@@ -25,6 +25,7 @@ class Foreign:
     def __init__(self, endpoint: str) -> None:
         self.z = open_session(FabricSettings(mode="client", connect=[endpoint]))
         self.events: list[dict[str, Any]] = []
+        self.stamps: list[str] = []  # the timestamp id of each world event
         self.present: set[str] = set()
         self._subs = [
             self.z.declare_subscriber(f"{PREFIX}/world/events", self._on_event),
@@ -34,6 +35,7 @@ class Foreign:
         ]
 
     def _on_event(self, sample: zenoh.Sample) -> None:
+        self.stamps.append(str(sample.timestamp.get_id()) if sample.timestamp else "")
         self.events.append(msgpack.unpackb(sample.payload.to_bytes()))
 
     def _on_presence(self, sample: zenoh.Sample) -> None:
@@ -122,10 +124,47 @@ def test_spawned_names_the_node_kind_and_the_snapshot_lists_observers(session) -
         lambda: [e for e in session.events if e.get("node_id") == "lab-bike"], 5, "spawned event"
     )
     assert spawned[0]["type"] == "spawned" and spawned[0]["kind"] == "thirdparty"
+    assert spawned[0]["actor_kind"] == "bicycle"
     _, snapshot = session.query("snapshot")
     egos = {e["node_id"]: e for e in snapshot["egos"]}
     assert egos["lab-obs"]["actor_kind"] == "" and egos["lab-obs"]["pose"] is None
     assert egos["lab-bike"]["actor_kind"] == "bicycle" and egos["lab-bike"]["pose"] is None
+
+
+def test_joins_are_validated_with_a_reason(session) -> None:
+    refusals = {
+        "actor_kind": ({"actor_kind": "spaceship"}, "unknown actor_kind 'spaceship'"),
+        "no actor": ({"actor_kind": ""}, "only observers have no actor"),
+        "rate": ({"pose_rate_hz": 0.0}, "pose_rate_hz = 0.0: must be in (0, 1000]"),
+        "extent": ({"extent": [4.5, 1.8, 60.0]}, "extent.height = 60.0: must be in (0, 50]"),
+        "mass": ({"mass_kg": -1.0}, "mass_kg = -1.0"),
+        "config": ({"config_yaml": "a: [1"}, "config_yaml does not parse as YAML"),
+        "instance": ({"instance": ""}, "instance is empty"),
+    }
+    for what, (fields, reason) in refusals.items():
+        kind, reply = session.join(node_id="lab-bad", **fields)
+        assert kind == "ok" and not reply["accepted"], what
+        assert reason in reply["reason"], (what, reply["reason"])
+    kind, text = session.join(node_id="lab-bad", mass_kg=float("nan"))  # not even decodable
+    assert kind == "err" and "mass_kg" in text, text
+
+
+def test_leave_takes_the_joined_instance_and_is_announced_as_left(session) -> None:
+    instance = uuid.uuid4().hex
+    assert session.join(node_id="lab-leave", instance=instance)[1]["accepted"]
+    leave = {"node_id": "lab-leave", "instance": "not-the-joined-one"}
+    assert session.query("leave", msgpack.packb(leave)) == ("ok", {"left": False})
+    leave["instance"] = instance
+    assert session.query("leave", msgpack.packb(leave)) == ("ok", {"left": True})
+    despawned = wait_until(lambda: [e for e in session.events if e.get("node_id") == "lab-leave"
+                                    and e["type"] == "despawned"], 5, "the leave")  # fmt: skip
+    assert despawned[0]["reason"] == "left"
+
+
+def test_world_messages_carry_the_authority_sessions_timestamp(session) -> None:
+    _, reply = session.join(node_id="lab-stamp")
+    wait_until(lambda: any(e.get("node_id") == "lab-stamp" for e in session.events), 5, "event")
+    assert set(session.stamps) == {reply["authority_instance"]}
 
 
 def test_a_second_instance_of_a_live_id_is_refused_with_a_reason(session) -> None:
