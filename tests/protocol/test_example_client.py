@@ -109,6 +109,7 @@ def test_partner_client_joins_is_seen_decodes_the_world_and_is_despawned_when_ki
     latency = observer.world.stats["partner-1"].summary(observer.update())
     # A clock off by more than a few ms would show here: both sides sync to the authority.
     assert -5.0 < latency.latency_p50_ms < 50.0, latency
+    assert 40.0 < latency.rate_hz < 60.0, latency  # the example publishes at 50 Hz
 
     killed_at = time.monotonic()
     partner.kill()
