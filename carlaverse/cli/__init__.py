@@ -26,6 +26,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "ffb-server": ("carlaverse.cli.ffb_server", "UDP force-feedback server with watchdog"),
     "motion-server": ("carlaverse.cli.motion_server", "UDP motion-platform server with watchdog"),
     "doctor": ("carlaverse.cli.doctor", "hardware diagnostics: joysticks, FFB and motion tests"),
+    "calibrate": ("carlaverse.cli.calibrate", "measure a trainer's resistance table (YAML)"),
     "record": ("carlaverse.cli.record", "record every key of a session to MCAP"),
     "replay": ("carlaverse.cli.replay", "republish an MCAP recording into a live session"),
     "view": ("carlaverse.cli.view", "live Rerun view of a session or a recording"),
