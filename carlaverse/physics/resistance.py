@@ -21,6 +21,7 @@ interpolation and clamped at its edges.
 from __future__ import annotations
 
 import bisect
+import itertools
 import math
 from pathlib import Path
 from typing import Annotated
@@ -77,7 +78,7 @@ class ResistanceTable(StrictStruct):
     def __post_init__(self) -> None:
         for name in ("speeds_mps", "forces_n"):
             axis = getattr(self, name)
-            if any(b <= a for a, b in zip(axis, axis[1:], strict=False)):
+            if any(b <= a for a, b in itertools.pairwise(axis)):
                 raise ValueError(f"{name} must be strictly increasing, got {axis}")
         rows = self.resistance_percent
         if len(rows) != len(self.speeds_mps) or any(len(r) != len(self.forces_n) for r in rows):

@@ -104,7 +104,7 @@ SAMPLES = st.builds(
     average_power_w=optional(st.integers(-32768, 32767)),
     energy_kcal=optional(
         st.tuples(st.integers(0, 65535), st.integers(0, 65535), st.integers(0, 255))
-    ),  # fmt: skip
+    ),
     heart_rate_bpm=optional(st.integers(0, 255)),
     metabolic_equivalent=optional(st.integers(0, 255).map(lambda v: v / 10)),
     elapsed_time_s=optional(st.integers(0, 65535)),
