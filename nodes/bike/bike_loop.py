@@ -1,0 +1,117 @@
+"""The bike node's physics + haptics loop body, free of any network or device.
+
+`BikeLoop.step(dt, wheel_speed_mps, steer_axis, tailwind_mps, impulses)` runs one tick:
+
+    impulses → single-track bicycle → riding resistance → trainer command (calibrated table)
+    → fork feel
+
+and returns a `BikeOutput`: the pose (with the lean as roll and absolute velocity), the
+resistance force and the trainer's resistance level, and the fork's FFB command. Whoever runs
+the loop (the loop process, a test, a benchmark) owns the clock, the devices and the fabric.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from collections import deque
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from carlaverse_nodes.bike.config import BikeNodeConfig
+from carlaverse_nodes.bike.fork_feel import ForkFeel
+
+from carlaverse.hal.ffb_packet import FfbCommand
+from carlaverse.messages import Impulse, Pose
+from carlaverse.physics.bicycle import Bicycle
+from carlaverse.physics.resistance import ResistanceTable, resistance_force
+
+log = logging.getLogger(__name__)
+
+MAX_IMPULSE_DV_MPS = 50.0  # [m/s] a larger Δv from one impulse is a bad message
+SEEN_IMPULSES = 256  # sequence numbers remembered to drop re-deliveries
+
+
+@dataclass(slots=True)
+class BikeOutput:
+    t: float  # [s] loop clock (session time when a clock is injected)
+    x: float  # [m] world frame
+    y: float
+    yaw: float  # [rad]
+    lean_rad: float  # [rad] roll for rendering, positive leans left
+    vx: float  # [m/s] world frame
+    vy: float
+    yaw_rate: float  # [rad/s]
+    ax: float  # [m/s²] world frame
+    ay: float
+    speed_mps: float  # [m/s] along the heading
+    steer_rad: float  # [rad] fork angle
+    resistance_n: float  # [N] F_res of the road under the wheel
+    resistance_percent: float  # [%] what the trainer is told
+    fallen: bool
+    ffb: FfbCommand
+    impulses_applied: int
+
+    def pose(self, seq: int = 0) -> Pose:
+        return Pose(seq, self.t, self.x, self.y, 0.0, self.lean_rad, 0.0, self.yaw,
+                    self.vx, self.vy, 0.0, 0.0, 0.0, self.yaw_rate, self.ax, self.ay, 0.0)  # fmt: skip
+
+
+class BikeLoop:
+    """Bicycle physics, resistance → trainer command, fork feel."""
+
+    def __init__(self, config: BikeNodeConfig, table: ResistanceTable) -> None:
+        self.config = config
+        self.table = table
+        self.bike = Bicycle(config.bicycle)
+        self.fork = ForkFeel(config.fork, config.bicycle)
+        self.t = 0.0
+        self._pending: list[Impulse] = []
+        self._seen: deque[int] = deque(maxlen=SEEN_IMPULSES)
+        self.impulses_dropped = 0
+
+    def place(self, x: float, y: float, yaw: float) -> None:
+        self.bike.place(x, y, yaw)
+
+    def step(self, dt: float, wheel_speed_mps: float, steer_axis: float, tailwind_mps: float,
+             impulses: Iterable[Impulse] = (), now: float | None = None) -> BikeOutput:  # fmt: skip
+        """One tick of dt [s]; `now` is session time (else the loop's own accumulated time)."""
+        self.t += dt
+        now = self.t if now is None else now
+        applied = self._collisions(impulses, now)
+        p = self.config.bicycle
+        s = self.bike.step(dt, wheel_speed_mps, steer_axis * p.max_steer_rad)
+        road = self.config.road
+        force = resistance_force(
+            self.config.resistance, p.mass_kg, s.speed_mps, road.grade_percent, tailwind_mps
+        )
+        percent = self.table.percent(s.speed_mps, force)
+        ffb = self.fork.update(dt, s.speed_mps, s.steer_rad, road.roughness)
+        return BikeOutput(
+            now, s.x, s.y, s.yaw, s.lean_rad, s.vx, s.vy, s.yaw_rate, s.ax, s.ay, s.speed_mps,
+            s.steer_rad, force, percent, s.fallen, ffb, applied,
+        )  # fmt: skip
+
+    def _collisions(self, impulses: Iterable[Impulse], now: float) -> int:
+        for impulse in impulses:
+            self._accept(impulse)
+        due = [i for i in self._pending if i.t <= now]
+        if not due:
+            return 0
+        self._pending = [i for i in self._pending if i.t > now]
+        for impulse in due:
+            hit = self.bike.apply_impulse(impulse.impulse)
+            self.fork.add_jolt(hit.magnitude(), hit.dv_lateral_mps)
+        return len(due)
+
+    def _accept(self, impulse: Impulse) -> None:
+        if impulse.seq in self._seen:
+            return  # a re-delivered event: impulses are idempotent
+        values = (*impulse.impulse, *impulse.point, impulse.t)
+        dv = math.hypot(*impulse.impulse) / self.config.bicycle.mass_kg
+        if not all(math.isfinite(v) for v in values) or dv > MAX_IMPULSE_DV_MPS:
+            self.impulses_dropped += 1
+            log.warning("dropped impulse seq %d: non-finite or Δv %.1f m/s", impulse.seq, dv)
+            return
+        self._seen.append(impulse.seq)
+        self._pending.append(impulse)

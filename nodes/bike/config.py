@@ -1,0 +1,84 @@
+"""The bike node's configuration: one YAML file, the single source of truth (DESIGN §9).
+
+    node:         {node_id: lab-bike-1, kind: bike, actor_kind: bicycle}
+    fabric:       {connect: [tcp/10.0.0.1:7447]}
+    bicycle:      mass, wheelbase, head height …            carlaverse.physics.bicycle
+    resistance:   {rolling_coefficient, drag_coefficient, frontal_area_m2, air_density_kgm3}
+    table:        bike-trainer-table.yaml   the calibrated speed × force → % table (a file
+                                            relative to this one, or shipped)
+    road:         {grade_percent, roughness}   the grade is this config value: the map
+                                            carries no elevation yet
+    speed_source: trainer | speed_sensor    which wheel speed drives the bike
+    trainer, speed_sensor, input, ffb:      carlaverse.hal blocks
+    fork, loop
+
+Wind comes from the authority's weather, not from here.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated, Literal
+
+import msgspec
+from carlaverse_nodes.bike.fork_feel import ForkFeelParams
+
+from carlaverse.config import StrictStruct, load_config, resolve_path
+from carlaverse.fabric.node_client import NodeSettings
+from carlaverse.fabric.session import FabricSettings
+from carlaverse.hal import FfbConfig, InputConfig, SpeedSensorConfig, TrainerConfig
+from carlaverse.messages import Extent
+from carlaverse.physics.bicycle import BicycleParams
+from carlaverse.physics.resistance import ResistanceParams, ResistanceTable, load_table
+
+Positive = Annotated[float, msgspec.Meta(gt=0)]
+DEFAULT_TABLE = "bike-trainer-table.yaml"
+
+
+class BikeLoopSettings(StrictStruct):
+    rate_hz: Annotated[float, msgspec.Meta(ge=50, le=2000)] = 200.0
+    ffb_rate_hz: Positive = 200.0  # fork commands sent at most this often
+    trainer_rate_hz: Annotated[float, msgspec.Meta(gt=0, le=20)] = 4.0  # BLE writes per second
+    realtime_priority: Annotated[int, msgspec.Meta(ge=0, le=99)] = 40  # 0: leave as is
+
+
+class RoadSettings(StrictStruct):
+    grade_percent: Annotated[float, msgspec.Meta(ge=-40, le=40)] = 0.0  # [%] uphill positive
+    roughness: Annotated[float, msgspec.Meta(ge=0, le=1)] = 0.2  # fork vibration texture
+
+
+class BikeNodeConfig(StrictStruct):
+    node: NodeSettings = NodeSettings(kind="bike", actor_kind="bicycle", pose_rate_hz=50.0)
+    fabric: FabricSettings = FabricSettings()
+    bicycle: BicycleParams = BicycleParams()
+    resistance: ResistanceParams = ResistanceParams()
+    table: str = DEFAULT_TABLE
+    road: RoadSettings = RoadSettings()
+    speed_source: Literal["trainer", "speed_sensor"] = "trainer"
+    trainer: TrainerConfig = TrainerConfig(backend="ftms_sim")
+    speed_sensor: SpeedSensorConfig = SpeedSensorConfig(backend="sim")
+    input: InputConfig = InputConfig(backend="sim", options={"axes": ["steer"]})
+    ffb: FfbConfig = FfbConfig(backend="sim")
+    fork: ForkFeelParams = ForkFeelParams()
+    loop: BikeLoopSettings = BikeLoopSettings()
+
+
+def load_bike_config(path: str | Path) -> BikeNodeConfig:
+    return load_config(resolve_path(path), BikeNodeConfig)
+
+
+def resolve_table(config: BikeNodeConfig) -> ResistanceTable:
+    """The calibrated table the config names (relative to the cwd, or shipped)."""
+    return load_table(resolve_path(config.table))
+
+
+def node_settings(config: BikeNodeConfig) -> NodeSettings:
+    """Join settings with the bicycle's extent and mass."""
+    b = config.bicycle
+    return msgspec.structs.replace(
+        config.node,
+        kind="bike",
+        actor_kind="bicycle",
+        extent=Extent(b.length_m, b.width_m, b.height_m),
+        mass_kg=b.mass_kg,
+    )

@@ -1,0 +1,137 @@
+"""The bike node as a `carlaverse join` kind: the fabric side of CycloCARLA.
+
+This process owns the fabric; the physics + haptics loop runs in a child process
+(`loop_process`). The pose publisher reads the loop's shared state at the pose rate; the
+node's step forwards impulses to the loop's queue and hands it the clock offset, the spawn
+pose and the authority's wind.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import queue
+from typing import Any
+
+import msgspec
+from carlaverse_nodes.bike.config import BikeNodeConfig, node_settings, resolve_table
+from carlaverse_nodes.bike.loop_process import BikeLoopSpec, run_bike_loop
+from carlaverse_nodes.bike.shared_state import CONTROL, STATE
+from carlaverse_nodes.drive.node import scripted_route
+from carlaverse_nodes.drive.shared_state import block_name
+
+from carlaverse.fabric.node_client import NodeClient, PoseSource
+from carlaverse.hal import FfbConfig, InputConfig, TrainerConfig
+from carlaverse.messages import Pose
+from carlaverse.shm import SharedBlock
+
+log = logging.getLogger(__name__)
+
+
+class BikeNode:
+    name = "bike"
+    config_type = BikeNodeConfig
+
+    def __init__(self, config: BikeNodeConfig) -> None:
+        self.config = config
+        self.table = resolve_table(config)
+        self.node_settings = node_settings(config)
+        self._ctx = mp.get_context("spawn")
+        self._state: SharedBlock | None = None
+        self._control: SharedBlock | None = None
+        self._process: Any = None
+        self._events: Any = None
+        self._results: Any = None
+        self._stop: Any = None
+        self._joins_seen = 0
+        self._spawn_seq = 0
+        self._forwarded = 0
+        self._loop_summary: dict[str, Any] = {}
+
+    @classmethod
+    def with_backend(cls, config: BikeNodeConfig, backend: str) -> BikeNodeConfig:
+        """Every device simulated: a rider on the simulated FTMS trainer laps a block."""
+        if backend != "sim":
+            raise ValueError(f"--backend {backend!r}: the bike node can force only 'sim'")
+        route = {"waypoints": scripted_route(), "wheelbase_m": config.bicycle.wheelbase_m,
+                 "max_steer_rad": config.bicycle.max_steer_rad, "lookahead_m": 5.0}  # fmt: skip
+        rider = InputConfig(backend="sim", options={"axes": ["steer"], "mode": "path",
+                                                     "path": route})  # fmt: skip
+        return msgspec.structs.replace(
+            config, input=rider, ffb=FfbConfig(backend="sim"),
+            trainer=TrainerConfig(backend="ftms_sim"), speed_source="trainer",
+        )  # fmt: skip
+
+    def start(self, session: str, node_id: str, offset: float) -> None:
+        self._state = SharedBlock(block_name(session, node_id, "state"), STATE, create=True)
+        self._control = SharedBlock(block_name(session, node_id, "control"), CONTROL, create=True)
+        self._control.write_fields(clock_offset=offset)
+        self._events, self._results = self._ctx.Queue(), self._ctx.Queue()
+        self._stop = self._ctx.Event()
+        spec = BikeLoopSpec(self.config, self.table, self._state.name, self._control.name)
+        self._process = self._ctx.Process(
+            target=run_bike_loop, args=(spec, self._events, self._results, self._stop),
+            name=f"{node_id}-loop", daemon=True,
+        )  # fmt: skip
+        self._process.start()
+
+    def pose_source(self) -> PoseSource | None:
+        def source(t: float) -> Pose | None:
+            if self._state is None:
+                return None
+            s = self._state.read()
+            if not s["running"]:
+                return None
+            return Pose(0, float(s["t"]), float(s["x"]), float(s["y"]), 0.0, float(s["lean"]),
+                        0.0, float(s["yaw"]), float(s["vx"]), float(s["vy"]), 0.0, 0.0, 0.0,
+                        float(s["yaw_rate"]), float(s["ax"]), float(s["ay"]), 0.0)  # fmt: skip
+
+        return source
+
+    def step(self, client: NodeClient, now: float) -> None:
+        if self._process is None:
+            self.start(client.settings.session, client.node_id, client.clock.offset)
+        assert self._control is not None
+        weather = client.world.weather
+        wind = (weather.wind_speed_mps, weather.wind_direction_deg) if weather else (0.0, 0.0)
+        self._control.write_fields(
+            clock_offset=client.clock.offset, wind_speed_mps=wind[0], wind_from_deg=wind[1]
+        )
+        self._place_at_spawn(client)
+        while client.impulses:
+            self._events.put(client.impulses.popleft())
+            self._forwarded += 1
+        if not self._process.is_alive():
+            raise RuntimeError(f"the bike loop process died (exit {self._process.exitcode})")
+
+    def _place_at_spawn(self, client: NodeClient) -> None:
+        reply = client.join_reply
+        if reply is None or reply.spawn is None or client.joins == self._joins_seen:
+            return
+        self._joins_seen = client.joins
+        if self._spawn_seq:  # a re-join keeps the bike where it is
+            return
+        self._spawn_seq += 1
+        sp = reply.spawn
+        assert self._control is not None
+        self._control.write_fields(
+            spawn_seq=self._spawn_seq, spawn_x=sp.x, spawn_y=sp.y, spawn_yaw=sp.yaw
+        )
+
+    def close(self) -> None:
+        if self._process is None:
+            return
+        self._stop.set()
+        try:
+            self._loop_summary = self._results.get(timeout=10)
+        except queue.Empty:
+            log.error("the bike loop did not report")
+        self._process.join(timeout=5)
+        if self._process.is_alive():
+            self._process.kill()
+        for block in (self._state, self._control):
+            if block is not None:
+                block.close()
+
+    def report(self) -> dict[str, Any]:
+        return {"loop": self._loop_summary, "events_forwarded": self._forwarded}

@@ -1,0 +1,79 @@
+"""The bike node end to end: its own loop process, the fabric, a real FFB server."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+
+from carlaverse import messages as m
+from carlaverse.hal.ffb_server import FfbServer, LogActuator
+from carlaverse.hal.ffb_server.actuator import LogActuatorOptions
+from carlaverse.keys import Keys
+from tests.support import Cluster, wait_until
+
+
+def test_demo_sees_the_bike_and_its_fork_reaches_the_ffb_server(tmp_path: Path) -> None:
+    with FfbServer(LogActuator(LogActuatorOptions()), "127.0.0.1", 0) as ffb:
+        config = tmp_path / "bike.yaml"
+        config.write_text(yaml.safe_dump({
+            "node": {"kind": "bike", "actor_kind": "bicycle"},
+            "input": {"backend": "sim", "options": {"axes": ["steer"], "profile": [
+                {"t": 0, "axes": {"steer": 0.0}}, {"t": 3, "axes": {"steer": 0.2}}]}},
+            "ffb": {"backend": "udp", "options": {"port": ffb.address[1]}},
+            "road": {"grade_percent": 4.0, "roughness": 0.5},
+        }))  # fmt: skip
+        done = subprocess.run(
+            [sys.executable, "-m", "carlaverse", "demo", "--nodes", "bike,scripted",
+             "--scenario", "none", "--duration", "8", "--json", "--quiet",
+             "--node-config", f"bike={config}"],
+            capture_output=True, text=True, timeout=120,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr[-3000:]
+        summary = json.loads(done.stdout)
+        assert summary["all_seen"], summary["nodes"]
+        assert "bike-1" in summary["nodes"]["scripted-2"]["actors_seen"]
+        assert ffb.stats.applied > 500  # 200 Hz fork commands for most of 8 s
+
+
+def test_an_impulse_from_the_fabric_throws_the_bike(cluster: Cluster) -> None:
+    cluster.router()
+    cluster.authority()
+    bike = cluster.start(
+        "join", "bike", "--id", "rider", "--session", "t", "--connect", cluster.endpoint,
+        "--backend", "sim", "--duration", "8", "--json", name="rider",
+    )  # fmt: skip
+    obs = cluster.observer()
+
+    def riding() -> bool:
+        obs.update()
+        actor = obs.world.egos.get("rider")
+        pose = actor.newest if actor else None
+        return pose is not None and math.hypot(pose.vx, pose.vy) > 1.5
+
+    wait_until(riding, 30, "the bike riding faster than 1.5 m/s")
+    pose = obs.world.egos["rider"].newest
+    assert pose is not None
+    side = (-math.sin(pose.yaw) * 450.0, math.cos(pose.yaw) * 450.0, 0.0)  # 5 m/s to the left
+    impulse = m.Impulse(1, obs.now(), 3, side, (pose.x, pose.y, 0.5), (0.0, 1.0, 0.0),
+                        "npc-1", "car", 5.0)  # fmt: skip
+    session = cluster.sessions[0]
+    session.put(Keys("t").impulse("rider"), m.IMPULSE.encode(impulse))
+    session.put(Keys("t").impulse("rider"), m.IMPULSE.encode(impulse))  # a duplicate: once
+
+    def fallen() -> bool:
+        obs.update()
+        newest = obs.world.egos["rider"].newest
+        return newest is not None and abs(newest.roll) > 1.5  # lying on its side
+
+    wait_until(fallen, 5, "the bike on its side")
+    assert obs.world.egos["rider"].newest.roll > 0  # pushed left, lies on its left
+    assert bike.wait(40) == 0
+    loop = bike.json()["extra"]["loop"]
+    assert loop["impulses_applied"] == 1
+    assert loop["ticks"] > 200 * 5 and loop["distance_m"] > 5  # 200 Hz, riding
+    assert loop["trainer"]["resistance_sent"] > 3  # the table's command reached the trainer
