@@ -53,8 +53,11 @@ class BikeOutput:
     impulses_applied: int
 
     def pose(self, seq: int = 0) -> Pose:
-        return Pose(seq, self.t, self.x, self.y, 0.0, self.lean_rad, 0.0, self.yaw,
-                    self.vx, self.vy, 0.0, 0.0, 0.0, self.yaw_rate, self.ax, self.ay, 0.0)  # fmt: skip
+        """The pose telemetry sample: planar, the lean as roll, absolute velocity."""
+        return Pose(
+            seq, self.t, self.x, self.y, roll=self.lean_rad, yaw=self.yaw, vx=self.vx,
+            vy=self.vy, wz=self.yaw_rate, ax=self.ax, ay=self.ay,
+        )  # fmt: skip
 
 
 class BikeLoop:

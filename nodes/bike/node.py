@@ -82,9 +82,8 @@ class BikeNode:
             s = self._state.read()
             if not s["running"]:
                 return None
-            return Pose(0, float(s["t"]), float(s["x"]), float(s["y"]), 0.0, float(s["lean"]),
-                        0.0, float(s["yaw"]), float(s["vx"]), float(s["vy"]), 0.0, 0.0, 0.0,
-                        float(s["yaw_rate"]), float(s["ax"]), float(s["ay"]), 0.0)  # fmt: skip
+            f = {name: float(s[name]) for name in ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")}
+            return Pose(0, **f, roll=float(s["lean"]), wz=float(s["yaw_rate"]))
 
         return source
 

@@ -101,9 +101,10 @@ def test_unknown_backend_suggests_the_closest_name() -> None:
 
 def test_unknown_backend_without_a_close_match_lists_the_known_ones() -> None:
     with pytest.raises(BackendNotFoundError) as info:
-        hal.open_trainer({"backend": "ftms"})
-    assert "Did you mean" not in str(info.value) and "Known trainer backends: sim" in str(
-        info.value
+        hal.open_trainer({"backend": "wattbike-proprietary"})
+    message = str(info.value)
+    assert (
+        "Did you mean" not in message and "Known trainer backends: ftms, ftms_sim, sim" in message
     )
 
 
