@@ -29,7 +29,7 @@ from carlaverse.physics.resistance import ResistanceTable, resistance_force
 log = logging.getLogger(__name__)
 
 MAX_IMPULSE_DV_MPS = 50.0  # [m/s] a larger Δv from one impulse is a bad message
-SEEN_IMPULSES = 256  # sequence numbers remembered to drop re-deliveries
+SEEN_IMPULSES = 256  # impulses remembered to drop a re-delivered copy
 
 
 @dataclass(slots=True)
@@ -70,7 +70,7 @@ class BikeLoop:
         self.fork = ForkFeel(config.fork, config.bicycle)
         self.t = 0.0
         self._pending: list[Impulse] = []
-        self._seen: deque[int] = deque(maxlen=SEEN_IMPULSES)
+        self._seen: deque[Impulse] = deque(maxlen=SEEN_IMPULSES)
         self.impulses_dropped = 0
 
     def place(self, x: float, y: float, yaw: float) -> None:
@@ -108,13 +108,15 @@ class BikeLoop:
         return len(due)
 
     def _accept(self, impulse: Impulse) -> None:
-        if impulse.seq in self._seen:
-            return  # a re-delivered event: impulses are idempotent
+        # The NodeClient drops re-deliveries by (authority, contact); here an identical message
+        # twice is one. Never by `seq` alone: it restarts with a restarted authority.
+        if impulse in self._seen:
+            return
         values = (*impulse.impulse, *impulse.point, impulse.t)
         dv = math.hypot(*impulse.impulse) / self.config.bicycle.mass_kg
         if not all(math.isfinite(v) for v in values) or dv > MAX_IMPULSE_DV_MPS:
             self.impulses_dropped += 1
             log.warning("dropped impulse seq %d: non-finite or Δv %.1f m/s", impulse.seq, dv)
             return
-        self._seen.append(impulse.seq)
+        self._seen.append(impulse)
         self._pending.append(impulse)

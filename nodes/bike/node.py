@@ -23,6 +23,7 @@ from carlaverse_nodes.drive.shared_state import block_name
 from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.hal import FfbConfig, InputConfig, TrainerConfig
 from carlaverse.messages import Pose
+from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import SharedBlock
 
 log = logging.getLogger(__name__)
@@ -74,6 +75,12 @@ class BikeNode:
             name=f"{node_id}-loop", daemon=True,
         )  # fmt: skip
         self._process.start()
+
+    def own_pose_block(self) -> OwnPoseBlock:
+        """Where a view reads this bike's pose without network delay (the loop's state)."""
+        n = self.node_settings
+        name = block_name(n.session, n.node_id, "state")
+        return OwnPoseBlock(name, STATE, n.actor_kind, n.extent)
 
     def pose_source(self) -> PoseSource | None:
         def source(t: float) -> Pose | None:
