@@ -3,7 +3,9 @@
 An unfinished file has no summary, so `mcap`'s indexed reader refuses it; its stream reader
 still reads every complete record. `recover()` copies schemas, channels, messages,
 attachments and metadata verbatim up to the first incomplete or corrupt record, and writes
-a new file with chunk and message indexes. Message bytes are not re-encoded.
+a new file with chunk and message indexes. Message bytes are not re-encoded, except that
+what could hold a login (`authority/configs` messages, YAML attachments, metadata) passes
+the redaction rule on the way: a file from an older recorder comes out clean.
 """
 
 from __future__ import annotations
@@ -21,6 +23,12 @@ from mcap.stream_reader import StreamReader
 from mcap.writer import Writer
 from zstandard import ZstdError
 
+from carlaverse.recording.scrub import (
+    holds_configs,
+    scrub_attachment,
+    scrub_envelope,
+    scrub_metadata,
+)
 from carlaverse.recording.sink import _COMPRESSION, PROFILE, Compression, RecordingError
 
 log = logging.getLogger(__name__)
@@ -43,6 +51,7 @@ class _Copier:
         self.writer = writer
         self.schemas: dict[int, int] = {0: 0}
         self.channels: dict[int, int] = {}
+        self.configs_channels: dict[int, str] = {}  # new id -> key, for those holding configs
         self.counts = {"messages": 0, "attachments": 0, "metadata": 0}
 
     def add(self, record: Any) -> None:
@@ -55,23 +64,29 @@ class _Copier:
                 record.topic, record.message_encoding, self.schemas.get(record.schema_id, 0),
                 dict(record.metadata),
             )  # fmt: skip
+            if holds_configs(record.topic):
+                self.configs_channels[self.channels[record.id]] = record.topic
         elif isinstance(record, Message):
             self._message(record)
         elif isinstance(record, Attachment):
+            data = scrub_attachment(record.name, record.media_type, record.data)
             self.writer.add_attachment(
-                record.create_time, record.log_time, record.name, record.media_type, record.data
+                record.create_time, record.log_time, record.name, record.media_type, data
             )
             self.counts["attachments"] += 1
         elif isinstance(record, Metadata):
-            self.writer.add_metadata(record.name, dict(record.metadata))
+            self.writer.add_metadata(record.name, scrub_metadata(record.metadata))
             self.counts["metadata"] += 1
 
     def _message(self, record: Message) -> None:
         channel = self.channels.get(record.channel_id)
         if channel is None:
             raise RecordingError(f"message on channel {record.channel_id} before its definition")
+        data = record.data
+        if channel in self.configs_channels:
+            data = scrub_envelope(self.configs_channels[channel], data)
         self.writer.add_message(
-            channel, record.log_time, record.data, record.publish_time, record.sequence
+            channel, record.log_time, data, record.publish_time, record.sequence
         )
         self.counts["messages"] += 1
 

@@ -14,6 +14,7 @@ import msgspec
 
 from carlaverse import messages
 from carlaverse.keys import KeySpaceError, parse
+from carlaverse.recording.encoding import KeyFormat, payload_of
 from carlaverse.security.redact import UNREADABLE, redact, redact_yaml
 
 
@@ -42,6 +43,16 @@ def scrub_configs(payload: bytes) -> bytes:
     return messages.CONFIGS.encode(
         msgspec.structs.replace(reply, nodes=nodes, scenario_yaml=scenario)
     )
+
+
+def scrub_envelope(key: str, data: bytes) -> bytes:
+    """A recorded JSON envelope on `key` re-encoded from its scrubbed payload (`recover`)."""
+    try:
+        raw, kind = payload_of(data)
+    except messages.MessageError:
+        raw, kind = b"", "put"  # not an envelope: nothing in it can be checked, so none kept
+    scrubbed = scrub_configs(raw) if kind == "put" else raw
+    return data if scrubbed == raw else KeyFormat(key).encode(scrubbed, kind).data
 
 
 def scrub_attachment(name: str, media_type: str, data: bytes) -> bytes:

@@ -7,13 +7,17 @@ import threading
 from pathlib import Path
 
 import pytest
+import yaml
 from mcap.exceptions import McapError
 from mcap.reader import make_reader
 from mcap.records import Message
 from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, Writer
 
 from carlaverse import cli, messages
-from carlaverse.recording.reading import iter_samples
+from carlaverse.keys import Keys
+from carlaverse.recording.encoding import MESSAGE_ENCODING, SCHEMA_ENCODING, KeyFormat
+from carlaverse.recording.reading import iter_samples, read_attachments, read_metadata
 from tests.recording.conftest import World
 from tests.support import Proc, wait_until
 
@@ -91,3 +95,35 @@ def test_recover_of_a_finished_file_keeps_everything(world: World, tmp_path: Pat
     original = [(s.key, s.payload) for s in iter_samples(done)]
     assert [(s.key, s.payload) for s in iter_samples(again)] == original
     assert cli.main(["record", "--recover", str(done), "-o", str(done)]) == 1  # never in place
+
+
+def _older_recording_with_a_login(path: Path, secret: str) -> None:
+    """What a recorder before redaction wrote: the login in configs, attachment, metadata."""
+    config = yaml.safe_dump({"fabric": {"zenoh": {"transport/auth/usrpwd/password": secret}}})
+    key = Keys("old").authority("configs")
+    payload = messages.CONFIGS.encode(messages.ConfigsReply(messages.SCHEMA_VERSION, {"n": config}))
+    fmt = KeyFormat(key)
+    with path.open("wb") as f:
+        writer = Writer(f, compression=CompressionType.NONE)
+        writer.start(profile="carlaverse", library="an older carlaverse-recorder")
+        schema = writer.register_schema(fmt.schema_name, SCHEMA_ENCODING, fmt.schema_bytes())
+        channel = writer.register_channel(key, MESSAGE_ENCODING, schema)
+        writer.add_message(channel, 1, fmt.encode(payload).data, 1, 0)
+        writer.add_attachment(1, 1, "config/n.yaml", "application/yaml", config.encode())
+        writer.add_metadata("carlaverse.extra", {"password": secret})
+        writer.finish()
+
+
+def test_recover_removes_a_login_an_older_recorder_kept(tmp_path: Path) -> None:
+    secret = "pw-kept-by-an-older-recorder-7"
+    old, clean = tmp_path / "old.mcap", tmp_path / "clean.mcap"
+    _older_recording_with_a_login(old, secret)
+    assert secret.encode() in old.read_bytes()
+    assert (
+        cli.main(["record", "--recover", str(old), "-o", str(clean), "--compression", "none"]) == 0
+    )
+    assert secret.encode() not in clean.read_bytes()
+    [sample] = iter_samples(clean)
+    assert "<redacted>" in messages.CONFIGS.decode(sample.payload).nodes["n"]
+    assert secret.encode() not in read_attachments(clean)["config/n.yaml"]
+    assert read_metadata(clean)["carlaverse.extra"] == {"password": "<redacted>"}
