@@ -8,6 +8,7 @@ import sys
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
 import pytest
 import yaml
 
@@ -54,7 +55,7 @@ def test_demo_recording_has_every_key_the_counts_and_the_configs(demo: tuple) ->
     # not the nominal 50 Hz, which a loaded machine does not keep.
     for n in nodes:
         sent = summary["nodes"][n]["poses_sent"]
-        assert sent > 8 * 50 * 0.5 and 0.9 * sent <= counts[keys.pose(n)] <= sent, (n, sent)
+        assert sent > 50 and 0.9 * sent <= counts[keys.pose(n)] <= sent, (n, sent)
 
     # attachments hold the configs as the authority has them, byte for byte
     attachments = read_attachments(mcap)
@@ -73,7 +74,37 @@ def test_demo_recording_has_every_key_the_counts_and_the_configs(demo: tuple) ->
     assert set(nodes) <= set(meta["carlaverse.roster"])
 
 
-def test_demo_rrd_has_the_actors_at_recorded_poses_lights_and_map(demo: tuple) -> None:
+# The view draws each actor at one render time per frame, interpolated between its samples
+# (tests/viz/test_view_save.py), so a box lies on the recorded path at its render time. The
+# scripted paths are circles of r >= 25 m at <= 14 m/s sampled at 50 Hz: a chord strays
+# (v dt)^2 / 8r = 0.2 mm from the arc, so most frames are within 1 cm. A frame whose render
+# time ran past the newest sample (a late delivery on a loaded machine) is extrapolated:
+# v^2 dt^2 / 2r = 4 cm at dt = 0.1 s, 0.25 m at 0.25 s.
+MEDIAN_ERROR_M = 0.01  # [m]
+P95_ERROR_M = 0.1  # [m]
+MAX_ERROR_M = 0.5  # [m]
+
+
+def _assert_on_recorded_path(node_id: str, boxes: list[dict], poses: list) -> None:
+    """Each box, at its render time, near the recorded path linearly interpolated then."""
+    t = np.array([p.t for p in poses])
+    xs, ys = np.array([p.x for p in poses]), np.array([p.y for p in poses])
+    inside = [r for r in boxes if t[0] <= r["sim_time"] <= t[-1]]
+    assert len(inside) > 50, f"{node_id}: {len(inside)} of {len(boxes)} boxes in the recorded span"
+    times = np.array([r["sim_time"] for r in inside])
+    drawn = np.array([r["Boxes3D:centers"][0][:2] for r in inside])
+    errors = np.hypot(drawn[:, 0] - np.interp(times, t, xs), drawn[:, 1] - np.interp(times, t, ys))
+    summary = (
+        f"{node_id}: median {np.median(errors):.4f} m, p95 {np.percentile(errors, 95):.4f} m, "
+        f"max {errors.max():.4f} m over {len(errors)} frames"
+    )
+    print(summary)
+    assert np.median(errors) <= MEDIAN_ERROR_M, summary
+    assert np.percentile(errors, 95) <= P95_ERROR_M, summary
+    assert errors.max() <= MAX_ERROR_M, summary
+
+
+def test_demo_rrd_has_the_actors_on_recorded_paths_lights_and_map(demo: tuple) -> None:
     summary, mcap, rrd = demo
     rows = rrd_rows(rrd)
     poses: dict[str, dict[float, messages.Pose]] = {}
@@ -91,11 +122,7 @@ def test_demo_rrd_has_the_actors_at_recorded_poses_lights_and_map(demo: tuple) -
             road_map = messages.MAP.decode(s.payload)
     for n in summary["nodes"]:
         boxes = [r for r in rows[f"/world/egos/{n}"] if r.get("Boxes3D:centers")]  # not Clears
-        matched = [r for r in boxes if round(r["sim_time"], 6) in poses[n]]
-        assert len(matched) > 50, f"{n}: {len(matched)} of {len(boxes)} boxes at recorded poses"
-        for row in matched:
-            pose = poses[n][round(row["sim_time"], 6)]
-            assert row["Boxes3D:centers"][0][:2] == pytest.approx((pose.x, pose.y), abs=1e-3)
+        _assert_on_recorded_path(n, boxes, sorted(poses[n].values(), key=lambda p: p.t))
     assert road_map is not None
     lanes = [r for path, rs in rows.items() if path.startswith("/world/map/lanes/") for r in rs]
     assert sum(len(r["LineStrips3D:strips"]) for r in lanes) == len(road_map.lanes)
