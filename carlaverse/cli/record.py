@@ -114,6 +114,8 @@ def _record(args: argparse.Namespace) -> int:
             session, keys, sink, queue_size=args.queue_size, queue_bytes=args.queue_mib * 2**20
         )
         recorder.start()
+        # Said once subscribed: a script starting the session after it can wait for this line.
+        print(f"recording session {args.session} into {args.output}", file=sys.stderr, flush=True)
         _wait(recorder, args.duration, args.progress_s)
         stats = recorder.stop()
     finally:

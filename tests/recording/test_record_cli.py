@@ -25,3 +25,4 @@ def test_an_authority_without_scenario_is_reported_once_in_plain_words(
     assert len(no_map) == 1, lines  # retried every second, said once
     assert len(no_scenario) == 1, lines
     assert not any("ReplyError" in line or "\\x" in line for line in lines), lines
+    assert f"recording session t into {tmp_path / 'r.mcap'}" in lines, lines
