@@ -22,6 +22,7 @@ from dataclasses import dataclass
 from carlaverse.authority.domain import EgoTrack
 from carlaverse.authority.join_check import join_problem
 from carlaverse.messages import EgoInfo, JoinRequest, Pose
+from carlaverse.security.redact import redact_yaml
 
 MAX_NODES = 512  # joined nodes per session; beyond it a join is refused, not stored
 MAX_TOKENS = 4096  # presence tokens remembered; more are not tracked (an id flood)
@@ -61,7 +62,9 @@ class Roster:
             info=EgoInfo(req.node_id, req.kind, req.actor_kind, req.extent, req.mass_kg, req.site),
             instance=req.instance,
             joined_t=t,
-            config_yaml=req.config_yaml,
+            # Nodes redact before sending; an older or foreign node may not, and the authority
+            # serves this text to every participant and recorder.
+            config_yaml=redact_yaml(req.config_yaml),
             extra={"hostname": req.hostname, "version": req.version},
         )
         same_process = old is not None and old.instance == req.instance

@@ -148,3 +148,18 @@ def test_the_roster_is_bounded() -> None:
     for i in range(10_000):
         roster.token(f"flood-{i}", True)
     assert len(roster.tokens) <= 4096
+
+
+def test_a_config_sent_unredacted_is_kept_redacted() -> None:
+    """An older or foreign node may send its login; the authority never keeps it to serve."""
+    secret = "pw-7f3a9c"
+    config = (
+        "node: {node_id: tum-drive-1}\n"
+        f"fabric:\n  zenoh:\n    transport/auth/usrpwd/password: {secret}\n"
+    )
+    roster = Roster(despawn_timeout_s=3.0)
+    decision = roster.join(msgspec.structs.replace(REQ, config_yaml=config), 0.0)
+    assert decision.accepted
+    kept = roster.tracks["tum-drive-1"].config_yaml
+    assert secret not in kept
+    assert "transport/auth/usrpwd/password" in kept  # that a login was set stays visible
