@@ -10,7 +10,9 @@ A node kind (registered under the entry-point group `carlaverse.nodes`) is a cla
     def close(self) -> None
     def report(self) -> dict[str, object]          # extra fields for the exit summary
 
-`run_node` owns the rest: opening the session, joining, the loop, a clean exit.
+`run_node` owns the rest: opening the session, joining, the loop, a clean exit. Until the
+authority admits the node it says (through `on_wait`) what it waits for; `duration_s` bounds
+the whole run, waiting included.
 """
 
 from __future__ import annotations
@@ -18,6 +20,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
+from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import Any, Protocol
 
@@ -28,6 +31,7 @@ from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.fabric.stats import StreamSummary
+from carlaverse.fabric.waiting import POLL_S, SessionWait, WaitNotice
 from carlaverse.security.redact import redact_yaml
 
 log = logging.getLogger(__name__)
@@ -63,10 +67,16 @@ class NodeSummary(msgspec.Struct):
     peers: dict[str, StreamSummary] = {}
     clock_uncertainty_ms: float = float("nan")
     extra: dict[str, Any] = {}
+    # Never admitted: what it was still waiting for when stopped or out of time.
+    waiting_for: str = ""
 
 
 class UnknownNodeKind(LookupError):
     pass
+
+
+class JoinTimeout(TimeoutError):
+    """The authority did not admit the node within the join timeout."""
 
 
 def node_kinds() -> dict[str, Any]:
@@ -85,6 +95,23 @@ def load_node_kind(name: str) -> type:
     return kinds[name].load()
 
 
+class RunLimits(msgspec.Struct, frozen=True):
+    """When a node run ends, on the monotonic clock [s]."""
+
+    started: float
+    end: float | None  # --duration: the whole run, waiting included
+    join_by: float | None  # --join-timeout: admitted by then or JoinTimeout
+
+    @classmethod
+    def from_now(cls, duration_s: float | None, join_timeout_s: float | None) -> RunLimits:
+        now = time.monotonic()
+        return cls(
+            now,
+            None if duration_s is None else now + duration_s,
+            None if join_timeout_s is None else now + join_timeout_s,
+        )
+
+
 def run_node(
     node: NodeKind,
     node_settings: NodeSettings,
@@ -92,34 +119,76 @@ def run_node(
     config: StrictStruct,
     duration_s: float | None,
     stop: threading.Event,
-    join_timeout_s: float = 30.0,
+    join_timeout_s: float | None = None,
     loop_hz: float = 50.0,
+    on_wait: Callable[[str], None] | None = None,
 ) -> NodeSummary:
-    """Join, run the node's loop until `duration_s` or `stop`, leave cleanly, summarise."""
-    session = open_session(fabric)
-    client = NodeClient(
-        session, node_settings, MonotonicClock(), config_yaml=redact_yaml(to_yaml(config))
-    )
-    started = time.monotonic()
+    """Join, run the node's loop until `duration_s` or `stop`, leave cleanly, summarise.
+
+    Raises FabricUnreachable (client mode: no router before the end), JoinRefused and
+    JoinTimeout; a node stopped or out of time before it was admitted returns `joined=False`
+    with `waiting_for` saying what was missing.
+    """
+    limits = RunLimits.from_now(duration_s, join_timeout_s)
+    say = on_wait or log.warning
+    close_node = _once(node.close)
     try:
+        session = open_session(fabric, stop, limits.end, say)
         try:
-            client.start(pose_source=node.pose_source())
-            if not client.wait_joined(join_timeout_s):
-                log.warning("no authority answered in %.0f s; running unjoined", join_timeout_s)
-            _loop(node, client, started, duration_s, stop, 1.0 / loop_hz)
+            client = NodeClient(
+                session, node_settings, MonotonicClock(), config_yaml=redact_yaml(to_yaml(config))
+            )
+            wait = SessionWait(session, fabric, client.keys)
+            try:
+                client.start(pose_source=node.pose_source())
+                missing = _wait_admitted(client, WaitNotice(wait, say), stop, limits)
+                if not missing:
+                    _loop(node, client, limits, stop, 1.0 / loop_hz)
+                close_node()  # first: its report (e.g. the control loop's timing) is final
+                summary = _summary(node, client, time.monotonic() - limits.started)
+                return msgspec.structs.replace(summary, waiting_for=missing)
+            finally:
+                wait.close()
+                client.close()
         finally:
-            node.close()  # first: its report (e.g. the control loop's timing) is final then
-        return _summary(node, client, time.monotonic() - started)
+            session.close()
     finally:
-        client.close()
-        session.close()
+        close_node()  # also when never connected: a node may own processes or devices
 
 
-def _loop(node: NodeKind, client: NodeClient, started: float, duration_s: float | None,
-          stop: threading.Event, period: float) -> None:  # fmt: skip
+def _once(action: Callable[[], None]) -> Callable[[], None]:
+    done = False
+
+    def run_once() -> None:
+        nonlocal done
+        if not done:
+            done = True
+            action()
+
+    return run_once
+
+
+def _wait_admitted(
+    client: NodeClient, notice: WaitNotice, stop: threading.Event, limits: RunLimits
+) -> str:
+    """Block until admitted (""), or return what is missing when stopped or out of time."""
+    while not client.wait_joined(POLL_S):  # raises JoinRefused
+        missing = notice.poll() or f"waiting for the authority of session {client.keys.session!r}"
+        now = time.monotonic()
+        if stop.is_set() or (limits.end is not None and now >= limits.end):
+            return missing
+        if limits.join_by is not None and now >= limits.join_by:
+            raise JoinTimeout(missing)
+    notice.poll()  # says "reached ..." if it had said what it was waiting for
+    return ""
+
+
+def _loop(
+    node: NodeKind, client: NodeClient, limits: RunLimits, stop: threading.Event, period: float
+) -> None:
     next_t = time.monotonic()
     while not stop.is_set():
-        if duration_s is not None and time.monotonic() - started >= duration_s:
+        if limits.end is not None and time.monotonic() >= limits.end:
             break
         now = client.update()
         node.step(client, now)

@@ -6,6 +6,7 @@ import argparse
 import logging
 import sys
 import threading
+import time
 
 from carlaverse.authority.domain import EmptyDomain, GlobalDomain
 from carlaverse.authority.service import Authority, AuthoritySettings
@@ -15,11 +16,12 @@ from carlaverse.cli.common import (
     fabric_from_args,
     fail,
     print_json,
+    say,
     stop_on_signals,
 )
 from carlaverse.config import ConfigError
 from carlaverse.fabric.clock import WallAlignedClock
-from carlaverse.fabric.session import FabricError, open_session
+from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config, open_session
 from carlaverse.keys import AUTHORITY_ID, KeySpaceError, check_token
 
 log = logging.getLogger(__name__)
@@ -70,17 +72,25 @@ def run(args: argparse.Namespace) -> int:
     session_name = args.session or "default"
     try:
         check_token(session_name, "session name")
+        fabric = fabric_from_args(args, identity=AUTHORITY_ID)
+        build_config(fabric)  # a bad endpoint is reported before SUMO starts
         domain = load_domain(args.scenario, args.seed)
-        session = open_session(fabric_from_args(args, identity=AUTHORITY_ID))
     except (ConfigError, FabricError, KeySpaceError) as exc:
         return fail("authority", str(exc))
+    stop = stop_on_signals()
+    deadline = None if args.duration is None else time.monotonic() + args.duration
+    try:
+        session = open_session(fabric, stop, deadline, say("authority"))
+    except FabricUnreachable as exc:
+        return fail("authority", str(exc), stop.exit_code() if stop.is_set() else 5)
+    except FabricError as exc:
+        return fail("authority", str(exc), 3)
     params = getattr(domain, "session_params", None)
     settings = AuthoritySettings(
         session=session_name,
         tick_hz=args.tick_hz or getattr(params, "tick_hz", 50.0),
         despawn_timeout_s=args.despawn_timeout or getattr(params, "despawn_timeout_s", 3.0),
     )
-    stop = stop_on_signals()
     authority = Authority(session, settings, WallAlignedClock(), domain).start()
     watcher = threading.Thread(target=lambda: (stop.wait(), authority.stop()), daemon=True)
     watcher.start()

@@ -7,11 +7,14 @@ import json
 import signal
 import sys
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import msgspec
 
-from carlaverse.fabric.session import FabricSettings
+from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.fabric.waiting import SessionWait, WaitNotice
+from carlaverse.keys import Keys
 
 
 def add_fabric_args(parser: argparse.ArgumentParser, session: bool = True) -> None:
@@ -83,16 +86,36 @@ def add_output_args(parser: argparse.ArgumentParser, duration: float | None = No
     )
 
 
-def stop_on_signals() -> threading.Event:
+class StopSignal(threading.Event):
+    """Set by SIGINT or SIGTERM; remembers which, for the conventional exit code 128 + N."""
+
+    signum: int = 0
+
+    def exit_code(self) -> int:
+        return 128 + (self.signum or signal.SIGINT)
+
+
+def stop_on_signals() -> StopSignal:
     """An event set by SIGINT or SIGTERM, so loops end cleanly and leave the session."""
-    stop = threading.Event()
+    stop = StopSignal()
 
     def handler(signum: int, frame: object) -> None:
+        stop.signum = signum
         stop.set()
 
-    signal.signal(signal.SIGINT, handler)
-    signal.signal(signal.SIGTERM, handler)
+    if threading.current_thread() is threading.main_thread():  # tests call main() off it
+        signal.signal(signal.SIGINT, handler)
+        signal.signal(signal.SIGTERM, handler)
     return stop
+
+
+def say(command: str) -> Callable[[str], None]:
+    """A one-line notice on stderr, `carlaverse COMMAND: ...`, for what a command waits for."""
+
+    def notice(message: str) -> None:
+        print(f"carlaverse {command}: {message}", file=sys.stderr, flush=True)
+
+    return notice
 
 
 def print_json(value: Any) -> None:
@@ -103,3 +126,26 @@ def print_json(value: Any) -> None:
 def fail(command: str, message: str, code: int = 2) -> int:
     print(f"carlaverse {command}: {message}", file=sys.stderr)
     return code
+
+
+def attend(
+    command: str,
+    fabric: FabricSettings,
+    keys: Keys,
+    stop: threading.Event,
+    deadline: float | None = None,
+) -> tuple[Any, WaitNotice]:
+    """Open the session for a recorder, viewer or observer and keep saying what it waits for.
+
+    A client waits for its router (one line within ~1 s; FabricUnreachable when `stop` is
+    set or the monotonic `deadline` passes); then a background notice says, once per change,
+    if no router or no authority of the session is there. Close the notice before the session.
+    """
+    notice_line = say(command)
+    session = open_session(fabric, stop, deadline, notice_line)
+    try:
+        notice = WaitNotice(SessionWait(session, fabric, keys), notice_line).start()
+    except BaseException:
+        session.close()
+        raise
+    return session, notice

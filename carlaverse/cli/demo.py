@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import signal
 import socket
@@ -18,18 +17,24 @@ import sys
 import tempfile
 import threading
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import yaml
 
-from carlaverse.cli.common import fail, stop_on_signals
+from carlaverse.cli.common import StopSignal, fail, stop_on_signals
+from carlaverse.cli.demo_summary import format_summary, summarise
+from carlaverse.config import ConfigError, load_config
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
 from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 
 DEFAULT_NODES = "scripted,scripted,scripted"
+ERROR_TAIL_LINES = 20  # stderr lines kept per child, to say why it failed
+STOP_GRACE_S = 10.0  # [s] a child stopped by SIGINT is killed after this
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -76,6 +81,13 @@ class Child:
     proc: subprocess.Popen[str]
     role: str  # router | authority | node | tool
     out: list[str] = field(default_factory=list)
+    err: deque[str] = field(default_factory=lambda: deque(maxlen=ERROR_TAIL_LINES))
+    readers: list[threading.Thread] = field(default_factory=list)
+
+    def last_error(self) -> str:
+        """The child's last non-empty stderr line: a command's one-line error says why."""
+        lines = [line.strip() for line in self.err if line.strip()]
+        return lines[-1] if lines else ""
 
 
 def free_port() -> int:
@@ -89,12 +101,14 @@ def _spawn(name: str, role: str, argv: list[str]) -> Child:
     cmd = [sys.executable, "-m", "carlaverse", *argv]
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     child = Child(name, proc, role)
-    threading.Thread(target=_drain, args=(proc.stdout, child.out), daemon=True).start()
-    threading.Thread(target=_drain, args=(proc.stderr, []), daemon=True).start()
+    for stream, sink in ((proc.stdout, child.out), (proc.stderr, child.err)):
+        reader = threading.Thread(target=_drain, args=(stream, sink), daemon=True)
+        reader.start()
+        child.readers.append(reader)
     return child
 
 
-def _drain(stream: Any, sink: list[str]) -> None:
+def _drain(stream: Any, sink: list[str] | deque[str]) -> None:
     for line in stream:
         sink.append(line)
 
@@ -130,22 +144,39 @@ def _node_argv(
         "--json",
     ]
     configs = dict(item.split("=", 1) for item in args.node_config)
-    if config is not None:
-        argv += ["--config", str(config)]
-    elif kind in configs:
+    if kind in configs:  # the user's config wins over the demo's generated one
         argv += ["--config", configs[kind]]
+    elif config is not None:
+        argv += ["--config", str(config)]
     elif kind not in ("scripted", "observer"):
         argv += ["--backend", "sim"]  # no hardware here: the kind's honest simulated devices
     return argv
 
 
+def check_nodes(kinds: list[str], node_configs: list[str]) -> str:
+    """Why the requested nodes cannot start ("" if they can): unknown kind, bad config."""
+    if not kinds:
+        return "--nodes names no node kind"
+    try:
+        for kind in kinds:
+            load_node_kind(kind)
+        for item in node_configs:
+            kind, sep, path = item.partition("=")
+            if not sep or not kind or not path:
+                return f"--node-config takes KIND=FILE, got {item!r}"
+            if kind not in kinds:
+                return f"--node-config {item!r}: no {kind!r} node in --nodes {','.join(kinds)}"
+            load_config(path, load_node_kind(kind).config_type)
+    except (UnknownNodeKind, ConfigError) as exc:
+        return str(exc)
+    return ""
+
+
 def run(args: argparse.Namespace) -> int:
     kinds = [k.strip() for k in args.nodes.split(",") if k.strip()]
-    if not kinds:
-        return fail("demo", "--nodes names no node kind")
-    bad = [item for item in args.node_config if "=" not in item]
-    if bad:
-        return fail("demo", f"--node-config takes KIND=FILE, got {bad[0]!r}")
+    problem = check_nodes(kinds, args.node_config)
+    if problem:
+        return fail("demo", problem)
     stop = stop_on_signals()
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     children: list[Child] = []
@@ -154,7 +185,9 @@ def run(args: argparse.Namespace) -> int:
             summary = _run_session(args, kinds, endpoint, Path(tmp), children, stop)
         finally:
             _stop_all(children)
-    _print_summary(summary, args.json)
+    print(format_summary(summary, args.json), flush=True)
+    if summary["interrupted"]:
+        return stop.exit_code()
     return 0 if summary["ok"] else 1
 
 
@@ -205,9 +238,22 @@ def _run_session(
         ids.append(node_id)
     watched = _watch(args, endpoint, ids, children, stop)
     nodes = _collect_nodes(children, args.duration + 60.0, stop)
-    _stop_all([c for c in children if c.role != "node"], keep=True)
+    _stop_all([c for c in children if c.role != "node"])
     authority = next(c for c in children if c.role == "authority")
-    return _summarise(ids, nodes, _parse_json(authority), watched, children)
+    tools = [c for c in children if c.role == "tool"]
+    return summarise(
+        ids,
+        nodes,
+        _parse_json(authority),
+        watched,
+        {c.name: c.proc.returncode for c in tools},
+        {c.name: c.last_error() for c in tools},
+        interrupted=_signal_name(stop),
+    )
+
+
+def _signal_name(stop: StopSignal) -> str:
+    return signal.Signals(stop.signum).name if stop.is_set() and stop.signum else ""
 
 
 def _watch(
@@ -252,17 +298,29 @@ def _progress(elapsed: float, duration: float, live: list[str], expected: int) -
 
 
 def _collect_nodes(children: list[Child], timeout: float, stop: threading.Event) -> dict[str, Any]:
+    """Wait for the nodes to finish (or a signal), then read each one's exit and summary."""
+    nodes = [c for c in children if c.role == "node"]
     deadline = time.monotonic() + timeout
+    while any(c.proc.poll() is None for c in nodes) and time.monotonic() < deadline:
+        if stop.wait(0.1):
+            break
+    _stop_all(nodes)  # on a signal or the deadline: SIGINT all at once, kill the deaf
     out: dict[str, Any] = {}
-    for child in (c for c in children if c.role == "node"):
-        while child.proc.poll() is None and time.monotonic() < deadline and not stop.is_set():
-            time.sleep(0.1)
-        if child.proc.poll() is None:
-            child.proc.send_signal(signal.SIGINT)
-            child.proc.wait(timeout=10)
-        time.sleep(0.05)  # let the reader thread take the last lines
-        out[child.name] = {"exit_code": child.proc.returncode, "summary": _parse_json(child)}
+    for child in nodes:
+        _finish_reading(child)
+        out[child.name] = {
+            "exit_code": child.proc.returncode,
+            "summary": _parse_json(child),
+            "error": child.last_error(),
+        }
     return out
+
+
+def _finish_reading(child: Child, timeout: float = 2.0) -> None:
+    """Let the reader threads take the last lines of an exited child (its pipes close)."""
+    deadline = time.monotonic() + timeout
+    for reader in child.readers:
+        reader.join(max(0.0, deadline - time.monotonic()))
 
 
 def _parse_json(child: Child) -> dict[str, Any] | None:
@@ -274,90 +332,15 @@ def _parse_json(child: Child) -> dict[str, Any] | None:
         return None
 
 
-def _stop_all(children: list[Child], keep: bool = False) -> None:
+def _stop_all(children: list[Child]) -> None:
+    """SIGINT every running child at once; kill those still running after the grace."""
     for child in children:
         if child.proc.poll() is None:
             child.proc.send_signal(signal.SIGINT)
+    deadline = time.monotonic() + STOP_GRACE_S
     for child in children:
         try:
-            child.proc.wait(timeout=10)
+            child.proc.wait(timeout=max(0.0, deadline - time.monotonic()))
         except subprocess.TimeoutExpired:
             child.proc.kill()
             child.proc.wait()
-    if keep:
-        time.sleep(0.1)
-
-
-def _summarise(
-    ids: list[str],
-    nodes: dict[str, Any],
-    authority: dict[str, Any] | None,
-    watched: dict[str, Any],
-    children: list[Child],
-) -> dict[str, Any]:
-    actors = [i for i in ids if not i.startswith("observer")]
-    table = {}
-    all_seen = True
-    for node_id in ids:
-        entry = nodes.get(node_id, {})
-        summary = entry.get("summary") or {}
-        seen = set(summary.get("actors_seen", []))
-        expected = {a for a in actors if a != node_id}
-        missing = sorted(expected - seen)
-        all_seen &= not missing and entry.get("exit_code") == 0
-        peers = summary.get("peers", {}).values()
-        table[node_id] = {
-            "exit_code": entry.get("exit_code"),
-            "joined": summary.get("joined", False),
-            "actors_seen": sorted(seen),
-            "missing": missing,
-            "latency_p50_ms": _worst(peers, "latency_p50_ms"),
-            "latency_p99_ms": _worst(peers, "latency_p99_ms"),
-            "despawns": summary.get("despawns", []),
-            "npcs_now": summary.get("npcs_now", 0),
-            "poses_sent": summary.get("poses_sent", 0),
-        }
-    tools = {c.name: c.proc.returncode for c in children if c.role == "tool"}
-    ok = all(t["exit_code"] == 0 for t in table.values()) and all(v == 0 for v in tools.values())
-    return {
-        "ok": ok,
-        "all_seen": all_seen,
-        "nodes": table,
-        "authority": authority,
-        "observer": watched,
-        "tools": tools,
-    }
-
-
-def _worst(peers: Any, field_name: str) -> float | None:
-    values = [p.get(field_name) for p in peers if isinstance(p.get(field_name), float | int)]
-    values = [v for v in values if not math.isnan(v)]
-    return max(values) if values else None
-
-
-def _print_summary(summary: dict[str, Any], as_json: bool) -> None:
-    if as_json:
-        print(json.dumps(summary, indent=2, sort_keys=True))
-        return
-    print(
-        f"{'node':<14} {'joined':<7} {'saw':<5} {'NPCs':>5} {'p50 ms':>8} {'p99 ms':>8}  "
-        "despawns  missing"
-    )
-    for node_id, row in summary["nodes"].items():
-        p50, p99 = row["latency_p50_ms"], row["latency_p99_ms"]
-        print(
-            f"{node_id:<14} {row['joined']!s:<7} {len(row['actors_seen']):<5} {row['npcs_now']:>5} "
-            f"{p50 if p50 is not None else '-':>8} {p99 if p99 is not None else '-':>8}  "
-            f"{len(row['despawns']):<9} {' '.join(row['missing']) or '-'}"
-        )
-    tick = (summary.get("authority") or {}).get("tick") or {}
-    if tick:
-        print(
-            f"authority: {tick.get('ticks')} ticks, p50 {tick.get('tick_p50_ms')} ms, "
-            f"p99 {tick.get('tick_p99_ms')} ms"
-        )
-    print(
-        "every node saw every other node"
-        if summary["all_seen"]
-        else "NOT every node saw every other node"
-    )

@@ -4,28 +4,49 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 import msgspec
 
 from carlaverse.cli.common import (
+    StopSignal,
     add_fabric_args,
     add_output_args,
     fabric_from_args,
     fail,
     print_json,
+    say,
     stop_on_signals,
 )
 from carlaverse.config import ConfigError, load_config
-from carlaverse.fabric.node_client import JoinRefused
-from carlaverse.fabric.session import FabricError
+from carlaverse.fabric.node_client import JoinRefused, NodeSettings
+from carlaverse.fabric.session import FabricError, FabricSettings, FabricUnreachable, build_config
 from carlaverse.keys import KeySpaceError, check_token
-from carlaverse.node_runtime import UnknownNodeKind, load_node_kind, node_kinds, run_node
+from carlaverse.node_runtime import (
+    JoinTimeout,
+    NodeSummary,
+    UnknownNodeKind,
+    load_node_kind,
+    node_kinds,
+    run_node,
+)
+
+# Exit codes beyond 0/2: 3 the fabric cannot be opened (bad endpoint or setting), 4 the
+# authority refused the node, 5 it was never admitted (no router or authority in time),
+# 128+N stopped by signal N before it was admitted.
+EXIT_FABRIC, EXIT_REFUSED, EXIT_NOT_ADMITTED = 3, 4, 5
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = (
         "Join a session as a node. Kinds are plug-ins (entry-point group carlaverse.nodes); "
         f"installed: {', '.join(sorted(node_kinds()))}."
+    )
+    parser.epilog = (
+        "Until the authority admits it the node says what it waits for and keeps trying. "
+        "Exit codes: 2 usage or config error, 3 fabric error, 4 refused by the authority, "
+        "5 not admitted in time (--join-timeout or --duration), 130/143 stopped by "
+        "SIGINT/SIGTERM before it was admitted."
     )
     parser.add_argument("kind", help="node kind, e.g. observer, scripted, drive")
     parser.add_argument(
@@ -40,72 +61,90 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--join-timeout",
         type=float,
-        default=30.0,
         metavar="S",
-        help="how long to wait for the authority before running unjoined",
+        help="give up (exit 5) if the authority has not admitted the node after S seconds "
+        "(default: keep trying for the whole --duration)",
     )
     add_fabric_args(parser)
     add_output_args(parser)
 
 
-def run(args: argparse.Namespace) -> int:
-    try:
-        kind_cls = load_node_kind(args.kind)
-        config = (
-            load_config(args.config, kind_cls.config_type)
-            if args.config
-            else kind_cls.config_type()
-        )
-    except (UnknownNodeKind, ConfigError) as exc:
-        return fail("join", str(exc))
+def _prepare(args: argparse.Namespace) -> tuple[type, Any, NodeSettings, FabricSettings]:
+    """The kind, its config with --id/--session/fabric flags applied; ConfigError-like errors."""
+    kind_cls = load_node_kind(args.kind)
+    config = (
+        load_config(args.config, kind_cls.config_type) if args.config else kind_cls.config_type()
+    )
     node_settings = config.node
     if args.node_id:
         node_settings = msgspec.structs.replace(node_settings, node_id=args.node_id)
     if args.session:
         node_settings = msgspec.structs.replace(node_settings, session=args.session)
     if not node_settings.node_id:
-        return fail("join", "no node id: pass --id NODE_ID or set node.node_id in the config")
+        raise ConfigError("", "no node id: pass --id NODE_ID or set node.node_id in the config")
+    check_token(node_settings.node_id)
+    check_token(node_settings.session, "session name")
+    fabric = fabric_from_args(args, config.fabric, identity=node_settings.node_id)
+    build_config(fabric)  # endpoints and Zenoh entries checked before any device starts
+    config = msgspec.structs.replace(config, node=node_settings, fabric=fabric)
+    if args.backend:
+        if not hasattr(kind_cls, "with_backend"):
+            raise ConfigError("", f"node kind {args.kind!r} has no devices for --backend")
+        config = kind_cls.with_backend(config, args.backend)
+    return kind_cls, config, node_settings, fabric
+
+
+def run(args: argparse.Namespace) -> int:
     try:
-        check_token(node_settings.node_id)
-        check_token(node_settings.session, "session name")
-    except KeySpaceError as exc:
-        return fail("join", str(exc))
-    config = msgspec.structs.replace(config, node=node_settings)
-    try:
-        fabric = fabric_from_args(args, config.fabric, identity=node_settings.node_id)
-    except ConfigError as exc:
-        return fail("join", str(exc))
-    config = msgspec.structs.replace(config, fabric=fabric)
+        kind_cls, config, node_settings, fabric = _prepare(args)
+    except (UnknownNodeKind, ConfigError, KeySpaceError, FabricError) as exc:
+        return fail("join", str(exc).lstrip(": "))
     stop = stop_on_signals()
+    node_id = node_settings.node_id
     try:
-        if args.backend:
-            if not hasattr(kind_cls, "with_backend"):
-                return fail("join", f"node kind {args.kind!r} has no devices for --backend")
-            config = kind_cls.with_backend(config, args.backend)
         node = kind_cls(config)
         node_settings = getattr(node, "node_settings", node_settings)
         summary = run_node(
-            node,
-            node_settings,
-            fabric,
-            config,
-            args.duration,
-            stop,
-            join_timeout_s=args.join_timeout,
-        )
+            node, node_settings, fabric, config, args.duration, stop,
+            join_timeout_s=args.join_timeout, on_wait=say("join"),
+        )  # fmt: skip
     except JoinRefused as exc:
-        return fail("join", f"the authority refused {node_settings.node_id!r}: {exc}", 4)
+        return fail("join", f"the authority refused {node_id!r}: {exc}", EXIT_REFUSED)
+    except (FabricUnreachable, JoinTimeout) as exc:
+        if stop.is_set():
+            return fail("join", f"stopped before it was admitted ({exc})", stop.exit_code())
+        return fail("join", f"{node_id} gave up: {_stopped_waiting(exc)}", EXIT_NOT_ADMITTED)
     except FabricError as exc:
-        return fail("join", str(exc), 3)
+        return fail("join", str(exc), EXIT_FABRIC)
     except (ValueError, ConfigError) as exc:
         return fail("join", f"{args.kind}: {exc}")
+    return _report(args, summary, stop)
+
+
+def _stopped_waiting(exc: Exception) -> str:
+    if isinstance(exc, JoinTimeout):
+        return f"not admitted within --join-timeout: {exc}"
+    return str(exc)
+
+
+def _still(summary: NodeSummary) -> str:
+    return f"still {summary.waiting_for}"
+
+
+def _report(args: argparse.Namespace, summary: NodeSummary, stop: StopSignal) -> int:
     if summary.refused:
-        return fail(
-            "join", f"the authority refused {node_settings.node_id!r}: {summary.refused}", 4
-        )
+        return fail("join", f"the authority refused {summary.node_id!r}: {summary.refused}", 4)
     if args.json:
         print_json(summary)
-    else:
+    if not summary.joined:
+        if stop.is_set():
+            return fail("join", f"stopped before it was admitted, {_still(summary)}",
+                        stop.exit_code())  # fmt: skip
+        return fail(
+            "join", f"not admitted in {summary.duration_s:.0f} s, {_still(summary)}",
+            EXIT_NOT_ADMITTED,
+        )  # fmt: skip
+    if not args.json:
         print(
             f"{summary.node_id}: joined={summary.joined} saw {len(summary.actors_seen)} actor(s) "
             f"{summary.actors_seen}, sent {summary.poses_sent} poses in {summary.duration_s:.1f} s",

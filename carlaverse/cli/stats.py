@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import argparse
 import sys
+import threading
 import time
 
 from carlaverse.cli.common import (
     add_fabric_args,
     add_output_args,
+    attend,
     fabric_from_args,
     fail,
     print_json,
@@ -17,8 +19,9 @@ from carlaverse.cli.common import (
 from carlaverse.config import ConfigError
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricError, open_session
+from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config
 from carlaverse.fabric.stats import StreamSummary
+from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, check_token
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -43,23 +46,27 @@ def run(args: argparse.Namespace) -> int:
         node_id=args.node_id, session=args.session or "default", kind="observer", actor_kind=""
     )
     try:
-        session = open_session(fabric_from_args(args))
-    except FabricError as exc:
-        return fail("stats", str(exc), 3)
-    except ConfigError as exc:  # --roster: not in it, or certificate files missing
+        check_token(settings.node_id, "observer id (--id)")
+        if settings.node_id == AUTHORITY_ID:
+            raise KeySpaceError(f"observer id (--id) {AUTHORITY_ID!r} is the authority's")
+        check_token(settings.session, "session name")
+        fabric = fabric_from_args(args)
+        build_config(fabric)
+    except (KeySpaceError, FabricError, ConfigError) as exc:  # ConfigError: --roster problems
         return fail("stats", str(exc))
     stop = stop_on_signals()
-    client = NodeClient(session, settings, MonotonicClock()).start()
-    started = next_print = time.monotonic()
+    deadline = time.monotonic() + args.duration
     try:
-        while not stop.is_set() and time.monotonic() - started < args.duration:
-            now = client.update()
-            if not args.json and time.monotonic() >= next_print:
-                _print_table(_summaries(client, now))
-                next_print += args.interval
-            stop.wait(0.05)
-        result = _summaries(client, client.update())
+        session, notice = attend("stats", fabric, Keys(settings.session), stop, deadline)
+    except FabricUnreachable as exc:
+        return fail("stats", str(exc), stop.exit_code() if stop.is_set() else 5)
+    except FabricError as exc:
+        return fail("stats", str(exc), 3)
+    client = NodeClient(session, settings, MonotonicClock()).start()
+    try:
+        result = _observe(args, client, stop, deadline)
     finally:
+        notice.close()
         client.close()
         session.close()
     if args.json:
@@ -67,6 +74,20 @@ def run(args: argparse.Namespace) -> int:
     else:
         _print_table(result)
     return 0
+
+
+def _observe(
+    args: argparse.Namespace, client: NodeClient, stop: threading.Event, deadline: float
+) -> dict[str, StreamSummary]:
+    """Print a table every --interval until the deadline or a signal; the final summaries."""
+    next_print = time.monotonic()
+    while not stop.is_set() and time.monotonic() < deadline:
+        now = client.update()
+        if not args.json and time.monotonic() >= next_print:
+            _print_table(_summaries(client, now))
+            next_print += args.interval
+        stop.wait(0.05)
+    return _summaries(client, client.update())
 
 
 def _summaries(client: NodeClient, now: float) -> dict[str, StreamSummary]:

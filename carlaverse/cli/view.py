@@ -6,16 +6,21 @@ import argparse
 import signal
 import sys
 import threading
+import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from carlaverse.cli.common import add_fabric_args, fabric_from_args
-from carlaverse.fabric.session import FabricError, open_session
-from carlaverse.keys import Keys, KeySpaceError
+import zenoh
+
+from carlaverse.cli.common import add_fabric_args, attend, fabric_from_args
+from carlaverse.config import ConfigError
+from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config
+from carlaverse.keys import Keys, KeySpaceError, check_token
 from carlaverse.recording.sink import RecordingError
-from carlaverse.viz.live import LiveView, ViewSettings
-from carlaverse.viz.outputs import Outputs, ViewerError, ViewOutput, wait_forever_or
-from carlaverse.viz.playback import render_recording
-from carlaverse.viz.scene import SceneLogger
+
+if TYPE_CHECKING:
+    from carlaverse.viz.outputs import ViewOutput
 
 VIEWER_SCHEMES = ("rerun://", "rerun+http://", "rerun+https://")
 SERVE_HELP = (
@@ -80,11 +85,7 @@ def _split_connect(values: list[str]) -> tuple[list[str], str | None]:
 
 def run(args: argparse.Namespace) -> int:
     args.connect, viewer_url = _split_connect(args.connect)
-    outputs = Outputs(
-        save=args.save, connect=viewer_url, serve=args.serve, spawn=args.spawn,
-        serve_host=args.serve_host, web_port=args.web_port,
-    )  # fmt: skip
-    if not outputs.any():
+    if not (args.save or viewer_url or args.serve or args.spawn):
         return _fail(
             "choose an output: --spawn, --serve, --connect rerun+http://... or --save FILE.rrd"
         )
@@ -92,7 +93,47 @@ def run(args: argparse.Namespace) -> int:
         return _fail("give --session NAME to watch a live session, or a FILE.mcap to render")
     if args.rate <= 0:
         return _fail(f"--rate must be > 0, got {args.rate}")
+    if args.recording is not None:
+        return _show(args, viewer_url, _stop_event(), None)
+    try:  # a bad endpoint, session name or roster entry is a usage error: before any output
+        check_token(args.session, "session name")
+        fabric = fabric_from_args(args)
+        build_config(fabric)
+    except (KeySpaceError, FabricError, ConfigError) as exc:
+        return _fail(str(exc))
     stop = _stop_event()
+    deadline = None if args.duration is None else time.monotonic() + args.duration
+    try:  # first, so what it waits for is said before Rerun's seconds-long import
+        session, notice = attend("view", fabric, Keys(args.session), stop, deadline)
+    except FabricUnreachable as exc:
+        return _fail(str(exc), 0 if stop.is_set() else 5)  # Ctrl-C while waiting: a normal end
+    except FabricError as exc:
+        return _fail(str(exc), 3)
+    try:
+        return _show(args, viewer_url, stop, Live(session, Keys(args.session), deadline))
+    finally:
+        notice.close()
+        session.close()
+
+
+@dataclass(frozen=True)
+class Live:
+    """An open session to watch, until the monotonic `deadline` (--duration) if any."""
+
+    session: zenoh.Session
+    keys: Keys
+    deadline: float | None
+
+
+def _show(
+    args: argparse.Namespace, viewer_url: str | None, stop: threading.Event, live: Live | None
+) -> int:
+    from carlaverse.viz.outputs import Outputs, ViewerError, ViewOutput
+
+    outputs = Outputs(
+        save=args.save, connect=viewer_url, serve=args.serve, spawn=args.spawn,
+        serve_host=args.serve_host, web_port=args.web_port,
+    )  # fmt: skip
     try:
         view = ViewOutput(outputs)
     except ViewerError as exc:
@@ -100,9 +141,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         if view.web_url:
             print(f"web viewer: {view.web_url}", file=sys.stderr, flush=True)
-        if args.recording is not None:
+        if live is None:
             return _render_file(args, view, stop)
-        return _watch(args, view, stop)
+        return _watch(args, live, view, stop)
     except (RecordingError, FabricError, KeySpaceError) as exc:
         return _fail(str(exc), 1)
     finally:
@@ -110,6 +151,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _render_file(args: argparse.Namespace, view: ViewOutput, stop: threading.Event) -> int:
+    from carlaverse.viz.outputs import wait_forever_or
+    from carlaverse.viz.playback import render_recording
+    from carlaverse.viz.scene import SceneLogger
+
     scene = SceneLogger(view.rec, trails=not args.no_trails, raw=args.raw)
     stats = render_recording(args.recording, scene, rate_hz=args.rate)
     print(f"rendered {stats.samples} samples in {stats.frames} frames", file=sys.stderr)
@@ -120,17 +165,18 @@ def _render_file(args: argparse.Namespace, view: ViewOutput, stop: threading.Eve
     return 0
 
 
-def _watch(args: argparse.Namespace, view: ViewOutput, stop: threading.Event) -> int:
-    keys = Keys(args.session)
-    session = open_session(fabric_from_args(args))
+def _watch(args: argparse.Namespace, live: Live, view: ViewOutput, stop: threading.Event) -> int:
+    from carlaverse.viz.live import LiveView, ViewSettings
+    from carlaverse.viz.scene import SceneLogger
+
     settings = ViewSettings(rate_hz=args.rate, trails=not args.no_trails)
     scene = SceneLogger(view.rec, trails=settings.trails, raw=args.raw)
-    live = LiveView(session, keys, scene, settings)
+    watcher = LiveView(live.session, live.keys, scene, settings)
     try:
-        stats = live.start().run(stop, args.duration)
+        left = None if live.deadline is None else max(0.0, live.deadline - time.monotonic())
+        stats = watcher.start().run(stop, left)
     finally:
-        live.close()
-        session.close()
+        watcher.close()
     print(
         f"viewed {stats.samples} samples in {stats.frames} frames ({stats.skipped_frames} skipped)",
         file=sys.stderr,

@@ -10,6 +10,11 @@ short enough that a crashed node is noticed well within the despawn timeout.
 from __future__ import annotations
 
 import json
+import re
+import signal
+import threading
+import time
+from collections.abc import Callable
 from typing import Any, Literal
 
 import msgspec
@@ -22,6 +27,21 @@ Mode = Literal["peer", "client", "router"]
 
 class FabricError(RuntimeError):
     """A Zenoh session could not be configured or opened."""
+
+
+class FabricUnreachable(FabricError):
+    """Client mode: no router answered before the deadline or the stop signal."""
+
+
+# Client mode cannot open a session without a router, and Zenoh's open blocks (in Rust, deaf
+# to signals) for as long as `connect/timeout_ms` says. One attempt per second keeps a waiting
+# client responsive to Ctrl-C / SIGTERM and lets it say what it waits for.
+CLIENT_ATTEMPT_MS = 1000
+# Protocols whose address is host:port (the others -- unixsock-stream, serial, vsock -- are
+# paths or device names and are left to Zenoh).
+IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
+OTHER_PROTOCOLS = ("unixsock-stream", "unixpipe", "serial", "vsock")
+_HOST_PORT = re.compile(r"^(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]{1,5})$")
 
 
 class FabricSettings(StrictStruct):
@@ -50,8 +70,47 @@ def default_listen(mode: Mode) -> list[str]:
     return ["tcp/127.0.0.1:0"]
 
 
+def check_endpoint(endpoint: str, role: str = "connect") -> None:
+    """Raise FabricError unless `endpoint` reads `proto/host:port[?meta][#config]`."""
+    proto, slash, rest = endpoint.partition("/")
+    address = re.split(r"[?#]", rest, maxsplit=1)[0]
+    example = "e.g. tcp/127.0.0.1:7447"
+    if not slash or proto not in IP_PROTOCOLS + OTHER_PROTOCOLS:
+        known = "/".join(IP_PROTOCOLS)
+        raise FabricError(
+            f"bad --{role} endpoint {endpoint!r}: expected {known}/HOST:PORT ({example})"
+        )
+    if proto in OTHER_PROTOCOLS:
+        return
+    match = _HOST_PORT.match(address)
+    if match is None:
+        raise FabricError(
+            f"bad --{role} endpoint {endpoint!r}: expected {proto}/HOST:PORT ({example})"
+        )
+    port = int(match["port"])
+    if port > 65535 or (port == 0 and role == "connect"):
+        lowest = 0 if role == "listen" else 1
+        raise FabricError(f"bad --{role} endpoint {endpoint!r}: port must be {lowest}-65535")
+
+
+def zenoh_reason(exc: BaseException) -> str:
+    """Zenoh's message without the Rust source location and debug wrapping."""
+    text = str(exc)
+    inner = re.search(r'msg: "(.*?)(?:"|$)', text)  # Json5Err(Message { msg: "...", ... })
+    if inner:
+        text = inner[1]
+    text = re.sub(r"\s+at /\S+\.rs:\d+\.?", "", text)
+    text = re.sub(r"\[Single\(([^)]*)\)\]", r"\1", text)
+    text = re.sub(r'^Str\("(.*)"\)$', r"\1", text.strip())
+    return text.strip().rstrip(".!") or type(exc).__name__
+
+
 def build_config(settings: FabricSettings) -> zenoh.Config:
     """Translate settings into a zenoh.Config; raise FabricError naming the bad entry."""
+    for endpoint in settings.connect:
+        check_endpoint(endpoint, "connect")
+    for endpoint in settings.listen:
+        check_endpoint(endpoint, "listen")
     entries: dict[str, Any] = {
         "mode": settings.mode,
         "scouting/multicast/enabled": settings.multicast_scouting,
@@ -59,9 +118,10 @@ def build_config(settings: FabricSettings) -> zenoh.Config:
         "connect/endpoints": settings.connect,
         "transport/link/tx/lease": settings.lease_ms,
         "transport/link/tx/keep_alive": settings.keep_alive,
-        # Keep retrying connects forever in every mode: a node outlives a router restart.
-        "connect/timeout_ms": {"router": -1, "peer": -1, "client": -1},
-        "connect/exit_on_failure": {"router": False, "peer": False, "client": False},
+        # Peers and routers keep retrying connects in the background: a node outlives a
+        # router restart. A client cannot open without a router: open_session retries it.
+        "connect/timeout_ms": {"router": -1, "peer": -1, "client": CLIENT_ATTEMPT_MS},
+        "connect/exit_on_failure": {"router": False, "peer": False, "client": True},
         "connect/retry": {
             "period_init_ms": 250,
             "period_max_ms": 2000,
@@ -77,18 +137,104 @@ def build_config(settings: FabricSettings) -> zenoh.Config:
         try:
             config.insert_json5(path, json.dumps(value))
         except Exception as exc:  # zenoh raises ZError with the parser's message
-            raise FabricError(f"invalid zenoh setting {path} = {value!r}: {exc}") from exc
+            raise FabricError(
+                f"invalid zenoh setting {path} = {value!r}: {zenoh_reason(exc)}"
+            ) from exc
     return config
 
 
-def open_session(settings: FabricSettings) -> zenoh.Session:
-    """Open a Zenoh session; errors name the endpoints involved."""
+def open_session(
+    settings: FabricSettings,
+    stop: threading.Event | None = None,
+    deadline: float | None = None,
+    on_wait: Callable[[str], None] | None = None,
+) -> zenoh.Session:
+    """Open a Zenoh session; errors name the endpoints involved.
+
+    A client retries once a second until a router answers; it calls `on_wait` once with what
+    it waits for, and raises FabricUnreachable when `stop` is set or the monotonic `deadline`
+    passes (within ~50 ms: the attempt runs in a worker thread). Peers and routers open at
+    once and connect in the background.
+    """
     config = build_config(settings)
-    try:
-        return zenoh.open(config)
-    except Exception as exc:
-        raise FabricError(
-            f"cannot open a zenoh {settings.mode} session "
-            f"(listen={settings.listen or default_listen(settings.mode)}, "
-            f"connect={settings.connect}): {exc}"
-        ) from exc
+    waited = False
+    while True:
+        attempt = _OpenAttempt(config)
+        while not attempt.done.wait(0.05):
+            if _should_give_up(stop, deadline):
+                attempt.abandon()
+                raise FabricUnreachable(f"no router answered at {_endpoints(settings)}")
+        if attempt.session is not None:
+            return attempt.session
+        error = attempt.error
+        if settings.mode != "client" or "Unable to connect" not in str(error):
+            raise FabricError(_cannot_open(settings, error)) from error
+        if not waited and on_wait is not None:
+            on_wait(
+                f"waiting for a router at {_endpoints(settings)}: none answers or it refuses "
+                "the handshake (retrying)"
+            )
+        waited = True
+        if _should_give_up(stop, deadline):
+            raise FabricUnreachable(f"no router answered at {_endpoints(settings)}") from error
+
+
+def _should_give_up(stop: threading.Event | None, deadline: float | None) -> bool:
+    return (stop is not None and stop.is_set()) or (
+        deadline is not None and time.monotonic() >= deadline
+    )
+
+
+class _OpenAttempt:
+    """One zenoh.open in a worker thread, so the caller can give up at once on a signal.
+
+    zenoh.open blocks in Rust for up to CLIENT_ATTEMPT_MS; an abandoned attempt finishes on
+    its own within that and closes the session it may still have opened. The worker blocks
+    SIGINT/SIGTERM, so threads Zenoh starts from it leave the signals to the main thread.
+    """
+
+    def __init__(self, config: zenoh.Config) -> None:
+        self.session: zenoh.Session | None = None
+        self.error: BaseException = FabricError("not opened")
+        self.done = threading.Event()
+        self._abandoned = False
+        self._lock = threading.Lock()
+        threading.Thread(target=self._open, args=(config,), name="zenoh-open", daemon=True).start()
+
+    def _open(self, config: zenoh.Config) -> None:
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+        try:
+            session = zenoh.open(config)
+        except Exception as exc:  # zenoh raises ZError
+            self.error = exc
+            session = None
+        with self._lock:
+            if self._abandoned and session is not None:
+                session.close()
+            else:
+                self.session = session
+            self.done.set()
+
+    def abandon(self) -> None:
+        with self._lock:
+            self._abandoned = True
+            session, self.session = self.session, None
+        if session is not None:
+            session.close()
+
+
+def reaches_anyone(session: zenoh.Session) -> bool:
+    """Whether the session is connected to at least one router or peer now."""
+    return bool(list(session.info.routers_zid()) or list(session.info.peers_zid()))
+
+
+def _endpoints(settings: FabricSettings) -> str:
+    return ", ".join(settings.connect) or "(no --connect endpoint)"
+
+
+def _cannot_open(settings: FabricSettings, exc: BaseException) -> str:
+    listen = ", ".join(settings.listen or default_listen(settings.mode)) or "-"
+    return (
+        f"cannot open a zenoh {settings.mode} session (listen {listen}, connect "
+        f"{_endpoints(settings)}): {zenoh_reason(exc)}"
+    )

@@ -1,0 +1,120 @@
+"""Saying what a process waits for: a router that does not answer, an authority that is absent.
+
+A node, recorder or viewer started before its router or authority (or pointed at the wrong
+port) must not sit silent. `SessionWait` tells, at any moment, what is missing; `WaitNotice`
+turns that into one line per change of state after a short grace period, so a normal start
+(the router answers within a second) prints nothing.
+
+    wait = SessionWait(session, settings, keys)
+    notice = WaitNotice(wait, say=print_to_stderr)
+    while ...:
+        notice.poll()          # from the caller's loop, or notice.start() for a thread
+    wait.close()
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+
+import zenoh
+
+from carlaverse.fabric.session import FabricSettings, reaches_anyone
+from carlaverse.keys import AUTHORITY_ID, Keys
+
+# On a LAN a router answers within ~100 ms and the authority's liveliness token arrives right
+# after; waiting this long before speaking keeps normal starts silent while leaving most of
+# the 5 s a user tolerates to a slow interpreter start on a loaded machine.
+GRACE_S = 1.0
+POLL_S = 0.1
+
+
+class SessionWait:
+    """What a process attached to `session` is still waiting for (None: nothing)."""
+
+    def __init__(self, session: zenoh.Session, settings: FabricSettings, keys: Keys) -> None:
+        self.session = session
+        self.settings = settings
+        self.keys = keys
+        self.authority = threading.Event()
+        # history=True: a token declared before we subscribed is delivered at once.
+        self._sub = session.liveliness().declare_subscriber(
+            keys.node(AUTHORITY_ID), self._on_authority, history=True
+        )
+
+    def _on_authority(self, sample: zenoh.Sample) -> None:
+        if sample.kind == zenoh.SampleKind.PUT:
+            self.authority.set()
+        else:
+            self.authority.clear()
+
+    def missing(self) -> str | None:
+        """One line naming the endpoint and what is missing, or None when all is there."""
+        where = ", ".join(self.settings.connect)
+        if not reaches_anyone(self.session):
+            if not where:
+                return (
+                    "waiting for a router or peer: none found (no --connect endpoint given and "
+                    "multicast scouting is off; pass --connect tcp/HOST:PORT)"
+                )
+            return f"waiting for a router at {where}: none answers there (retrying)"
+        if not self.authority.is_set():
+            session = self.keys.session
+            via = f" via {where}" if where else ""
+            return (
+                f"waiting for the authority of session {session!r}{via}: none is running "
+                f"(start `carlaverse authority --session {session}`)"
+            )
+        return None
+
+    def close(self) -> None:
+        self._sub.undeclare()
+
+
+class WaitNotice:
+    """Calls `say` once per new waiting state (after the grace period) and once on recovery."""
+
+    def __init__(
+        self,
+        wait: SessionWait,
+        say: Callable[[str], None],
+        grace_s: float = GRACE_S,
+        clock: Callable[[], float] = time.monotonic,
+    ) -> None:
+        self.wait = wait
+        self.say = say
+        self.grace_s = grace_s
+        self.clock = clock
+        self.started = clock()
+        self.said: str | None = None
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def poll(self) -> str | None:
+        """Check now; return what is missing (also before the grace period ends)."""
+        missing = self.wait.missing()
+        if missing is None and self.said is not None:
+            session = self.wait.keys.session
+            self.say(f"reached the router and the authority of session {session!r}")
+            self.said = None
+        elif missing not in (None, self.said) and self.clock() - self.started >= self.grace_s:
+            self.say(missing)  # type: ignore[arg-type]
+            self.said = missing
+        return missing
+
+    def start(self) -> WaitNotice:
+        """Poll from a daemon thread until close(): for processes whose loop is not ours."""
+        self._thread = threading.Thread(target=self._run, name="wait-notice", daemon=True)
+        self._thread.start()
+        return self
+
+    def _run(self) -> None:
+        while not self._stop.wait(POLL_S):
+            self.poll()
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=2)
+        self.wait.close()
