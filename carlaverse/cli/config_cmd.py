@@ -1,49 +1,139 @@
-"""`carlaverse config validate FILE…`: check node configs and scenarios before a study."""
+"""`carlaverse config validate FILE…`: check node configs, scenarios, vehicles, rosters and router
+configs before a study, each with the decoder that will read it for real."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 from carlaverse.config import ConfigError, convert, parse_yaml, read_text, resolve_path
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 
+# File kinds that are not node kinds, each told apart by its top-level fields.
+FILE_KINDS = ("scenario", "vehicle", "roster", "router", "zenohd")
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = (
-        "Validate YAML files against their schema. The schema is chosen with --kind, or from "
-        "the file's own `node.kind` field; scenarios are recognised by a top-level `map:`."
+        "Validate files against their schema. The schema is chosen with --kind, else from the "
+        "file: a node config by its `node.kind`, a scenario by `map:`, a vehicle by `body:` and "
+        "`spec:`, a roster by `sites:` and `nodes:`, a router config by a lone `fabric:`, a "
+        "zenohd config by its .json5 suffix."
     )
     sub = parser.add_subparsers(dest="action", required=True)
     validate = sub.add_parser("validate", help="validate files; exit 1 if any is invalid")
-    validate.add_argument("files", nargs="+", help="config or scenario files (or shipped names)")
-    validate.add_argument("--kind", help="node kind whose schema to use (observer, scripted, ...)")
+    validate.add_argument("files", nargs="+", help="files, or names of shipped ones (town)")
+    validate.add_argument(
+        "--kind",
+        help=f"schema to use: a node kind (observer, scripted, ...) or one of {FILE_KINDS}",
+    )
 
 
-def _schema_for(data: Any, kind: str | None) -> tuple[str, type]:
-    if isinstance(data, dict) and "map" in data and kind is None:
-        from carlaverse.traffic.scenario import Scenario
-
-        return "scenario", Scenario
-    if kind is None and isinstance(data, dict):
-        node = data.get("node") or {}
-        kind = node.get("kind") if isinstance(node, dict) else None
-    if kind is None:
-        raise ConfigError("", "cannot tell the schema: pass --kind or set node.kind in the file")
-    return kind, load_node_kind(kind).config_type
+def detect_kind(path: Path, data: Any) -> str:
+    """Which schema a file follows, from its suffix and top-level fields."""
+    if path.suffix == ".json5":
+        return "zenohd"
+    if not isinstance(data, dict):
+        raise ConfigError(str(path), "expected a mapping of fields at the top level")
+    node = data.get("node")
+    if isinstance(node, dict) and node.get("kind"):
+        return str(node["kind"])
+    for kind, fields in (("scenario", {"map"}), ("vehicle", {"body", "spec"}),
+                         ("roster", {"sites", "nodes"}), ("router", {"fabric"})):  # fmt: skip
+        if fields <= data.keys() and (kind != "router" or data.keys() == {"fabric"}):
+            return kind
+    raise ConfigError(str(path), "cannot tell the schema: pass --kind or set node.kind in the file")
 
 
 def validate_file(name: str, kind: str | None) -> str:
-    path = resolve_path(name)
-    data = parse_yaml(read_text(path), str(path))
+    """Validate one file; return the line to print, raise ConfigError naming file and field."""
+    path = _resolve(name)
+    data = None if path.suffix == ".json5" else parse_yaml(read_text(path), str(path))
+    kind = kind or detect_kind(path, data)
+    check = CHECKS.get(kind, _check_node)
+    check(path, data, kind)
+    label = kind if kind in FILE_KINDS else f"{kind} node"
+    return f"{path}: valid {label} config"
+
+
+def _resolve(name: str) -> Path:
+    """A path, or a shipped name: `town`, `drive-desktop`, and vehicles by bare name too."""
     try:
-        label, schema = _schema_for(data, kind)
-    except (ConfigError, UnknownNodeKind) as exc:
-        raise ConfigError(str(path), str(exc).lstrip(": ")) from exc
-    convert(data, schema, str(path))
-    return f"{Path(path)}: valid {label} config"
+        return resolve_path(name)
+    except ConfigError:
+        if "/" in name:
+            raise
+        try:
+            return resolve_path(f"vehicles/{name}")
+        except ConfigError:
+            pass
+        raise
+
+
+def _check_scenario(path: Path, data: Any, kind: str) -> None:
+    from carlaverse.traffic.scenario import ScenarioSpec
+
+    convert(data, ScenarioSpec, str(path))
+
+
+def _check_vehicle(path: Path, data: Any, kind: str) -> None:
+    from carlaverse.physics.params import load_vehicle
+
+    load_vehicle(path)  # also the range and cross-field checks
+
+
+def _check_roster(path: Path, data: Any, kind: str) -> None:
+    from carlaverse.security.roster import load_roster
+
+    load_roster(path)  # also names, sites, the authority and unique identities
+
+
+def _check_router(path: Path, data: Any, kind: str) -> None:
+    from carlaverse.cli.router import RouterConfig
+
+    _check_fabric(path, convert(data, RouterConfig, str(path)).fabric)
+
+
+def _check_zenohd(path: Path, data: Any, kind: str) -> None:
+    import zenoh
+
+    from carlaverse.fabric.session import zenoh_reason
+
+    try:
+        zenoh.Config.from_file(str(path))
+    except Exception as exc:  # zenoh raises ZError with the json5 parser's message
+        raise ConfigError(str(path), zenoh_reason(exc)) from exc
+
+
+def _check_node(path: Path, data: Any, kind: str) -> None:
+    try:
+        schema = load_node_kind(kind).config_type
+    except UnknownNodeKind as exc:
+        raise ConfigError(str(path), str(exc)) from exc
+    config = convert(data, schema, str(path))
+    _check_fabric(path, config.fabric)
+
+
+def _check_fabric(path: Path, fabric: Any) -> None:
+    """Endpoints and raw Zenoh entries, as the session will be opened with them."""
+    from carlaverse.fabric.session import FabricError, build_config
+
+    try:
+        build_config(fabric)
+    except FabricError as exc:
+        raise ConfigError(str(path), f"fabric: {exc}") from exc
+
+
+CHECKS: dict[str, Callable[[Path, Any, str], None]] = {
+    "scenario": _check_scenario,
+    "vehicle": _check_vehicle,
+    "roster": _check_roster,
+    "router": _check_router,
+    "zenohd": _check_zenohd,
+}
 
 
 def run(args: argparse.Namespace) -> int:
