@@ -55,8 +55,11 @@ class Proc:
         )
         self.stdout: list[str] = []
         self.stderr: list[str] = []
+        self.readers: list[threading.Thread] = []
         for stream, sink in ((self.proc.stdout, self.stdout), (self.proc.stderr, self.stderr)):
-            threading.Thread(target=_drain, args=(stream, sink), daemon=True).start()
+            reader = threading.Thread(target=_drain, args=(stream, sink), daemon=True)
+            reader.start()
+            self.readers.append(reader)
 
     def alive(self) -> bool:
         return self.proc.poll() is None
@@ -75,6 +78,8 @@ class Proc:
 
     def json(self) -> dict[str, Any]:
         wait_until(lambda: not self.alive(), 1, f"{self.name} to exit")
+        for reader in self.readers:  # an exited child's last lines may still be in the pipe
+            reader.join(timeout=5)
         text = "".join(self.stdout)
         start = text.find("{")
         assert start >= 0, f"{self.name} printed no JSON; stderr:\n{''.join(self.stderr)[-2000:]}"
