@@ -13,7 +13,7 @@ from carlaverse.config import ConfigError, convert, parse_yaml, read_text, resol
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 
 # File kinds that are not node kinds, each told apart by its top-level fields.
-FILE_KINDS = ("scenario", "vehicle", "roster", "router", "zenohd")
+FILE_KINDS = ("scenario", "vehicle", "roster", "router", "rig", "zenohd")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -21,6 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "Validate files against their schema. The schema is chosen with --kind, else from the "
         "file: a node config by its `node.kind`, a scenario by `map:`, a vehicle by `body:` and "
         "`spec:`, a roster by `sites:` and `nodes:`, a router config by a lone `fabric:`, a "
+        "camera rig by `camera:`, a "
         "zenohd config by its .json5 suffix."
     )
     sub = parser.add_subparsers(dest="action", required=True)
@@ -42,7 +43,8 @@ def detect_kind(path: Path, data: Any) -> str:
     if isinstance(node, dict) and node.get("kind"):
         return str(node["kind"])
     for kind, fields in (("scenario", {"map"}), ("vehicle", {"body", "spec"}),
-                         ("roster", {"sites", "nodes"}), ("router", {"fabric"})):  # fmt: skip
+                         ("roster", {"sites", "nodes"}), ("router", {"fabric"}),
+                         ("rig", {"camera"})):  # fmt: skip
         if fields <= data.keys() and (kind != "router" or data.keys() == {"fabric"}):
             return kind
     raise ConfigError(str(path), "cannot tell the schema: pass --kind or set node.kind in the file")
@@ -97,6 +99,16 @@ def _check_router(path: Path, data: Any, kind: str) -> None:
     _check_fabric(path, convert(data, RouterConfig, str(path)).fabric)
 
 
+def _check_rig(path: Path, data: Any, kind: str) -> None:
+    from carlaverse.render.rig import RenderConfig, layout
+
+    rig = convert(data, RenderConfig, str(path))
+    try:
+        layout(rig.camera)  # the paper's formulas reject displays that leave no picture
+    except ValueError as exc:
+        raise ConfigError(str(path), f"camera: {exc}") from exc
+
+
 def _check_zenohd(path: Path, data: Any, kind: str) -> None:
     import zenoh
 
@@ -132,6 +144,7 @@ CHECKS: dict[str, Callable[[Path, Any, str], None]] = {
     "vehicle": _check_vehicle,
     "roster": _check_roster,
     "router": _check_router,
+    "rig": _check_rig,
     "zenohd": _check_zenohd,
 }
 

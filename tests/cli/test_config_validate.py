@@ -25,6 +25,9 @@ EXPECTED = {
     "router/session.local.yaml": "roster",
     "router/site-plain.yaml": "router",
     "router/zenohd-site.json5": "zenohd",
+    "configs/rigs/rig-cave.yaml": "rig",
+    "configs/rigs/rig-desktop.yaml": "rig",
+    "configs/rigs/rig-three-displays.yaml": "rig",
 }
 
 
