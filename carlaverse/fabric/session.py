@@ -151,10 +151,11 @@ def open_session(
 ) -> zenoh.Session:
     """Open a Zenoh session; errors name the endpoints involved.
 
-    A client retries once a second until a router answers; it calls `on_wait` once with what
-    it waits for, and raises FabricUnreachable when `stop` is set or the monotonic `deadline`
-    passes (within ~50 ms: the attempt runs in a worker thread). Peers and routers open at
-    once and connect in the background.
+    Given `stop` or `deadline`, a client retries once a second until a router answers; it
+    calls `on_wait` once with what it waits for, and raises FabricUnreachable when `stop` is
+    set or the monotonic `deadline` passes (within ~50 ms: the attempt runs in a worker
+    thread). Without them a client makes one attempt (FabricError when no router answers).
+    Peers and routers open at once and connect in the background.
     """
     config = build_config(settings)
     waited = False
@@ -167,7 +168,8 @@ def open_session(
         if attempt.session is not None:
             return attempt.session
         error = attempt.error
-        if settings.mode != "client" or "Unable to connect" not in str(error):
+        patient = stop is not None or deadline is not None
+        if not patient or settings.mode != "client" or "Unable to connect" not in str(error):
             raise FabricError(_cannot_open(settings, error)) from error
         if not waited and on_wait is not None:
             on_wait(

@@ -144,3 +144,15 @@ def test_a_waiting_client_stops_at_once_when_told() -> None:
     with pytest.raises(FabricUnreachable):
         open_session(_dead_client(), stop=stop)
     assert time.monotonic() - started < 0.3 + 0.3  # not the rest of a 1 s attempt
+
+
+def test_a_client_told_nothing_tries_once_and_says_why() -> None:
+    """Library callers (and the refusal tests) get one attempt and a readable FabricError."""
+    settings = _dead_client()
+    started = time.monotonic()
+    with pytest.raises(FabricError) as err:
+        open_session(settings)
+    assert not isinstance(err.value, FabricUnreachable)
+    assert time.monotonic() - started < CLIENT_ATTEMPT_MS / 1e3 + 1.0
+    assert f"Unable to connect to any of {settings.connect[0]}" in str(err.value)
+    assert not any(bit in str(err.value) for bit in RUST_INTERNALS), err.value
