@@ -13,7 +13,7 @@ from carlaverse.config import ConfigError, convert, parse_yaml, read_text, resol
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 
 # File kinds that are not node kinds, each told apart by its top-level fields.
-FILE_KINDS = ("scenario", "vehicle", "roster", "router", "rig", "zenohd")
+FILE_KINDS = ("scenario", "vehicle", "roster", "router", "rig", "trainer-table", "zenohd")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -21,7 +21,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "Validate files against their schema. The schema is chosen with --kind, else from the "
         "file: a node config by its `node.kind`, a scenario by `map:`, a vehicle by `body:` and "
         "`spec:`, a roster by `sites:` and `nodes:`, a router config by a lone `fabric:`, a "
-        "camera rig by `camera:`, a "
+        "camera rig by `camera:`, a trainer resistance table by `resistance_percent:`, a "
         "zenohd config by its .json5 suffix."
     )
     sub = parser.add_subparsers(dest="action", required=True)
@@ -44,7 +44,8 @@ def detect_kind(path: Path, data: Any) -> str:
         return str(node["kind"])
     for kind, fields in (("scenario", {"map"}), ("vehicle", {"body", "spec"}),
                          ("roster", {"sites", "nodes"}), ("router", {"fabric"}),
-                         ("rig", {"camera"})):  # fmt: skip
+                         ("rig", {"camera"}),
+                         ("trainer-table", {"resistance_percent"})):  # fmt: skip
         if fields <= data.keys() and (kind != "router" or data.keys() == {"fabric"}):
             return kind
     raise ConfigError(str(path), "cannot tell the schema: pass --kind or set node.kind in the file")
@@ -109,6 +110,12 @@ def _check_rig(path: Path, data: Any, kind: str) -> None:
         raise ConfigError(str(path), f"camera: {exc}") from exc
 
 
+def _check_trainer_table(path: Path, data: Any, kind: str) -> None:
+    from carlaverse.physics.resistance import load_table
+
+    load_table(path)  # also strictly increasing axes and the table's shape
+
+
 def _check_zenohd(path: Path, data: Any, kind: str) -> None:
     import zenoh
 
@@ -145,6 +152,7 @@ CHECKS: dict[str, Callable[[Path, Any, str], None]] = {
     "roster": _check_roster,
     "router": _check_router,
     "rig": _check_rig,
+    "trainer-table": _check_trainer_table,
     "zenohd": _check_zenohd,
 }
 

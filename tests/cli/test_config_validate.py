@@ -25,6 +25,8 @@ EXPECTED = {
     "router/session.local.yaml": "roster",
     "router/site-plain.yaml": "router",
     "router/zenohd-site.json5": "zenohd",
+    "configs/bike-sim.yaml": "bike node",
+    "configs/bike-trainer-table.yaml": "trainer-table",
     "configs/rigs/rig-cave.yaml": "rig",
     "configs/rigs/rig-desktop.yaml": "rig",
     "configs/rigs/rig-three-displays.yaml": "rig",
