@@ -18,6 +18,7 @@ from carlaverse.cli.common import (
     say,
     stop_on_signals,
 )
+from carlaverse.cli.join_view import add_view_arguments, node_view
 from carlaverse.config import ConfigError, load_config
 from carlaverse.fabric.node_client import JoinRefused, NodeSettings
 from carlaverse.fabric.session import FabricError, FabricSettings, FabricUnreachable, build_config
@@ -67,6 +68,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_fabric_args(parser)
     add_output_args(parser)
+    add_view_arguments(parser)
 
 
 def _prepare(args: argparse.Namespace) -> tuple[type, Any, NodeSettings, FabricSettings]:
@@ -104,10 +106,12 @@ def run(args: argparse.Namespace) -> int:
     try:
         node = kind_cls(config)
         node_settings = getattr(node, "node_settings", node_settings)
-        summary = run_node(
-            node, node_settings, fabric, config, args.duration, stop,
-            join_timeout_s=args.join_timeout, on_wait=say("join"),
-        )  # fmt: skip
+        with node_view(args, node, node_settings, fabric) as view:  # --view: its own process
+            summary = run_node(
+                node, node_settings, fabric, config, args.duration, stop,
+                join_timeout_s=args.join_timeout, on_wait=say("join"),
+            )  # fmt: skip
+        summary.extra.update(view.extra)
     except JoinRefused as exc:
         return fail("join", f"the authority refused {node_id!r}: {exc}", EXIT_REFUSED)
     except (FabricUnreachable, JoinTimeout) as exc:

@@ -48,6 +48,11 @@ class NodeView:
     process: Any = None
     report: dict[str, Any] = field(default_factory=dict)
 
+    @property
+    def extra(self) -> dict[str, Any]:
+        """What the node's exit summary gets: {'view': report} when a view ran."""
+        return {"view": self.report} if self.report else {}
+
 
 @contextlib.contextmanager
 def node_view(
