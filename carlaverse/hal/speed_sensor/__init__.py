@@ -1,6 +1,7 @@
 """Wheel-speed sensors: how fast the real wheel turns (e.g. a bike on rollers).
 
-Backends: `sim` (a speed profile) now; serial and BLE CSC backends come with the bike node.
+Backends: `sim` (a speed profile) and `serial` (an ESP32's line protocol, see
+`serial_esp32`); a BLE CSC backend may follow.
 Third parties add more under the entry-point group `carlaverse.hal.speed_sensor`.
 """
 
@@ -11,7 +12,10 @@ import msgspec
 from carlaverse.hal.device import Device, DeviceConfig
 from carlaverse.hal.registry import BackendSpec, Registry
 
-BACKENDS = {"sim": BackendSpec("carlaverse.hal.speed_sensor.sim", "SimSpeedSensor")}
+BACKENDS = {
+    "sim": BackendSpec("carlaverse.hal.speed_sensor.sim", "SimSpeedSensor"),
+    "serial": BackendSpec("carlaverse.hal.speed_sensor.serial_esp32", "SerialSpeedSensor", "bike"),
+}
 
 
 class SpeedSensorConfig(DeviceConfig):
