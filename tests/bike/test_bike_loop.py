@@ -1,0 +1,56 @@
+"""The bike loop body: resistance → trainer command, pose telemetry, impulse handling."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from carlaverse_nodes.bike.bike_loop import BikeLoop
+from carlaverse_nodes.bike.config import BikeNodeConfig, RoadSettings, resolve_table
+
+from carlaverse.messages import Impulse
+
+DT = 0.005  # [s]
+
+
+def loop_on(grade_percent: float) -> BikeLoop:
+    config = BikeNodeConfig(road=RoadSettings(grade_percent=grade_percent))
+    return BikeLoop(config, resolve_table(config))
+
+
+def test_climbs_and_headwinds_command_more_resistance() -> None:
+    flat = loop_on(0.0).step(DT, 6.0, 0.0, 0.0)
+    climb = loop_on(6.0).step(DT, 6.0, 0.0, 0.0)
+    headwind = loop_on(0.0).step(DT, 6.0, 0.0, -5.0)
+    descent = loop_on(-6.0).step(DT, 6.0, 0.0, 0.0)
+    assert descent.resistance_percent == 0.0 < flat.resistance_percent
+    assert flat.resistance_percent < headwind.resistance_percent < climb.resistance_percent
+    assert climb.resistance_n == pytest.approx(
+        0.004 * 90 * 9.81 * math.cos(math.atan(0.06)) + 90 * 9.81 * math.sin(math.atan(0.06))
+        + 0.27 * 36.0, rel=1e-9,
+    )  # fmt: skip
+
+
+def test_pose_carries_lean_as_roll_and_absolute_velocity() -> None:
+    loop = loop_on(0.0)
+    loop.place(0.0, 0.0, math.pi / 2)
+    for _ in range(200):
+        out = loop.step(DT, 5.0, 0.2, 0.0)  # steer axis 0.2 of 0.6 rad full lock: turning left
+    pose = out.pose(7)
+    assert pose.seq == 7 and pose.roll == out.lean_rad > 0
+    assert math.hypot(pose.vx, pose.vy) == pytest.approx(5.0, rel=1e-9)
+    assert pose.wz == out.yaw_rate > 0 and pose.z == 0.0
+
+
+def impulse(seq: int, j: tuple[float, float, float]) -> Impulse:
+    return Impulse(seq, 0.0, 1, j, (0.0, 0.0, 0.5), (1.0, 0.0, 0.0), "npc-1", "car", 3.0)
+
+
+def test_an_impulse_applies_once_and_a_wild_one_is_dropped() -> None:
+    loop = loop_on(0.0)
+    knock = impulse(1, (0.0, 90.0, 0.0))  # 1 m/s to the left
+    assert loop.step(DT, 5.0, 0.0, 0.0, [knock, knock]).impulses_applied == 1
+    assert loop.step(DT, 5.0, 0.0, 0.0, [knock]).impulses_applied == 0
+    out = loop.step(DT, 5.0, 0.0, 0.0, [impulse(2, (9e9, 0.0, 0.0)), impulse(3, (math.nan, 0, 0))])
+    assert out.impulses_applied == 0 and loop.impulses_dropped == 2
+    assert out.ffb.vibration_magnitude > 1000  # the first knock still shakes the fork
