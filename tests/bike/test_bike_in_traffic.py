@@ -28,18 +28,11 @@ from tests.traffic.helpers import (
     run,
     write_scenario,
 )
+from tests.traffic.test_humans_in_traffic import CYCLIST_TOWN  # its grid, one NPC
 
 pytest.importorskip("libsumo")
 __all__ = ["net_cache"]
 
-TOWN = """
-map: {generate: {kind: grid, grid: {junctions: 3, length_m: 120, attach_length_m: 60}}}
-traffic:
-  vehicles: {count: 0}
-  pedestrians: {count: 0}
-  scripted_vehicles:
-    - {id: follower, edges: [A1B1, B1C1], depart_speed_mps: 10}
-"""
 LOOP_DT = 0.005  # [s] the bike loop's 200 Hz
 
 
@@ -68,7 +61,7 @@ class RiderOnTheLoop:
 
 
 def test_npc_queues_behind_the_bike_riding_at_4_mps(tmp_path: Path, net_cache: Path) -> None:
-    scenario = write_scenario(tmp_path, TOWN, "bike-town")
+    scenario = write_scenario(tmp_path, CYCLIST_TOWN, "bike-town")
     with domain_of(scenario, net_cache) as domain:
         x0, y, yaw = lane_point(domain.map_reply(), "A1B1_1", 30.0)
         rider = RiderOnTheLoop(x0, y, yaw, [{"t": 0, "speed_mps": 4.0}])
@@ -85,7 +78,7 @@ def test_npc_queues_behind_the_bike_riding_at_4_mps(tmp_path: Path, net_cache: P
 
 
 def test_npc_stops_behind_the_bike_when_the_rider_stops(tmp_path: Path, net_cache: Path) -> None:
-    scenario = write_scenario(tmp_path, TOWN, "bike-town")
+    scenario = write_scenario(tmp_path, CYCLIST_TOWN, "bike-town")
     with domain_of(scenario, net_cache) as domain:
         x0, y, yaw = lane_point(domain.map_reply(), "A1B1_1", 30.0)
         # 4 m/s for 6 s, then the rider brakes to a standstill within 2 s and waits
