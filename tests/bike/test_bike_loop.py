@@ -54,3 +54,10 @@ def test_an_impulse_applies_once_and_a_wild_one_is_dropped() -> None:
     out = loop.step(DT, 5.0, 0.0, 0.0, [impulse(2, (9e9, 0.0, 0.0)), impulse(3, (math.nan, 0, 0))])
     assert out.impulses_applied == 0 and loop.impulses_dropped == 2
     assert out.ffb.vibration_magnitude > 1000  # the first knock still shakes the fork
+
+
+def test_the_shipped_bike_config_is_valid(capsys: pytest.CaptureFixture[str]) -> None:
+    from carlaverse.cli import main
+
+    assert main(["config", "validate", "bike-sim"]) == 0
+    assert "valid bike config" in capsys.readouterr().out
