@@ -15,7 +15,6 @@ import logging
 import threading
 import time
 from collections import Counter
-from collections.abc import Callable
 from typing import Protocol
 
 from carlaverse.hal.device import Clock
@@ -135,6 +134,3 @@ class FtmsTrainer(TrainerDevice):
 
     def _close(self) -> None:
         self.link.close()
-
-
-OnBytes = Callable[[bytes], None]
