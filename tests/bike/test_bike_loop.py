@@ -60,4 +60,4 @@ def test_the_shipped_bike_config_is_valid(capsys: pytest.CaptureFixture[str]) ->
     from carlaverse.cli import main
 
     assert main(["config", "validate", "bike-sim"]) == 0
-    assert "valid bike config" in capsys.readouterr().out
+    assert "bike-sim.yaml: valid bike" in capsys.readouterr().out

@@ -127,14 +127,16 @@ class SerialSpeedSensor(SpeedSensor):
                 self._stop.wait(self.options.reopen_s)
                 continue
             self.counters["opens"] += 1
+            lost: Exception | None = None
             try:
                 self._read_lines(self._port)
             except (serial.SerialException, OSError) as exc:
+                lost = exc
+            self._port.close()
+            self._replugged()  # before counting: whoever sees the count sees speed 0
+            if lost is not None:
                 self.counters["disconnects"] += 1
-                log.warning("wheel-speed sensor on %s lost: %s", self.options.port, exc)
-            finally:
-                self._port.close()
-                self._replugged()
+                log.warning("wheel-speed sensor on %s lost: %s", self.options.port, lost)
 
     def _read_lines(self, port: serial.Serial) -> None:
         while not self._stop.is_set():
