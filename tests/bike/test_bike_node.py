@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 import yaml
 
 from carlaverse import messages as m
@@ -79,3 +80,24 @@ def test_an_impulse_from_the_fabric_throws_the_bike(cluster: Cluster) -> None:
     assert loop["impulses_applied"] == 1
     assert loop["ticks"] > 200 * 3  # 200 Hz through the 3 s the rider lay on the road
     assert loop["trainer"]["resistance_sent"] >= 3  # the table's command reached the trainer
+
+
+def test_the_wheel_speed_sensor_drives_the_bike(cluster: Cluster, tmp_path: Path) -> None:
+    """speed_source: speed_sensor — the bike covers what the wheel says, not the trainer."""
+    config = tmp_path / "bike.yaml"
+    config.write_text(yaml.safe_dump({
+        "speed_source": "speed_sensor",
+        "speed_sensor": {"backend": "sim", "options": {"profile": [{"t": 0, "speed_mps": 5.0}]}},
+        "trainer": {"backend": "ftms_sim", "options": {"rider_power_w": 0}},
+    }))  # fmt: skip
+    cluster.router()
+    cluster.authority()
+    bike = cluster.start(
+        "join", "bike", "--id", "solo", "--session", "t", "--connect", cluster.endpoint,
+        "--config", str(config), "--duration", "4", "--json", name="solo",
+    )  # fmt: skip
+    assert bike.wait(60) == 0, bike.output()[-2000:]
+    loop = bike.json()["extra"]["loop"]
+    assert loop["ticks"] > 200
+    assert loop["distance_m"] == pytest.approx(5.0 * loop["ticks"] / 200, rel=0.01)
+    assert loop["trainer"]["resistance_sent"] >= 1  # the flat road's command at 5 m/s
