@@ -97,3 +97,8 @@ class SharedBlock:
 def new_record(dtype: np.dtype) -> np.void:
     """A zeroed record to fill and write."""
     return np.zeros((), dtype=dtype)[()]
+
+
+def block_name(session: str, node_id: str, part: str) -> str:
+    """A node's block name, `carlaverse-<session>-<node id>-<part>`, so a viewer can attach."""
+    return f"carlaverse-{session}-{node_id}-{part}"

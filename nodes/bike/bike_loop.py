@@ -12,9 +12,6 @@ the loop (the loop process, a test, a benchmark) owns the clock, the devices and
 
 from __future__ import annotations
 
-import logging
-import math
-from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -24,12 +21,8 @@ from carlaverse_nodes.bike.fork_feel import ForkFeel
 from carlaverse.hal.ffb_packet import FfbCommand
 from carlaverse.messages import Impulse, Pose
 from carlaverse.physics.bicycle import Bicycle
+from carlaverse.physics.impulse import ImpulseInbox
 from carlaverse.physics.resistance import ResistanceTable, resistance_force
-
-log = logging.getLogger(__name__)
-
-MAX_IMPULSE_DV_MPS = 50.0  # [m/s] a larger Δv from one impulse is a bad message
-SEEN_IMPULSES = 256  # impulses remembered to drop a re-delivered copy
 
 
 @dataclass(slots=True)
@@ -69,9 +62,7 @@ class BikeLoop:
         self.bike = Bicycle(config.bicycle)
         self.fork = ForkFeel(config.fork, config.bicycle)
         self.t = 0.0
-        self._pending: list[Impulse] = []
-        self._seen: deque[Impulse] = deque(maxlen=SEEN_IMPULSES)
-        self.impulses_dropped = 0
+        self.inbox = ImpulseInbox(config.bicycle.mass_kg)
 
     def place(self, x: float, y: float, yaw: float) -> None:
         self.bike.place(x, y, yaw)
@@ -95,28 +86,14 @@ class BikeLoop:
             s.steer_rad, force, percent, s.fallen, ffb, applied,
         )  # fmt: skip
 
+    @property
+    def impulses_dropped(self) -> int:
+        return self.inbox.dropped
+
     def _collisions(self, impulses: Iterable[Impulse], now: float) -> int:
-        for impulse in impulses:
-            self._accept(impulse)
-        due = [i for i in self._pending if i.t <= now]
-        if not due:
-            return 0
-        self._pending = [i for i in self._pending if i.t > now]
+        self.inbox.accept(impulses)
+        due = self.inbox.due(now)
         for impulse in due:
             hit = self.bike.apply_impulse(impulse.impulse)
             self.fork.add_jolt(hit.magnitude(), hit.dv_lateral_mps)
         return len(due)
-
-    def _accept(self, impulse: Impulse) -> None:
-        # The NodeClient drops re-deliveries by (authority, contact); here an identical message
-        # twice is one. Never by `seq` alone: it restarts with a restarted authority.
-        if impulse in self._seen:
-            return
-        values = (*impulse.impulse, *impulse.point, impulse.t)
-        dv = math.hypot(*impulse.impulse) / self.config.bicycle.mass_kg
-        if not all(math.isfinite(v) for v in values) or dv > MAX_IMPULSE_DV_MPS:
-            self.impulses_dropped += 1
-            log.warning("dropped impulse seq %d: non-finite or Δv %.1f m/s", impulse.seq, dv)
-            return
-        self._seen.append(impulse)
-        self._pending.append(impulse)

@@ -2,7 +2,7 @@
 
 It runs at `loop.rate_hz` (200 Hz) in a process of its own, like the drive node's loop, and
 never touches the network. Its timing (sleep, then spin to each deadline; the period error
-measured every tick) and priority come from the drive node's loop process.
+measured every tick) and priority come from `carlaverse.realtime`.
 """
 
 from __future__ import annotations
@@ -10,19 +10,17 @@ from __future__ import annotations
 import logging
 import queue
 import time
-from array import array
 from dataclasses import dataclass
 from typing import Any
 
 from carlaverse_nodes.bike.bike_loop import BikeLoop, BikeOutput
 from carlaverse_nodes.bike.config import BikeNodeConfig
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
-from carlaverse_nodes.drive.loop_process import ERROR_WINDOW, _Runner, raise_priority
 
-from carlaverse.fabric.stats import percentile
 from carlaverse.hal import open_ffb, open_input, open_speed_sensor, open_trainer
 from carlaverse.messages import Impulse
 from carlaverse.physics.resistance import ResistanceTable, tailwind
+from carlaverse.realtime import Pacer, raise_priority
 from carlaverse.shm import SharedBlock, new_record
 
 log = logging.getLogger(__name__)
@@ -70,46 +68,36 @@ class BikeRunner:
         )
         self.loop = BikeLoop(config, spec.table)
         self.record = new_record(STATE)
-        self.errors = array("d")
+        self.pacer = Pacer(config.loop.rate_hz)
         self.spawn_seq = 0
         self.wind = (0.0, 0.0)  # [m/s, deg from]
         self.pending: list[Impulse] = []
         self.ticks = self.ffb_sent = self.impulses = 0
-        self.max_error = 0.0
         self.distance_m = 0.0
         self.trainer_state = self.trainer.read()
 
     def run(self, stop: Any) -> None:
-        cfg = self.config.loop
-        period = 1.0 / cfg.rate_hz
+        cfg, pacer = self.config.loop, self.pacer
         every = lambda hz: max(1, round(cfg.rate_hz / hz))  # noqa: E731
         ffb_every, trainer_every = every(cfg.ffb_rate_hz), every(cfg.trainer_rate_hz)
         control_every, event_every = every(1 / CONTROL_POLL_S), every(1 / EVENT_POLL_S)
-        next_t = time.perf_counter()
+        pacer.start()
         while True:
             if self.ticks % control_every == 0:
                 if stop.is_set():
                     break
                 self._read_control()
-            _Runner._wait_until(next_t)
-            self._record_error(time.perf_counter() - next_t)
+            pacer.wait()
             if self.ticks % event_every == 0:
                 self._drain_events()
-            out = self._tick(period)
+            out = self._tick(pacer.period_s)
             if self.ticks % ffb_every == 0:
                 self.ffb.send(out.ffb)
                 self.ffb_sent += 1
             if self.ticks % trainer_every == 0:
                 self.trainer.set_resistance(out.resistance_percent)
             self.ticks += 1
-            next_t += period
-            if time.perf_counter() - next_t > 10 * period:
-                next_t = time.perf_counter()  # starved: do not burst to catch up
-
-    def _record_error(self, error: float) -> None:
-        if len(self.errors) < ERROR_WINDOW:
-            self.errors.append(error)
-        self.max_error = max(self.max_error, error)
+            pacer.advance()
 
     def _tick(self, dt: float) -> BikeOutput:
         self.trainer_state = self.trainer.read()
@@ -162,13 +150,10 @@ class BikeRunner:
         self.state.write(r)
 
     def summary(self) -> dict[str, Any]:
-        errors = list(self.errors)
         return {
             "ticks": self.ticks,
             "rate_hz": self.config.loop.rate_hz,
-            "period_error_p50_ms": round(percentile(errors, 0.5) * 1e3, 4),
-            "period_error_p99_ms": round(percentile(errors, 0.99) * 1e3, 4),
-            "period_error_max_ms": round(self.max_error * 1e3, 4),
+            **self.pacer.summary(),
             "ffb_sent": self.ffb_sent,
             "impulses_applied": self.impulses,
             "distance_m": round(self.distance_m, 2),

@@ -17,14 +17,13 @@ import msgspec
 from carlaverse_nodes.bike.config import BikeNodeConfig, node_settings, resolve_table
 from carlaverse_nodes.bike.loop_process import BikeLoopSpec, run_bike_loop
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
-from carlaverse_nodes.drive.node import scripted_route
-from carlaverse_nodes.drive.shared_state import block_name
 
 from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.hal import FfbConfig, InputConfig, TrainerConfig
+from carlaverse.hal.input.pursuit import scripted_route
 from carlaverse.messages import Pose
 from carlaverse.render.live import OwnPoseBlock
-from carlaverse.shm import SharedBlock
+from carlaverse.shm import SharedBlock, block_name
 
 log = logging.getLogger(__name__)
 

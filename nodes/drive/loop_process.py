@@ -5,19 +5,17 @@ up to the interpreter's 5 ms switch interval, and vice versa), never touches the
 exchanges state with the fabric process only through shared memory. Impulses and overrides
 arrive on a queue, polled every few ticks without waiting.
 
-Timing: sleep until shortly before the deadline, then spin to it — `time.sleep` alone
-overshoots by 50–100 µs on Linux. The error between the deadline and the actual wake-up is
-measured every tick and reported.
+Timing and priority come from `carlaverse.realtime`: sleep until shortly before each
+deadline, then spin to it; the error between the deadline and the actual wake-up is measured
+every tick and reported.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import logging
-import os
 import queue
 import time
-from array import array
 from dataclasses import dataclass
 from typing import Any
 
@@ -25,18 +23,16 @@ from carlaverse_nodes.drive.config import DriveNodeConfig, input_configs
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 from carlaverse_nodes.drive.vehicle_loop import DriveLoop, LoopOutput
 
-from carlaverse.fabric.stats import percentile
 from carlaverse.hal import FfbCommand, MotionFrame, open_ffb, open_input, open_motion
 from carlaverse.messages import Impulse, Override
 from carlaverse.physics.params import VehicleParams
+from carlaverse.realtime import Pacer, raise_priority
 from carlaverse.shm import SharedBlock, new_record
 
 log = logging.getLogger(__name__)
 
-SPIN_S = 0.0004  # [s] spin this close to each deadline instead of sleeping
 EVENT_POLL_TICKS = 5  # look at the event queue every 5 ms
 CONTROL_POLL_TICKS = 50  # re-read clock offset and spawn every 50 ms
-ERROR_WINDOW = 600_000  # ticks of period error kept for the summary (10 min at 1 kHz)
 
 
 @dataclass(frozen=True)
@@ -71,26 +67,6 @@ def run_loop(spec: LoopSpec, events: Any, results: Any, stop: Any) -> None:
         control.close()
 
 
-def raise_priority(priority: int) -> str:
-    """Real-time scheduling for this process if allowed, else a better nice value."""
-    if priority <= 0:
-        return "unchanged"
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
-        return f"SCHED_FIFO {priority}"
-    except (PermissionError, AttributeError, OSError):
-        pass
-    try:
-        os.nice(-10)
-        return "nice -10"
-    except (PermissionError, OSError):
-        log.warning(
-            "loop runs at normal priority: grant CAP_SYS_NICE (or run as root) "
-            "for real-time scheduling and tighter loop timing"
-        )
-        return "normal"
-
-
 class _Runner:
     def __init__(
         self, spec: LoopSpec, state: SharedBlock, control: SharedBlock, events: Any
@@ -107,31 +83,28 @@ class _Runner:
         if self.scripted:
             self.loop.engage_drive()
         self.record = new_record(STATE)
-        self.errors = array("d")
+        self.pacer = Pacer(config.loop.rate_hz)
         self.spawn_seq = 0
         self.pending: list[Impulse] = []
         self.ffb_sent = self.motion_sent = self.impulses = self.ticks = 0
-        self.max_error = 0.0
         self.distance_m = 0.0
 
     def session_now(self) -> float:
         return time.monotonic() + self.offset
 
     def run(self, stop: Any) -> None:
-        cfg = self.spec.config.loop
-        period = 1.0 / cfg.rate_hz
+        cfg, pacer = self.spec.config.loop, self.pacer
         ffb_every = max(1, round(cfg.rate_hz / cfg.ffb_rate_hz))
         motion_every = max(1, round(cfg.rate_hz / cfg.motion_rate_hz))
-        started = next_t = time.perf_counter()
+        started = pacer.start()
         end = started + self.spec.duration_s if self.spec.duration_s else float("inf")
         while True:
             if self.ticks % CONTROL_POLL_TICKS == 0:
-                if stop.is_set() or next_t >= end:
+                if stop.is_set() or pacer.next_t >= end:
                     break
                 self._read_control()
-            self._wait_until(next_t)
-            self._record_error(time.perf_counter() - next_t)
-            out = self._tick(period)
+            pacer.wait()
+            out = self._tick(pacer.period_s)
             if self.ticks % ffb_every == 0:
                 self.ffb.send(FfbCommand(**dataclasses.asdict(out.ffb)))
                 self.ffb_sent += 1
@@ -140,22 +113,7 @@ class _Runner:
                 self.motion.send(MotionFrame(m.roll, m.pitch, m.heave, m.rpm, m.torque))
                 self.motion_sent += 1
             self.ticks += 1
-            next_t += period
-            if time.perf_counter() - next_t > 10 * period:
-                next_t = time.perf_counter()  # suspended or starved: do not burst to catch up
-
-    @staticmethod
-    def _wait_until(deadline: float) -> None:
-        remaining = deadline - time.perf_counter()
-        if remaining > SPIN_S:
-            time.sleep(remaining - SPIN_S)
-        while time.perf_counter() < deadline:
-            pass
-
-    def _record_error(self, error: float) -> None:
-        if len(self.errors) < ERROR_WINDOW:
-            self.errors.append(error)
-        self.max_error = max(self.max_error, error)
+            pacer.advance()
 
     def _tick(self, dt: float) -> LoopOutput:
         raw = self._poll_inputs()
@@ -225,8 +183,8 @@ class _Runner:
         r["indicator"] = INDICATORS.index(out.indicator) if out.indicator in INDICATORS else 0
         r["blink_on"], r["lca_active"] = out.blink_on, out.lca_active
         r["adas_active"] = bool(out.adas.sources)
-        r["ticks"], r["period_error_us"] = self.ticks, self.errors[-1] * 1e6 if self.errors else 0.0
-        r["max_period_error_us"] = self.max_error * 1e6
+        r["ticks"], r["period_error_us"] = self.ticks, self.pacer.last_error_s * 1e6
+        r["max_period_error_us"] = self.pacer.max_error_s * 1e6
         r["ffb_sent"], r["motion_sent"], r["impulses_applied"] = (
             self.ffb_sent,
             self.motion_sent,
@@ -236,12 +194,9 @@ class _Runner:
         self.state.write(r)
 
     def summary(self) -> dict[str, Any]:
-        errors = list(self.errors)
         return {
             "ticks": self.ticks,
-            "period_error_p50_ms": round(percentile(errors, 0.5) * 1e3, 4),
-            "period_error_p99_ms": round(percentile(errors, 0.99) * 1e3, 4),
-            "period_error_max_ms": round(self.max_error * 1e3, 4),
+            **self.pacer.summary(),
             "ffb_sent": self.ffb_sent,
             "motion_sent": self.motion_sent,
             "impulses_applied": self.impulses,

@@ -16,23 +16,17 @@ from typing import Any
 import msgspec
 from carlaverse_nodes.drive.config import DriveNodeConfig, node_settings, resolve_vehicle
 from carlaverse_nodes.drive.loop_process import LoopSpec, run_loop
-from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE, block_name
+from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 
 from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.hal import FfbConfig, InputConfig, MotionConfig
+from carlaverse.hal.input.pursuit import scripted_route
 from carlaverse.messages import EgoState, Pose
 from carlaverse.physics.params import VehicleParams
 from carlaverse.render.live import OwnPoseBlock
-from carlaverse.shm import SharedBlock
+from carlaverse.shm import SharedBlock, block_name
 
 log = logging.getLogger(__name__)
-
-# The headless scripted driver: a rounded 120 m × 80 m block around the spawn, driven twice.
-_BLOCK = [(0, 0), (50, 0), (60, 10), (60, 70), (50, 80), (-50, 80), (-60, 70), (-60, 10), (-50, 0)]
-
-
-def scripted_route(laps: int = 3) -> list[tuple[float, float]]:
-    return [(float(x), float(y)) for _ in range(laps) for x, y in _BLOCK] + [(0.0, 0.0)]
 
 
 class DriveNode:

@@ -4,7 +4,8 @@
 telemetry, ego state, the dashboard of a web HMI). `CONTROL` is written by the fabric process:
 the session-clock offset (so the loop stamps session time without any network) and the spawn
 pose granted at join. Events — impulses, overrides — travel on a queue, never through here.
-Blocks are named `carlaverse-<session>-<node id>-state|control` so an HMI can attach.
+Blocks are named by `carlaverse.shm.block_name` (`carlaverse-<session>-<node id>-state|control`)
+so an HMI can attach.
 """
 
 from __future__ import annotations
@@ -36,7 +37,3 @@ CONTROL = np.dtype(
         ("spawn_x", "<f8"), ("spawn_y", "<f8"), ("spawn_yaw", "<f8"),
     ]
 )  # fmt: skip
-
-
-def block_name(session: str, node_id: str, part: str) -> str:
-    return f"carlaverse-{session}-{node_id}-{part}"

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import logging
 import math
-from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
@@ -27,6 +26,7 @@ from carlaverse_nodes.drive.lights import Lights
 
 from carlaverse.messages import EgoState, Impulse, Override, Pose
 from carlaverse.physics.car import Car
+from carlaverse.physics.impulse import ImpulseInbox
 from carlaverse.physics.motion_cueing import MotionCue, MotionCueing
 from carlaverse.physics.params import VehicleParams
 from carlaverse.physics.steering_feel import FfbCommandValues, SteeringFeel
@@ -34,8 +34,6 @@ from carlaverse.physics.steering_feel import FfbCommandValues, SteeringFeel
 log = logging.getLogger(__name__)
 
 MAX_PHYSICS_DT_S = 0.005  # [s] a late tick is sub-stepped so the chassis stays stable
-MAX_IMPULSE_DV_MPS = 50.0  # [m/s] a larger Δv from one impulse is a bad message
-SEEN_IMPULSES = 256  # impulses remembered to drop a re-delivered copy
 
 
 @dataclass(slots=True)
@@ -112,9 +110,7 @@ class DriveLoop:
         self.t = 0.0  # [s] accumulated loop time, used when no clock is injected
         self.lca_active = False
         self._manual = vehicle.transmission.mode == "manual"
-        self._pending: list[Impulse] = []
-        self._seen: deque[Impulse] = deque(maxlen=SEEN_IMPULSES)
-        self.impulses_dropped = 0
+        self.inbox = ImpulseInbox(vehicle.body.mass_kg)
         self._last_state: tuple[object, ...] = ()
         self._substeps = config.loop.physics_substeps
 
@@ -197,35 +193,18 @@ class DriveLoop:
         if gear != self.car.powertrain.gear:
             self.car.powertrain.select(gear, self.car.state.vx)
 
+    @property
+    def impulses_dropped(self) -> int:
+        return self.inbox.dropped
+
     def _collisions(self, impulses: Iterable[Impulse], now: float) -> int:
-        for impulse in impulses:
-            self._accept_impulse(impulse)
-        if not self._pending:
-            return 0
-        due = [i for i in self._pending if i.t <= now]
-        if not due:
-            return 0
-        self._pending = [i for i in self._pending if i.t > now]
+        self.inbox.accept(impulses)
+        due = self.inbox.due(now)
         for impulse in due:
             response = self.car.apply_impulse(impulse.impulse, impulse.point)
             self.steering_feel.jolt(response)
             self.motion_cueing.collision(response)
         return len(due)
-
-    def _accept_impulse(self, impulse: Impulse) -> None:
-        # The NodeClient already drops re-deliveries by what identifies an impulse (authority
-        # instance, contact id); here only an identical message twice is one. Never by `seq`
-        # alone: it restarts with the authority, and the new one's first impulse must apply.
-        if impulse in self._seen:
-            return
-        values = (*impulse.impulse, *impulse.point, impulse.t)
-        dv = math.sqrt(sum(j * j for j in impulse.impulse)) / self.vehicle.body.mass_kg
-        if not all(math.isfinite(v) for v in values) or dv > MAX_IMPULSE_DV_MPS:
-            self.impulses_dropped += 1
-            log.warning("dropped impulse seq %d: non-finite or Δv %.1f m/s", impulse.seq, dv)
-            return
-        self._seen.append(impulse)
-        self._pending.append(impulse)
 
     def _physics(
         self, dt: float, steer: float, throttle: float, brake: float, clutch: float

@@ -8,11 +8,11 @@ import sys
 from pathlib import Path
 
 import yaml
-from carlaverse_nodes.drive.node import scripted_route
 
 from carlaverse import messages as m
 from carlaverse.hal.ffb_server import FfbServer, LogActuator
 from carlaverse.hal.ffb_server.actuator import LogActuatorOptions
+from carlaverse.hal.input.pursuit import scripted_route
 from carlaverse.hal.motion_server import LogPlatform, MotionServer
 from carlaverse.hal.motion_server.platform import LogPlatformOptions
 from carlaverse.keys import Keys

@@ -46,12 +46,13 @@ def _empty_scene() -> np.ndarray:
 
 
 def test_view_process_shows_the_scripted_node_and_reports(tmp_path: Path) -> None:
-    from carlaverse_nodes.drive.shared_state import STATE, block_name
+    from carlaverse_nodes.drive.shared_state import STATE
 
     from carlaverse.fabric.node_client import NodeSettings
     from carlaverse.fabric.session import FabricSettings
     from carlaverse.render.live import OwnPoseBlock
     from carlaverse.render.process import ViewProcess, ViewSpec
+    from carlaverse.shm import block_name
 
     scripted = tmp_path / "scripted.yaml"
     scripted.write_text(SCRIPTED)

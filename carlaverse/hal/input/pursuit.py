@@ -19,6 +19,14 @@ from carlaverse.config import StrictStruct
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 
+# The headless nodes' scripted lap: a rounded 120 m × 80 m block starting at the spawn.
+_BLOCK = [(0, 0), (50, 0), (60, 10), (60, 70), (50, 80), (-50, 80), (-60, 70), (-60, 10), (-50, 0)]
+
+
+def scripted_route(laps: int = 3) -> list[tuple[float, float]]:
+    """Waypoints [m] of `laps` laps of the block, ending back at the spawn (spawn frame)."""
+    return [(float(x), float(y)) for _ in range(laps) for x, y in _BLOCK] + [(0.0, 0.0)]
+
 
 class PathFollow(StrictStruct):
     waypoints: Annotated[list[tuple[float, float]], msgspec.Meta(min_length=2)]  # [m] x, y
