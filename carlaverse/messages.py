@@ -220,13 +220,13 @@ class Weather(msgspec.Struct, frozen=True):
     seq: Seq
     t: Time
     sun_altitude_deg: Finite = 45.0
-    sun_azimuth_deg: Finite = 180.0
+    sun_azimuth_deg: Finite = 180.0  # compass bearing: 0 north, 90 east (clockwise)
     cloudiness: Finite = 0.0  # 0..1
     precipitation: Finite = 0.0  # 0..1
     fog_density: Finite = 0.0  # 0..1
     wetness: Finite = 0.0  # 0..1
-    wind_speed_mps: Finite = 0.0
-    wind_direction_deg: Finite = 0.0
+    wind_speed_mps: Finite = 0.0  # [m/s]
+    wind_direction_deg: Finite = 0.0  # where it blows FROM, ccw from +x like yaw (0: from east)
 
 
 class Spawned(msgspec.Struct, frozen=True, tag="spawned"):
