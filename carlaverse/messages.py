@@ -226,7 +226,7 @@ class Weather(msgspec.Struct, frozen=True):
     fog_density: Finite = 0.0  # 0..1
     wetness: Finite = 0.0  # 0..1
     wind_speed_mps: Finite = 0.0  # [m/s]
-    wind_direction_deg: Finite = 0.0  # where it blows FROM, ccw from +x like yaw (0: from east)
+    wind_direction_deg: Finite = 0.0  # compass bearing it blows FROM: 0 north, 90 east (clockwise)
 
 
 class Spawned(msgspec.Struct, frozen=True, tag="spawned"):

@@ -10,8 +10,9 @@ along the direction of travel, positive for a tailwind. The drag keeps the sign 
 relative air speed (a tailwind stronger than the bike pushes it), which equals the paper's
 square whenever the bike is faster than the tailwind.
 
-Wind comes from the authority's `Weather`: `wind_direction_deg` is where the wind blows FROM,
-in the world frame's angle convention (counter-clockwise from +x, like yaw).
+Wind comes from the authority's `Weather`: `wind_direction_deg` is where the wind blows FROM as
+a compass bearing (0 north, 90 east, clockwise), as weather reports give it and as the sun's
+azimuth in the same message is given.
 
 A smart trainer takes no newtons: `ResistanceTable` is the calibrated 2D table
 (speed × force → resistance %) measured by `carlaverse calibrate trainer`, read by bilinear
@@ -49,8 +50,12 @@ def slope_angle(grade_percent: float) -> float:
 
 
 def tailwind(wind_speed_mps: float, wind_from_deg: float, heading_rad: float) -> float:
-    """Wind along the heading [m/s], positive from behind, for a wind blowing FROM that angle."""
-    return -wind_speed_mps * math.cos(math.radians(wind_from_deg) - heading_rad)
+    """Wind along the heading [m/s], positive from behind, for a wind blowing FROM that bearing.
+
+    A wind from bearing β blows along −(sin β, cos β) in the world frame (x east, y north); its
+    component on the heading (cos ψ, sin ψ) is −v·sin(β + ψ).
+    """
+    return -wind_speed_mps * math.sin(math.radians(wind_from_deg) + heading_rad)
 
 
 def resistance_force(

@@ -45,10 +45,12 @@ def test_descent_and_a_strong_tailwind_push() -> None:
 
 def test_wind_projected_on_the_heading() -> None:
     # wind FROM 180° (blowing towards +x): a tailwind riding east, a headwind riding west
-    assert tailwind(4.0, 180.0, 0.0) == pytest.approx(4.0)
-    assert tailwind(4.0, 180.0, math.pi) == pytest.approx(-4.0)
-    assert tailwind(4.0, 90.0, 0.0) == pytest.approx(0.0, abs=1e-12)  # pure crosswind
-    assert tailwind(4.0, 240.0, 0.0) == pytest.approx(2.0)  # 60° off the tail: 4·cos 60°
+    # Bearings are compass bearings the wind comes FROM; heading 0 is east, π/2 north.
+    assert tailwind(4.0, 270.0, 0.0) == pytest.approx(4.0)  # west wind, riding east
+    assert tailwind(4.0, 270.0, math.pi) == pytest.approx(-4.0)  # west wind, riding west
+    assert tailwind(4.0, 180.0, math.pi / 2) == pytest.approx(4.0)  # south wind, riding north
+    assert tailwind(4.0, 0.0, 0.0) == pytest.approx(0.0, abs=1e-12)  # north wind: pure crosswind
+    assert tailwind(4.0, 210.0, 0.0) == pytest.approx(2.0)  # 60° off the tail: 4·cos 60°
 
 
 TABLE = ResistanceTable(speeds_mps=[0.0, 10.0], forces_n=[0.0, 100.0],
