@@ -63,7 +63,13 @@ class NodeSummary(msgspec.Struct):
     npcs_now: int = 0
     despawns: list[tuple[str, str]] = []  # (node id, reason)
     impulses: int = 0
+    # The fabric layer's counters (NodeClient.counters()): undecodable payloads by channel,
+    # well-formed but refused messages by `<channel>/<why>` (duplicate impulses among them),
+    # exceptions caught in callbacks, impulses handed to the node after de-duplication.
     dropped: dict[str, int] = {}
+    rejected: dict[str, int] = {}
+    handler_errors: dict[str, int] = {}
+    impulses_accepted: int = 0
     peers: dict[str, StreamSummary] = {}
     clock_uncertainty_ms: float = float("nan")
     extra: dict[str, Any] = {}
@@ -199,6 +205,7 @@ def _loop(
 def _summary(node: NodeKind, client: NodeClient, duration: float) -> NodeSummary:
     now = client.update()
     world = client.world
+    counters = client.counters()
     return NodeSummary(
         node_id=client.node_id,
         kind=node.name,
@@ -213,7 +220,10 @@ def _summary(node: NodeKind, client: NodeClient, duration: float) -> NodeSummary
         npcs_now=len(world.npcs),
         despawns=[(d.actor_id, d.reason) for d in world.despawns],
         impulses=len(client.impulses),
-        dropped=dict(client.dropped),
+        dropped=counters.dropped,
+        rejected=counters.rejected,
+        handler_errors=counters.handler_errors,
+        impulses_accepted=counters.impulses_accepted,
         peers={k: s.summary(now) for k, s in sorted(world.stats.items())},
         clock_uncertainty_ms=round(client.clock.uncertainty_s * 1e3, 3),
         extra=node.report(),

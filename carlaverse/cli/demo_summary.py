@@ -34,6 +34,8 @@ def node_row(node_id: str, actors: list[str], entry: dict[str, Any]) -> dict[str
         "left": sorted(n for n, reason in despawns if reason in NORMAL_LEAVES),
         "lost": sorted(f"{n} ({reason})" for n, reason in despawns if reason not in NORMAL_LEAVES),
         "dropped": dict(summary.get("dropped", {})),
+        "rejected": dict(summary.get("rejected", {})),
+        "handler_errors": dict(summary.get("handler_errors", {})),
         "npcs_now": summary.get("npcs_now", 0),
         "poses_sent": summary.get("poses_sent", 0),
         "waiting_for": summary.get("waiting_for", ""),
@@ -81,7 +83,7 @@ def format_summary(summary: dict[str, Any], as_json: bool) -> str:
         return json.dumps(summary, indent=2, sort_keys=True)
     lines = [
         f"{'node':<14} {'status':<7} {'joined':<7} {'saw':<4} {'NPCs':>5} {'p50 ms':>8} "
-        f"{'p99 ms':>8} {'left':>5} {'lost':>5} {'dropped':>8}  missing"
+        f"{'p99 ms':>8} {'left':>5} {'lost':>5} {'dropped':>8} {'rejected':>8}  missing"
     ]
     for node_id, row in summary["nodes"].items():
         lines.append(_table_line(node_id, row))
@@ -108,7 +110,8 @@ def _table_line(node_id: str, row: dict[str, Any]) -> str:
     return (
         f"{node_id:<14} {status:<7} {row['joined']!s:<7} {len(row['actors_seen']):<4} "
         f"{row['npcs_now']:>5} {_ms(p50):>8} {_ms(p99):>8} {len(row['left']):>5} "
-        f"{len(row['lost']):>5} {sum(row['dropped'].values()):>8}  "
+        f"{len(row['lost']):>5} {sum(row['dropped'].values()):>8} "
+        f"{sum(row['rejected'].values()):>8}  "
         f"{' '.join(row['missing']) or '-'}"
     )
 
@@ -125,9 +128,10 @@ def _problems(summary: dict[str, Any]) -> list[str]:
             lines.append(f"{name} failed (exit {row['exit_code']}): {row['error'] or '?'}")
         if row["lost"]:
             lines.append(f"{name} lost {', '.join(row['lost'])}")
-        if row["dropped"]:
-            counts = ", ".join(f"{k} {v}" for k, v in sorted(row["dropped"].items()))
-            lines.append(f"{name} dropped/rejected: {counts}")
+        for what in ("dropped", "rejected", "handler_errors"):
+            if row[what]:
+                counts = ", ".join(f"{k} {v}" for k, v in sorted(row[what].items()))
+                lines.append(f"{name} {what.replace('_', ' ')}: {counts}")
     for name, code in summary["tools"].items():
         if code != 0:
             lines.append(f"{name} failed (exit {code}): {summary['tool_errors'][name] or '?'}")

@@ -131,6 +131,14 @@ def _stopped_waiting(exc: Exception) -> str:
     return str(exc)
 
 
+def _counted(summary: NodeSummary) -> str:
+    """`; dropped {...}, rejected {...}` for the counters that are not empty."""
+    parts = [f"{name} {counts}" for name, counts in (
+        ("dropped", summary.dropped), ("rejected", summary.rejected),
+        ("handler errors", summary.handler_errors)) if counts]  # fmt: skip
+    return "; " + ", ".join(parts) if parts else ""
+
+
 def _still(summary: NodeSummary) -> str:
     return f"still {summary.waiting_for}"
 
@@ -151,7 +159,8 @@ def _report(args: argparse.Namespace, summary: NodeSummary, stop: StopSignal) ->
     if not args.json:
         print(
             f"{summary.node_id}: joined={summary.joined} saw {len(summary.actors_seen)} actor(s) "
-            f"{summary.actors_seen}, sent {summary.poses_sent} poses in {summary.duration_s:.1f} s",
+            f"{summary.actors_seen}, sent {summary.poses_sent} poses in {summary.duration_s:.1f} s"
+            + _counted(summary),
             file=sys.stderr,
         )
     return 0

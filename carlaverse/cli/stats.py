@@ -7,6 +7,8 @@ import sys
 import threading
 import time
 
+import msgspec
+
 from carlaverse.cli.common import (
     add_fabric_args,
     add_output_args,
@@ -70,7 +72,8 @@ def run(args: argparse.Namespace) -> int:
         client.close()
         session.close()
     if args.json:
-        print_json({"nodes": result, "dropped": dict(client.dropped)})
+        # dropped, rejected, handler_errors, impulses_accepted: what the fabric layer counted
+        print_json({"nodes": result, **msgspec.structs.asdict(client.counters())})
     else:
         _print_table(result)
     return 0

@@ -2,11 +2,14 @@
 
 from __future__ import annotations
 
+import itertools
 import json
+import math
 import subprocess
 import sys
 from pathlib import Path
 
+import pytest
 import yaml
 
 from carlaverse import messages as m
@@ -78,33 +81,35 @@ def test_demo_with_a_drive_node_reaches_the_ffb_and_motion_servers(tmp_path: Pat
         assert motion.stats.frames > 200  # 100 Hz
 
 
+# The car (configs/vehicles/compact-car.yaml) and the impulse the test sends it.
+CAR_MASS_KG = 1350.0
+IMPULSE_NS = -3000.0  # [N·s] along world x, through the car's centre: Δv = J/m, no spin
+# Between two 50 Hz poses the tyres and the driver change the car's velocity by at most
+# ~μ·g·20 ms ≈ 0.2 m/s; the impulse's 2.2 m/s jump must stand out from that by far.
+DV_TOLERANCE_MPS = 0.5
+
+
 def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> None:
     cluster.router()
     # in this process: nodes take impulses only from the authority's own session
     authority = InProcessAuthority(cluster.endpoint)
     outbox = authority.start().outbox
     drive = cluster.start(
-        "join",
-        "drive",
-        "--id",
-        "car",
-        "--session",
-        "t",
-        "--connect",
-        cluster.endpoint,
-        "--backend",
-        "sim",
-        "--duration",
-        "6",
-        "--json",
-        name="car",
-    )
+        "join", "drive", "--id", "car", "--session", "t", "--connect", cluster.endpoint,
+        "--backend", "sim", "--duration", "6", "--json", name="car",
+    )  # fmt: skip
     obs = cluster.observer()
-    wait_until(lambda: obs.update() and "car" in obs.world.egos, 30, "the car")
-    impulse = m.Impulse(
-        1, obs.now(), 7, (-3000.0, 0.0, 0.0), (0.0, 0.0, 0.5), (-1.0, 0.0, 0.0), "npc-1", "car", 2.0
-    )
     session = cluster.sessions[0]
+    poses: list[m.Pose] = []
+    sub = session.declare_subscriber(
+        Keys("t").pose("car"), lambda s: poses.append(m.POSE.decode(s.payload.to_bytes()))
+    )
+    wait_until(lambda: len(poses) > 50, 30, "the car's poses")  # driving for ~1 s
+    here = poses[-1]
+    impulse = m.Impulse(
+        1, obs.now(), 7, (IMPULSE_NS, 0.0, 0.0), (here.x, here.y, 0.0), (-1.0, 0.0, 0.0),
+        "npc-1", "car", 2.0,
+    )  # fmt: skip
     outbox.impulse("car", impulse)
     outbox.impulse("car", impulse)  # a duplicate: once only
     # an ADAS program takes over the pedals: the car's published state says so
@@ -118,7 +123,25 @@ def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> No
 
     wait_until(adas_visible, 5, "the override in the car's ego state")
     assert drive.wait(40) == 0
+    sub.undeclare()
     authority.stop()
-    loop = drive.json()["extra"]["loop"]
+    _check_velocity_jump(sorted(poses, key=lambda p: p.t), impulse.t)
+    summary = drive.json()
+    assert summary["rejected"].get("impulse/duplicate") == 1, summary["rejected"]
+    assert summary["impulses_accepted"] == 1
+    loop = summary["extra"]["loop"]
     assert loop["impulses_applied"] == 1
     assert loop["ticks"] > 3000 and loop["distance_m"] > 10
+
+
+def _check_velocity_jump(poses: list[m.Pose], impulse_t: float) -> None:
+    """The largest change of world velocity between consecutive poses is the impulse's J/m,
+    after its time, and no other change comes near it."""
+    steps = [(b.t, b.vx - a.vx, b.vy - a.vy) for a, b in itertools.pairwise(poses)]
+    t, dvx, dvy = max(steps, key=lambda s: math.hypot(s[1], s[2]))
+    assert t >= impulse_t, f"the jump at {t:.3f} s precedes the impulse at {impulse_t:.3f} s"
+    expected = IMPULSE_NS / CAR_MASS_KG  # [m/s] -2.22
+    assert dvx == pytest.approx(expected, abs=DV_TOLERANCE_MPS), (dvx, dvy)
+    assert abs(dvy) < DV_TOLERANCE_MPS, (dvx, dvy)
+    others = [math.hypot(x, y) for s_t, x, y in steps if s_t != t]
+    assert max(others) < DV_TOLERANCE_MPS, f"a {max(others):.2f} m/s change without an impulse"
