@@ -16,7 +16,7 @@ import yaml
 from tests.support import Proc, wait_until
 
 # One-way loopback latency p99 between demo nodes, beyond what the machine's scheduler adds.
-# Measured 0.3-3 ms on an idle 2-core machine and 8.1-8.8 ms with two CPU-bound processes
+# Measured 0.3-3 ms on an idle 2-core machine and 5.8-7.9 ms with two CPU-bound processes
 # beside the demo (`python -c 'while True: pass'` twice); 20 ms is over twice the loaded
 # figure and still fails a pose path that falls a whole 50 Hz period (20 ms) behind. When
 # the machine is busier still, each wake-up on the path (publisher thread, router,
