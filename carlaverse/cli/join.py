@@ -145,7 +145,9 @@ def _still(summary: NodeSummary) -> str:
 
 def _report(args: argparse.Namespace, summary: NodeSummary, stop: StopSignal) -> int:
     if summary.refused:
-        return fail("join", f"the authority refused {summary.node_id!r}: {summary.refused}", EXIT_REFUSED)
+        return fail(
+            "join", f"the authority refused {summary.node_id!r}: {summary.refused}", EXIT_REFUSED
+        )
     if args.json:
         print_json(summary)
     if not summary.joined:
