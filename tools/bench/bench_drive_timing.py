@@ -17,11 +17,13 @@ import subprocess
 import sys
 import time
 from collections.abc import Sequence
-from pathlib import Path
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_fabric import _port
-from benchdoc import write_section
+from benchdoc import RunInfo, command_line, write_section
+
+PEER_LOADS = (0, 32)  # scripted peers on the fabric, in processes of PEERS_PER_PROCESS
+PEERS_PER_PROCESS = 8
+PEER_RATE_HZ = 50.0  # [Hz] the scripted peers' pose rate
 
 
 def peers(endpoint: str, first: int, count: int, stop: mp.synchronize.Event) -> None:
@@ -33,15 +35,14 @@ def peers(endpoint: str, first: int, count: int, stop: mp.synchronize.Event) -> 
     clients = []
     for i in range(first, first + count):
         session = open_session(FabricSettings(connect=[endpoint]))
-        client = NodeClient(
-            session, NodeSettings(node_id=f"peer-{i}", session="bench"), MonotonicClock()
-        )
+        settings = NodeSettings(node_id=f"peer-{i}", session="bench", pose_rate_hz=PEER_RATE_HZ)
+        client = NodeClient(session, settings, MonotonicClock())
         path = CirclePath(radius=20.0 + i, phase_deg=11.0 * i)
         clients.append((client.start(pose_source=path.pose_at), session))
     while not stop.is_set():
         for client, _ in clients:
             client.update()
-        stop.wait(0.05)
+        stop.wait(0.05)  # apply what arrived at 20 Hz, as a light node would
     for client, session in clients:
         client.close()
         session.close()
@@ -61,7 +62,8 @@ def run(
     ctx = mp.get_context("spawn")
     stop = ctx.Event()
     workers = [
-        ctx.Process(target=peers, args=(endpoint, k * 8, 8, stop)) for k in range(n_peers // 8)
+        ctx.Process(target=peers, args=(endpoint, k * PEERS_PER_PROCESS, PEERS_PER_PROCESS, stop))
+        for k in range(n_peers // PEERS_PER_PROCESS)
     ]
     for w in workers:
         w.start()
@@ -101,28 +103,39 @@ def run(
     return loop
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--duration", type=float, default=20.0)
-    parser.add_argument("--write", action="store_true")
-    args = parser.parse_args()
+    parser.add_argument("--duration", type=float, default=20.0, help="drive node run [s]")
+    parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
+    args = parser.parse_args(argv)
+    run_info = RunInfo.start()
     lines = [
         "| fabric load | ticks | period error p50 ms | p99 ms | max ms | peers seen |",
         "|---|---|---|---|---|---|",
     ]
-    for n in (0, 32):
+    for n in PEER_LOADS:
         r = run(args.duration, n)
-        label = "loop alone" if n == 0 else f"{n} scripted peers at 50 Hz"
+        label = "loop alone" if n == 0 else f"{n} scripted peers at {PEER_RATE_HZ:g} Hz"
         lines.append(
             f"| {label} | {r['ticks']} | {r['period_error_p50_ms']:.4f} | "
             f"{r['period_error_p99_ms']:.4f} | {r['period_error_max_ms']:.3f} | "
             f"{r['peers_seen']} |"
         )
         print(lines[-1], flush=True)
-    text = "\n".join(lines)
+    text = "\n".join([_intro(args.duration), "", *lines])
     if args.write:
-        write_section("Drive loop timing", text, "python tools/bench/bench_drive_timing.py")
+        write_section("Drive loop timing", text, command_line(argv), run_info)
     return 0
+
+
+def _intro(duration_s: float) -> str:
+    return (
+        "`carlaverse join drive --backend sim` for "
+        f"{duration_s:g} s beside a router and an authority (each its own process); the loaded "
+        "run adds scripted peers publishing poses, so the drive node's fabric process receives "
+        "them all while its loop process keeps time. Period error = actual wake-up minus "
+        "deadline, as the loop process reports it."
+    )
 
 
 if __name__ == "__main__":
