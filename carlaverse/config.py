@@ -1,8 +1,8 @@
 """YAML configuration decoded into strict msgspec Structs.
 
-One YAML file per node is the single source of truth (DESIGN §9). Every config type is a
-frozen Struct with `forbid_unknown_fields=True`, so a typo is an error rather than a silently
-ignored key, and the error names the file, the field path and what was expected:
+One YAML file per node is the single source of truth (docs/architecture.md §10). Every config
+type is a frozen Struct with `forbid_unknown_fields=True`, so a typo is an error rather than a
+silently ignored key, and the error names the file, the field path and what was expected:
 
     configs/drive-desktop.yaml: Expected `float` >= 0 - at `$.ffb.spring.stiffness`
 

@@ -1,4 +1,4 @@
-"""The key-expression space (DESIGN §3): the only module that builds or parses keys.
+"""The key-expression space (docs/architecture.md §3): the only module that builds or parses keys.
 
 Every key starts with `carlaverse/<session>/`. Node ids and session names are short,
 human-readable tokens; anything that could act as a Zenoh wildcard or separator is refused

@@ -1,4 +1,5 @@
-"""Every message on the fabric, as frozen msgspec Structs, with codecs built once (DESIGN §4).
+"""Every message on the fabric, as frozen msgspec Structs, with codecs built once
+(docs/architecture.md §4).
 
 Wire format: MessagePack. Structs that travel at high rate are `array_like` (no field names on
 the wire); the rest encode as maps so new fields can be added with defaults (msgspec schema

@@ -1,11 +1,11 @@
 """Shared-memory state blocks between a node's processes (the paper's SharedMemory module).
 
-A node's control loop (1 kHz, its own process) and its fabric process exchange *state*
-through a fixed-layout block; events travel on queues (DESIGN §7). One process writes a block,
-any number read it. Consistency without locks comes from a sequence lock: the writer makes
-the counter odd, writes, makes it even; a reader copies the payload and retries if the counter
-was odd or changed meanwhile. Nobody ever waits on the other side, so the control loop cannot
-be stalled by a slow reader.
+A node's control loop (1 kHz, its own process) and its fabric process exchange *state* through
+a fixed-layout block; events travel on queues (docs/architecture.md §8). One process writes a
+block, any number read it. Consistency without locks comes from a sequence lock: the writer
+makes the counter odd, writes, makes it even; a reader copies the payload and retries if the
+counter was odd or changed meanwhile. Nobody ever waits on the other side, so the control loop
+cannot be stalled by a slow reader.
 
 Layout: 8-byte little-endian sequence counter, then one record of a numpy structured dtype.
 """

@@ -1,4 +1,4 @@
-"""The seam between the authority's membership core and its global domain (DESIGN §5).
+"""The seam between the authority's membership core and its global domain (docs/architecture.md §6).
 
 The membership core (`carlaverse.authority.service`) owns presence, joins, the clock and
 despawns. Everything else global — traffic, lights, weather, collisions, the map — is a

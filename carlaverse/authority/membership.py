@@ -1,4 +1,4 @@
-"""Who is in the session: joins, presence tokens, telemetry staleness (DESIGN §5).
+"""Who is in the session: joins, presence tokens, telemetry staleness (docs/architecture.md §6).
 
 Pure bookkeeping, no network: the service feeds it joins, liveliness changes and pose
 arrivals, and asks it each tick who must be despawned. A node is despawned when its presence

@@ -2,7 +2,7 @@
 
 NPC batches may drop under congestion (the next batch supersedes them); lights, weather,
 events and impulses must arrive, so they are reliable with congestion control BLOCK and carry
-sequence numbers for idempotent receivers (DESIGN §4).
+sequence numbers for idempotent receivers (docs/architecture.md §4).
 
 Every put carries a timestamp from the authority's own session: its id is the session's zid,
 which the join reply names, so nodes can tell the authority's world messages from anyone

@@ -1,4 +1,5 @@
-"""Clocks: a monotonic source, a manual one for tests, and the session clock (DESIGN §4).
+"""Clocks: a monotonic source, a manual one for tests, and the session clock
+(docs/architecture.md §5).
 
 The authority's clock is the session's. A node measures the offset between its own monotonic
 clock and the session clock by querying `authority/clock`: for each exchange it knows when it

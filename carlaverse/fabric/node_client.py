@@ -1,4 +1,4 @@
-"""NodeClient: everything a node does on the fabric, behind one object (DESIGN §6).
+"""NodeClient: everything a node does on the fabric, behind one object (docs/architecture.md §7).
 
     session = open_session(settings.fabric)
     client = NodeClient(session, settings.node, MonotonicClock())

@@ -1,4 +1,5 @@
-"""Remote actors: turning a jittery stream of pose samples into smooth motion (DESIGN §6).
+"""Remote actors: turning a jittery stream of pose samples into smooth motion
+(docs/architecture.md §7).
 
 A `RemoteActor` keeps the recent samples of one peer and answers "where to draw it?" in one
 of two ways (`InterpolationSettings.render_mode`, chosen per node; the world view asks every

@@ -1,4 +1,4 @@
-"""Opening Zenoh sessions from typed settings (DESIGN §2).
+"""Opening Zenoh sessions from typed settings (docs/architecture.md §2).
 
 Nodes are `peer`s by default, the site router is a `router`, and `client` is there for
 constrained networks. Defaults are chosen for a simulation fabric rather than Zenoh's own:

@@ -1,4 +1,5 @@
-"""The hardware layer (DESIGN §8): one interface per device family, backends chosen by YAML.
+"""The hardware layer
+(docs/architecture.md §9): one interface per device family, backends chosen by YAML.
 
     from carlaverse.hal import open_input, open_ffb
     wheel = open_input({"backend": "pygame", "options": {"device": "G29"}})

@@ -1,6 +1,6 @@
 """What every device family shares: typed backend options, an injected clock, `close()`.
 
-A node's YAML names a backend and its options (DESIGN §8):
+A node's YAML names a backend and its options (docs/architecture.md §9):
 
     ffb:
       backend: udp

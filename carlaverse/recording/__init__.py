@@ -1,4 +1,5 @@
-"""Keep a session and play it back (DESIGN §10): `carlaverse record` and `carlaverse replay`.
+"""Keep a session and play it back
+(docs/architecture.md §11): `carlaverse record` and `carlaverse replay`.
 
 `encoding` maps samples to JSON-Schema'd MCAP messages that keep the original payload,
 `sink` writes a crash-tolerant chunked MCAP file, `recorder` subscribes to a session and

@@ -1,4 +1,4 @@
-"""How one Zenoh sample becomes one MCAP message, and back (DESIGN §10).
+"""How one Zenoh sample becomes one MCAP message, and back (docs/architecture.md §11).
 
 Every recorded message is a JSON object, described by a JSON Schema, so Foxglove opens a
 recording without plugins:

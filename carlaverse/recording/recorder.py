@@ -1,4 +1,4 @@
-"""Record every key of a session into an MCAP file (DESIGN §10).
+"""Record every key of a session into an MCAP file (docs/architecture.md §11).
 
 Threads and why:
 - Zenoh callbacks only stamp the receive time and push the sample into a queue bounded in

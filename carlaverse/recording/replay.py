@@ -1,4 +1,4 @@
-"""Republish a recording into a live session with its original timing (DESIGN §10).
+"""Republish a recording into a live session with its original timing (docs/architecture.md §11).
 
 Each sample goes out at `start + (log_time - first_log_time) / speed`, with its original
 payload byte for byte and its key moved under the target session. Timing is kept tight by

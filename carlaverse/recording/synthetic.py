@@ -36,8 +36,9 @@ class SyntheticSpec:
     npc_hz: float = 20.0  # [Hz] NPC batch rate
     slow_hz: float = 1.0  # [Hz] lights and weather refresh
     impulse_every_s: float = 2.0  # [s] between synthetic collisions (0: none)
-    # Poses and NPC batches are droppable on the fabric (DESIGN §4); tests that count every
-    # sample make them reliable so a loaded machine cannot drop one in Zenoh's queues.
+    # Poses and NPC batches are droppable on the fabric (docs/architecture.md §4); tests
+    # that count every sample make them reliable so a loaded machine cannot drop one in
+    # Zenoh's queues.
     reliable_state: bool = False
 
 

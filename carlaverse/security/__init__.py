@@ -1,4 +1,4 @@
-"""Identity and access control for multi-site sessions (DESIGN §2, §11).
+"""Identity and access control for multi-site sessions (docs/architecture.md §2, §12).
 
 - `certs`: a private test CA and per-site router / per-node certificates (PEM files).
 - `roster`: the session roster, who may join from where with which credential.

@@ -1,4 +1,5 @@
-"""Zenoh `access_control` for one site router, generated from the session roster (DESIGN §11).
+"""Zenoh `access_control` for one site router, generated from the session roster
+(docs/architecture.md §12).
 
 Default deny. A router only sees its next hop, so each site's router enforces the rules for
 its own nodes, and treats the routers of other sites as one identity each that may carry

@@ -1,4 +1,4 @@
-"""A private certificate authority for a lab that has none (DESIGN §11).
+"""A private certificate authority for a lab that has none (docs/architecture.md §12).
 
 Every site router and every node gets an ECDSA P-256 certificate signed by the session CA,
 with its site name or node id as the subject common name: Zenoh's access control matches

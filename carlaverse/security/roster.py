@@ -1,4 +1,5 @@
-"""The session roster: who may join a multi-site session, from which site, as whom (DESIGN §11).
+"""The session roster: who may join a multi-site session, from which site, as whom
+(docs/architecture.md §12).
 
 One YAML file, shared by every lab of the session (it holds no secrets, only names and file
 references). Each site router derives its access control from it, and each node its TLS and

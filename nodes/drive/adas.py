@@ -1,5 +1,5 @@
 """ADAS override arbitration: external programs drive alongside the human (paper, "Control
-and ADAS Interfaces"; DESIGN key `ego/<id>/override`).
+and ADAS Interfaces"; docs/architecture.md §3).
 
 An override (carlaverse.messages.Override) comes from the fabric or the local API. Rules:
 - cruise control replaces the pedal inputs with a speed PI controller's;

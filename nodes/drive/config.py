@@ -1,4 +1,5 @@
-"""The drive node's configuration: one YAML file, the single source of truth (DESIGN §9).
+"""The drive node's configuration: one YAML file, the single source of truth
+(docs/architecture.md §10).
 
     node:     {node_id: tum-drive-1, kind: drive}        carlaverse.fabric NodeSettings
     fabric:   {connect: [tcp/10.0.0.1:7447]}             FabricSettings
@@ -38,7 +39,7 @@ DEFAULT_VEHICLE = "vehicles/compact-car.yaml"
 
 
 class LoopSettings(StrictStruct):
-    """The control + physics + haptics loop (DESIGN §7)."""
+    """The control + physics + haptics loop (docs/architecture.md §8)."""
 
     rate_hz: Annotated[float, msgspec.Meta(ge=50, le=5000)] = 1000.0
     physics_substeps: Annotated[int, msgspec.Meta(ge=1, le=20)] = 1
