@@ -87,10 +87,6 @@ class Keys:
             raise KeySpaceError(f"unknown world channel {channel!r}; expected {WORLD_CHANNELS}")
         return f"{self.prefix}/world/{channel}"
 
-    @property
-    def all_world(self) -> str:
-        return f"{self.prefix}/world/*"
-
     def impulse(self, node_id: str) -> str:
         return f"{self.prefix}/impulse/{check_token(node_id)}"
 

@@ -69,7 +69,6 @@ class Contact:
     contact_id: int
     a: ActorKey
     b: ActorKey
-    started_t: float  # [s]
 
 
 @dataclass(slots=True)
@@ -129,7 +128,7 @@ class CollisionMatrix:
     def _start(self, t: float, actors: Actors, touch: Touch, next_seq: Callable[[], int],
                out: TickContacts) -> None:  # fmt: skip
         i, j, normal = touch
-        contact = Contact(next(self._ids), actors.key(i), actors.key(j), t)
+        contact = Contact(next(self._ids), actors.key(i), actors.key(j))
         self._contacts[(contact.a, contact.b)] = contact
         rel = np.array([actors.vx[i] - actors.vx[j], actors.vy[i] - actors.vy[j]])  # [m/s]
         speed = float(math.hypot(*rel))

@@ -26,7 +26,6 @@ class Car:
         self.max_steer_rad = math.radians(params.steering.max_road_wheel_angle_deg)
         self._front_drive = params.transmission.drive_axle == "front"
         self._wheel_mass = params.tyres.wheel_inertia_kgm2 / self.wheel_radius_m**2  # [kg]
-        self.drive_force_n = 0.0  # last step's drive force at the contact patches [N]
 
     @property
     def state(self) -> ChassisState:
@@ -51,7 +50,6 @@ class Car:
         radius = self.wheel_radius_m
         wheel_torque = self.powertrain.step(dt, throttle, clutch, self.chassis.state.vx / radius)
         drive = wheel_torque / radius
-        self.drive_force_n = drive
         extra_mass = self._wheel_mass + self.powertrain.reflected_inertia_kgm2 / radius**2
         self.chassis.step(
             dt,

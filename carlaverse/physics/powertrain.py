@@ -44,10 +44,6 @@ class EngineModel:
         drag = self._drag0 + self._drag1 * rpm * 0.001
         return throttle * full - (1.0 - throttle) * drag
 
-    def max_power_w(self) -> float:
-        """Peak power [W] of the full-load curve (for documentation and tests)."""
-        return max(r / RADPS_TO_RPM * t for r, t in zip(self._rpms, self._torques, strict=True))
-
 
 class Powertrain:
     """Engine + clutch + gearbox + final drive. Call `step` once per physics step."""

@@ -102,7 +102,6 @@ class SteeringFeel:
         self._firings_per_rev = cylinders / 2.0  # four-stroke: each cylinder fires every 2 rev
         self._jolt_force = 0.0  # [units] decaying collision kick
         self._jolt_vibration = 0.0  # [units]
-        self.weight = 0.0  # last blend weight, for telemetry and tests
         self.aligning_torque_nm = 0.0  # last steering-wheel torque from M_z [N·m]
 
     def aligning_torque(self, alpha_front: float, fz_front: float) -> float:
@@ -129,7 +128,6 @@ class SteeringFeel:
         """One command. extra_torque_nm: e.g. lane keeping, + = toward the left [N·m]."""
         p = self.params
         w = blend_weight(speed_mps, p.blend_start_kmh, p.blend_end_kmh)
-        self.weight = w
         self.aligning_torque_nm = self.aligning_torque(alpha_front, fz_front)
         torque = w * self.aligning_torque_nm + extra_torque_nm
         force = -torque / p.full_scale_torque_nm * FFB_FULL_SCALE + self._jolt_force

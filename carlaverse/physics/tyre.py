@@ -27,16 +27,6 @@ def slip_angle(v_long: float, v_lat: float, v_min: float) -> float:
     return -math.atan(v_lat / denominator)
 
 
-def wheel_frame_velocity(
-    vx: float, vy: float, cos_steer: float, sin_steer: float
-) -> tuple[float, float]:
-    """Rotate a contact-point velocity (body frame [m/s]) into a wheel steered by δ.
-
-    cos δ and sin δ are passed in because the caller already has them (this runs at 1 kHz).
-    """
-    return vx * cos_steer + vy * sin_steer, -vx * sin_steer + vy * cos_steer
-
-
 def lateral_force(alpha: float, f_z: float, mu: float, b: float, c: float) -> float:
     """Lateral force [N] from a simplified Pacejka magic formula D·sin(C·atan(B·α)).
 

@@ -21,7 +21,6 @@ import numpy as np
 from carlaverse.messages import ACTOR_KINDS, NPC_DTYPE
 
 KIND_CODE = {kind: code for code, kind in enumerate(ACTOR_KINDS)}
-PEDESTRIAN_CODE = KIND_CODE["pedestrian"]
 
 
 def kind_code(kind: str) -> int:

@@ -130,9 +130,6 @@ class DriveLoop:
         """The local ADAS API (the fabric's `ego/<id>/override` lands here too)."""
         return self.adas.submit(override, self.now())
 
-    def set_lane_change_assist(self, active: bool) -> None:
-        self.lca_active = active
-
     def step(self, dt: float, raw_input: RawInput, impulses: Iterable[Impulse] = ()) -> LoopOutput:
         """Run one loop tick of dt [s]."""
         self.t += dt

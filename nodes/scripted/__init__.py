@@ -6,13 +6,11 @@ config knows where it truly is — the reference for interpolation-error measure
 
 from __future__ import annotations
 
-import math
 from typing import Any
 
 from carlaverse.config import StrictStruct
 from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
 from carlaverse.fabric.session import FabricSettings
-from carlaverse.messages import Pose
 from carlaverse.paths import CirclePath, PathSpec
 
 
@@ -42,9 +40,3 @@ class ScriptedNode:
 
     def report(self) -> dict[str, Any]:
         return {"path": type(self.path).__name__}
-
-
-def truth_error(path: PathSpec, view_x: float, view_y: float, render_t: float) -> float:
-    """Distance [m] between a rendered position and where the path really was then."""
-    true: Pose = path.pose_at(render_t)
-    return math.hypot(view_x - true.x, view_y - true.y)

@@ -68,7 +68,6 @@ class EvdevActuator(ForceActuator):
         self.ids: dict[fx.EffectName, int] = {}
         self.uploaded: dict[fx.EffectName, fx.EffectParams] = {}
         self.playing: set[fx.EffectName] = set()
-        self._warned: set[fx.EffectName] = set()
         self._configure(options)
 
     def _configure(self, options: EvdevOptions) -> None:

@@ -76,11 +76,6 @@ class FfbServer(WatchdogUdpServer):
             self.stats.out_of_range += 1
         self._warn.warning(exc.reason.value, "FFB packet rejected, nothing applied: %s", exc)
 
-    @property
-    def forces_live(self) -> bool:
-        """A valid non-zero command is in effect."""
-        return self.armed
-
     def _trip(self, now: float, gap_ms: float) -> None:
         self.stats.watchdog_trips += 1
         self._zero(f"watchdog: no valid packet for {gap_ms:.0f} ms")
