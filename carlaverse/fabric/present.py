@@ -1,4 +1,4 @@
-"""Present mode: draw a remote actor where it is now, not where it was (DESIGN §6).
+"""Present mode: draw a remote actor where it is now, not where it was (docs/architecture.md §7).
 
 The newest sample is projected to now with its velocity and acceleration (`kinematics.project`,
 DIS dead reckoning). A new sample usually disagrees a little with the projection that was on

@@ -21,15 +21,13 @@ from __future__ import annotations
 
 import argparse
 import math
-import platform
-import sys
 import tempfile
 import time
 from pathlib import Path
 
 import numpy as np
 from bench_drive_timing import run as run_drive
-from benchdoc import write_section
+from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse import messages as m
 from carlaverse.recording.synthetic import light_state, synthetic_map
@@ -38,6 +36,7 @@ from carlaverse.render.renderer import Renderer
 from carlaverse.render.rig import PhysicalRig, RenderConfig, Resolution, SimpleRig
 
 NPCS, EGOS = 200, 16
+TARGET_FPS = 60  # [1/s] the first-person view's target, on a GPU
 FULL_HD = Resolution(width=1920, height=1080)
 RIGS = {
     "1 × 1920×1080 (simple, 90°)": SimpleRig(resolution=FULL_HD, fov_deg=90),
@@ -90,9 +89,10 @@ def bench(name: str, rig, frames: int) -> dict:
 
 VIEW_RIG = """output: offscreen
 camera: {mode: simple, resolution: {width: %d, height: %d}, fov_deg: 90, head: {z: 1.2}}
-max_fps: 60
+max_fps: %d
 """
 VIEW_SIZES = ((640, 360), (1280, 720))
+VIEW_SCENARIO = "town"
 
 
 def drive_timing(duration: float) -> list[str]:
@@ -104,11 +104,11 @@ def drive_timing(duration: float) -> list[str]:
         runs: list[tuple[str, list[str]]] = [("loop alone", [])]
         for w, h in VIEW_SIZES:
             rig = Path(tmp) / f"rig-{w}.yaml"
-            rig.write_text(VIEW_RIG % (w, h))
+            rig.write_text(VIEW_RIG % (w, h, TARGET_FPS))
             flags = ["--view", "--offscreen", "--render-config", str(rig)]
             runs.append((f"with its view, {w}×{h} offscreen", flags))
         for label, flags in runs:
-            r = run_drive(duration, 0, flags, scenario="town")
+            r = run_drive(duration, 0, flags, scenario=VIEW_SCENARIO)
             lines.append(_timing_row(label, r))
             print(lines[-1], flush=True)
     return lines
@@ -132,10 +132,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--duration", type=float, default=20.0, help="[s] per drive run")
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
     args = parser.parse_args(argv)
+    run = RunInfo.start()
     if args.drive_timing:
-        lines = [*drive_timing(args.duration), "", DRIVE_NOTES.format(_machine())]
+        lines = [*drive_timing(args.duration), "", drive_notes()]
         if args.write:
-            write_section("Drive loop timing with its view", "\n".join(lines), _command(argv))
+            write_section(
+                "Drive loop timing with its view", "\n".join(lines), command_line(argv), run
+            )
         return 0
     lines = ["| rig | output | frames | frame p50 [ms] | frame p99 [ms] | fps at p50 |",
              "|---|---|---|---|---|---|"]  # fmt: skip
@@ -147,35 +150,37 @@ def main(argv: list[str] | None = None) -> int:
                      f"{r['p99']:.1f} | {1e3 / r['p50']:.1f} |")  # fmt: skip
         print(lines[-1], flush=True)
     lines += ["", f"GL renderer (as the driver reports it): `{gl}`. {NPCS} NPCs and {EGOS} "
-              f"egos, synthetic crossing map, light fog; {_machine()}", "", NOTES]  # fmt: skip
+              "egos, synthetic crossing map, light fog.", "", notes(gl)]  # fmt: skip
     if args.write:
-        write_section("Renderer", "\n".join(lines), _command(argv))
+        write_section("Renderer", "\n".join(lines), command_line(argv), run)
     return 0
 
 
-NOTES = (
-    "A frame is the scene update, the draw and reading every output's pixels back to RAM. "
-    "Mesa's llvmpipe rasterises on the CPU, so these figures are the CPU's and the machine's "
-    "load; the 60 fps target of issue 13 is for a GPU and is still to be measured on one."
-)
+def notes(gl_renderer: str) -> str:
+    """What the frame times mean on the GL renderer this run had."""
+    text = "A frame is the scene update, the draw and reading every output's pixels back to RAM. "
+    if "llvmpipe" in gl_renderer or "softpipe" in gl_renderer:
+        return text + (
+            "This GL renderer rasterises on the CPU, so these figures are the CPU's and the "
+            f"machine's load; the {TARGET_FPS} fps target is for a GPU and is still to be "
+            "measured on one."
+        )
+    return text + f"Target: {TARGET_FPS} fps on this GPU."
 
 
-DRIVE_NOTES = (
-    "The view runs in its own process (own pose from the loop's shared memory, everyone else "
-    "through its own observer connection; town scenario with its generated buildings and "
-    "parks, 30 cars and 30 pedestrians), capped at 60 fps. Its frame time is the world update "
-    "and the draw (no read-back: no --view-out) on Mesa llvmpipe, which rasterises on the "
-    "same two cores as the loop; the loop's own process is not touched. {}"
-)
+def drive_notes() -> str:
+    from carlaverse.traffic.scenario import load_scenario
 
-
-def _machine() -> str:
-    cpu = f"{platform.python_version()}, {platform.machine()}"
-    return f"CPython {cpu}, 2 shared cores (other work running)."
-
-
-def _command(argv: list[str] | None) -> str:
-    return "python tools/bench/bench_render.py " + " ".join(argv or sys.argv[1:])
+    traffic = load_scenario(VIEW_SCENARIO).spec.traffic
+    return (
+        "The view runs in its own process (own pose from the loop's shared memory, everyone "
+        f"else through its own observer connection; the {VIEW_SCENARIO} scenario with its "
+        f"generated buildings and parks, {traffic.vehicles.count} cars and "
+        f"{traffic.pedestrians.count} pedestrians), capped at {TARGET_FPS} fps. Its frame time "
+        "is the world update and the draw (no read-back: no --view-out) on the machine's GL "
+        "renderer (see the Renderer section), which shares the cores with the loop; the "
+        "loop's own process is not touched."
+    )
 
 
 if __name__ == "__main__":
