@@ -95,6 +95,9 @@ def run(
     for p in (authority, router):
         p.terminate()
         p.wait(10)
+    if drive.returncode != 0 or not drive.stdout.strip():
+        tail = "\n".join(drive.stderr.strip().splitlines()[-10:])
+        raise RuntimeError(f"the drive node failed (exit {drive.returncode}):\n{tail}")
     summary = json.loads(drive.stdout)
     loop = summary["extra"]["loop"]
     loop["peers_seen"] = len(summary["actors_seen"])
