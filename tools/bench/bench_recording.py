@@ -20,6 +20,7 @@ A measurement, not a test.
 from __future__ import annotations
 
 import argparse
+import re
 import signal
 import subprocess
 import sys
@@ -98,16 +99,17 @@ def bench_live(kind: str, rate: float, seconds: float) -> dict[str, float]:
         out = Path(tmp) / "live.mcap"
         rec = subprocess.Popen(
             [sys.executable, "-m", "carlaverse", "record", "--session", "bench",
-             "--connect", endpoint, "-o", str(out), "--progress-s", "0"],
+             "--connect", endpoint, "-o", str(out), "--progress-s", str(PROGRESS_S)],
             stderr=subprocess.PIPE, text=True,
         )  # fmt: skip
+        progress = RecorderProgress(rec)
         try:
             _wait(lambda: pub.matching_status.matching, 20)
             sent, achieved = _publish(pub, payloads, rate, seconds)
-            time.sleep(1.0)  # let the last samples land before stopping the recorder
+            progress.wait_settled(timeout_s=DRAIN_TIMEOUT_S)
         finally:
             rec.send_signal(signal.SIGINT)
-            rec.wait(timeout=60)
+            rec.wait(timeout=DRAIN_TIMEOUT_S)
         kept = sum(1 for s in iter_samples(out) if s.key == key)
         summary = read_metadata(out)["carlaverse.summary"]
         dropped, backlog = int(summary["dropped"]), int(summary["max_queued"])
@@ -116,6 +118,36 @@ def bench_live(kind: str, rate: float, seconds: float) -> dict[str, float]:
     size = len(payloads[0])
     return {"rate": rate, "achieved": achieved, "sent": sent, "kept": kept, "dropped": dropped,
             "backlog": backlog, "mb_s": achieved * size / 1e6}  # fmt: skip
+
+
+PROGRESS_S = 0.5  # [s] the recorder's progress interval
+DRAIN_TIMEOUT_S = 120.0  # [s] at most this long for the recorder to write its backlog
+
+
+class RecorderProgress:
+    """Follows `carlaverse record`'s progress lines (and keeps its stderr pipe drained)."""
+
+    def __init__(self, proc: subprocess.Popen) -> None:
+        self.written = -1
+        self._changed = threading.Event()
+        threading.Thread(target=self._read, args=(proc,), daemon=True).start()
+
+    def _read(self, proc: subprocess.Popen) -> None:
+        assert proc.stderr is not None
+        for line in proc.stderr:
+            match = re.match(r"recording: (\d+) messages", line)
+            if match and int(match[1]) != self.written:
+                self.written = int(match[1])
+                self._changed.set()
+
+    def wait_settled(self, timeout_s: float) -> None:
+        """Until two progress intervals pass with nothing new written: the backlog is in."""
+        deadline = time.monotonic() + timeout_s
+        while time.monotonic() < deadline:
+            self._changed.clear()
+            if not self._changed.wait(2.5 * PROGRESS_S):
+                return
+        raise TimeoutError(f"the recorder was still writing after {timeout_s:g} s")
 
 
 def _publish(
