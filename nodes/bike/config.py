@@ -1,4 +1,5 @@
-"""The bike node's configuration: one YAML file, the single source of truth (DESIGN §9).
+"""The bike node's configuration: one YAML file, the single source of truth
+(docs/architecture.md §10).
 
     node:         {node_id: lab-bike-1, kind: bike, actor_kind: bicycle}
     fabric:       {connect: [tcp/10.0.0.1:7447]}
