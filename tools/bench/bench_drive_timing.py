@@ -96,7 +96,7 @@ def run(
         p.terminate()
         p.wait(10)
     if drive.returncode != 0 or not drive.stdout.strip():
-        tail = "\n".join(drive.stderr.strip().splitlines()[-10:])
+        tail = "\n".join(drive.stderr.strip().splitlines()[-40:])
         raise RuntimeError(f"the drive node failed (exit {drive.returncode}):\n{tail}")
     summary = json.loads(drive.stdout)
     loop = summary["extra"]["loop"]

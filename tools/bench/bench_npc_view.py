@@ -17,7 +17,7 @@ import time
 
 import msgspec
 import numpy as np
-from benchdoc import write_section
+from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse import messages as m
 from carlaverse.fabric.remote_actor import InterpolationSettings
@@ -80,9 +80,10 @@ def body(npcs: int, n: int, results: dict[str, dict[str, float]]) -> str:
         f"{npcs} NPCs per batch at {RATE_HZ:g} Hz, {n} batches; CPU time per batch "
         "(process_time). Receive = decode + push + `WorldView.update` (the batch is kept as "
         "an array); frame = one `WorldView.npc_frame(now)` (every NPC interpolated at the "
-        "view's render time, as arrays). Share = (receive + one frame per batch) × 20 Hz, "
+        "view's render time, as arrays). Share = (receive + one frame per batch) × "
+        f"{RATE_HZ:g} Hz, "
         f"budget {BUDGET:.0%} of a core. `npc_views` (an object per NPC, for comparison) is "
-        "what a caller pays who asks one by one. CPython 3.11, x86_64, 2 shared cores.\n\n"
+        "what a caller pays who asks one by one.\n\n"
         "| render mode | receive [ms] | frame [ms] | share of a core | within budget "
         "| npc_views [ms] |\n|---|---|---|---|---|---|\n" + "\n".join(lines)
     )
@@ -94,12 +95,13 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--batches", type=int, default=400)
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
     args = parser.parse_args(argv)
+    run = RunInfo.start()
     payloads = batches(args.npcs, args.batches)
     results = {mode: measure(payloads, mode) for mode in ("present", "past")}
     text = body(args.npcs, args.batches, results)
     print(text)
     if args.write:
-        write_section("NPCs in the world view", text, "python tools/bench/bench_npc_view.py")
+        write_section("NPCs in the world view", text, command_line(argv), run)
     shares = [(r["receive_ms"] + r["frame_ms"]) * 1e-3 * RATE_HZ for r in results.values()]
     return 0 if max(shares) <= BUDGET else 1
 
