@@ -92,6 +92,8 @@ def run(
     stop.set()
     for w in workers:
         w.join(10)
+        if w.is_alive():  # a Zenoh close that hangs on a loaded machine must not hang us
+            w.terminate()
     for p in (authority, router):
         p.terminate()
         p.wait(10)
