@@ -46,12 +46,12 @@ NOTE = (
 )
 
 
-def _settings(connect: str, mode: str, node_id: str) -> tuple[Any, Any]:
+def _settings(connect: str, mode: str, node_id: str, actor_kind: str) -> tuple[Any, Any]:
     from carlaverse.fabric.node_client import NodeSettings
     from carlaverse.fabric.session import FabricSettings
 
     fabric = FabricSettings(mode=mode, connect=[connect])  # type: ignore[arg-type]
-    node = NodeSettings(node_id=node_id, session="bench", pose_rate_hz=200.0)
+    node = NodeSettings(node_id=node_id, session="bench", pose_rate_hz=200.0, actor_kind=actor_kind)
     return fabric, node
 
 
@@ -71,7 +71,7 @@ def receiver(connect: str, mode: str, udp_port: int, samples: int, out: Any, rea
     from carlaverse.fabric.node_client import NodeClient
     from carlaverse.fabric.session import open_session
 
-    fabric, node = _settings(connect, mode, "rx")
+    fabric, node = _settings(connect, mode, "rx", "")  # an observer: it sends no pose
     session = open_session(fabric)
     client = NodeClient(session, node, MonotonicClock()).start()
     raw: list[float] = []
@@ -136,7 +136,7 @@ def sender(
     from carlaverse.fabric.session import open_session
     from carlaverse.messages import Pose
 
-    fabric, node = _settings(connect, mode, "tx")
+    fabric, node = _settings(connect, mode, "tx", "car")
     session = open_session(fabric)
     client = NodeClient(session, node, MonotonicClock()).start()
     pub = session.declare_publisher("bench/raw", congestion_control=zenoh.CongestionControl.DROP)
