@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import logging
 import multiprocessing as mp
 import subprocess
 import sys
@@ -27,6 +28,8 @@ PEER_RATE_HZ = 50.0  # [Hz] the scripted peers' pose rate
 
 
 def peers(endpoint: str, first: int, count: int, stop: mp.synchronize.Event) -> None:
+    """Scripted peers in one process; quiet, since a loaded host makes their queries slow."""
+    logging.disable(logging.WARNING)
     from carlaverse.fabric.clock import MonotonicClock
     from carlaverse.fabric.node_client import NodeClient, NodeSettings
     from carlaverse.fabric.session import FabricSettings, open_session
@@ -49,9 +52,13 @@ def peers(endpoint: str, first: int, count: int, stop: mp.synchronize.Event) -> 
 
 
 def run(
-    duration: float, n_peers: int, drive_args: Sequence[str] = (), scenario: str = "none"
+    duration: float,
+    n_peers: int,
+    node_args: Sequence[str] = (),
+    scenario: str = "none",
+    kind: str = "drive",
 ) -> dict:
-    """The loop's timing summary (and the view's, when `drive_args` ask for one)."""
+    """A node's loop timing summary (and its view's, when `node_args` ask for one)."""
     endpoint = f"tcp/127.0.0.1:{_port()}"
     cli = [sys.executable, "-m", "carlaverse"]
     router = subprocess.Popen([*cli, "router", "--listen", endpoint], stdout=subprocess.DEVNULL)
@@ -68,27 +75,11 @@ def run(
     for w in workers:
         w.start()
     time.sleep(2.0 if workers else 0.5)
-    drive = subprocess.run(
-        [
-            *cli,
-            "join",
-            "drive",
-            "--id",
-            "drive-1",
-            "--session",
-            "bench",
-            "--connect",
-            endpoint,
-            "--backend",
-            "sim",
-            "--duration",
-            str(duration),
-            "--json",
-            *drive_args,
-        ],
-        capture_output=True,
-        text=True,
-    )
+    node = subprocess.run(
+        [*cli, "join", kind, "--id", f"{kind}-1", "--session", "bench", "--connect", endpoint,
+         "--backend", "sim", "--duration", str(duration), "--json", *node_args],
+        capture_output=True, text=True,
+    )  # fmt: skip
     stop.set()
     for w in workers:
         w.join(10)
@@ -97,10 +88,10 @@ def run(
     for p in (authority, router):
         p.terminate()
         p.wait(10)
-    if drive.returncode != 0 or not drive.stdout.strip():
-        tail = "\n".join(drive.stderr.strip().splitlines()[-40:])
-        raise RuntimeError(f"the drive node failed (exit {drive.returncode}):\n{tail}")
-    summary = json.loads(drive.stdout)
+    if node.returncode != 0 or not node.stdout.strip():
+        tail = "\n".join(node.stderr.strip().splitlines()[-40:])
+        raise RuntimeError(f"the {kind} node failed (exit {node.returncode}):\n{tail}")
+    summary = json.loads(node.stdout)
     loop = summary["extra"]["loop"]
     loop["peers_seen"] = len(summary["actors_seen"])
     if "view" in summary["extra"]:
