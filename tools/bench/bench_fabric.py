@@ -46,12 +46,14 @@ NOTE = (
 )
 
 
-def _settings(connect: str, mode: str, node_id: str, actor_kind: str) -> tuple[Any, Any]:
+def _settings(connect: str, mode: str, node_id: str, kind: str, actor_kind: str) -> tuple[Any, Any]:
     from carlaverse.fabric.node_client import NodeSettings
     from carlaverse.fabric.session import FabricSettings
 
     fabric = FabricSettings(mode=mode, connect=[connect])  # type: ignore[arg-type]
-    node = NodeSettings(node_id=node_id, session="bench", pose_rate_hz=200.0, actor_kind=actor_kind)
+    node = NodeSettings(
+        node_id=node_id, session="bench", pose_rate_hz=200.0, kind=kind, actor_kind=actor_kind
+    )
     return fabric, node
 
 
@@ -71,7 +73,7 @@ def receiver(connect: str, mode: str, udp_port: int, samples: int, out: Any, rea
     from carlaverse.fabric.node_client import NodeClient
     from carlaverse.fabric.session import open_session
 
-    fabric, node = _settings(connect, mode, "rx", "")  # an observer: it sends no pose
+    fabric, node = _settings(connect, mode, "rx", "observer", "")  # it sends no pose
     session = open_session(fabric)
     client = NodeClient(session, node, MonotonicClock()).start()
     raw: list[float] = []
@@ -136,7 +138,7 @@ def sender(
     from carlaverse.fabric.session import open_session
     from carlaverse.messages import Pose
 
-    fabric, node = _settings(connect, mode, "tx", "car")
+    fabric, node = _settings(connect, mode, "tx", "scripted", "car")
     session = open_session(fabric)
     client = NodeClient(session, node, MonotonicClock()).start()
     pub = session.declare_publisher("bench/raw", congestion_control=zenoh.CongestionControl.DROP)
@@ -211,6 +213,7 @@ def run_topology(name: str, samples: int, rate: float, busy: bool) -> dict[str, 
     if busy:
         procs += [ctx.Process(target=busy_loop, args=(stop,)) for _ in range(2)]
     for p in procs:
+        p.daemon = True  # a failed run must not leave us waiting on them at exit
         p.start()
     out, ready = ctx.Queue(), ctx.Event()
     udp_port = _port()
@@ -218,8 +221,9 @@ def run_topology(name: str, samples: int, rate: float, busy: bool) -> dict[str, 
     tx = ctx.Process(
         target=sender, args=(tx_ep, mode, udp_port, samples, rate, ready, name == "peer")
     )
-    rx.start()
-    tx.start()
+    for p in (rx, tx):
+        p.daemon = True
+        p.start()
     result = out.get(timeout=samples / rate + 90)
     for p in (tx, rx):
         p.join(timeout=20)
