@@ -145,7 +145,8 @@ class Cluster:
 
     def observer(self, node_id: str = "obs", **fabric: Any) -> NodeClient:
         settings = FabricSettings(connect=[self.endpoint], **fabric)
-        session = open_session(settings)
+        # Patient like the CLI: a client's one attempt can time out on a loaded host.
+        session = open_session(settings, deadline=time.monotonic() + 20.0)
         self.sessions.append(session)
         node = NodeSettings(node_id=node_id, session="t", kind="observer", actor_kind="")
         client = NodeClient(session, node, MonotonicClock()).start()

@@ -11,7 +11,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from carlaverse.authority.world import TrafficDomain
+    from carlaverse.authority.traffic_domain import TrafficDomain
 
 
 def load_domain(
@@ -20,7 +20,7 @@ def load_domain(
     *,
     cache_dir: Path | None = None,
 ) -> TrafficDomain:
-    """The authority's global domain for a scenario (see `carlaverse.authority.world`)."""
-    from carlaverse.authority.world import load_domain as load
+    """The authority's global domain for a scenario (see `carlaverse.authority.traffic_domain`)."""
+    from carlaverse.authority.traffic_domain import load_domain as load
 
     return load(scenario_name_or_path, seed_override, cache_dir=cache_dir)

@@ -26,7 +26,7 @@ from carlaverse import messages as m
 from carlaverse.fabric.npc_table import NpcFrame
 from carlaverse.fabric.remote_actor import ActorView
 from carlaverse.fabric.world_view import WorldView
-from carlaverse.viz.world import ActorLook
+from carlaverse.viz.model import ActorLook
 
 TRAIL_EGO = 600  # points kept per ego trail (30 s at 20 Hz)
 TRAIL_NPC = 40  # points kept per NPC trail (2 s at 20 Hz)

@@ -27,10 +27,10 @@ from carlaverse.fabric.clock import Clock, MonotonicClock, SessionClock
 from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import Keys, KeySpaceError, parse
+from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import ActorFeed
 from carlaverse.viz.scene import SceneLogger
 from carlaverse.viz.store import SampleStore
-from carlaverse.viz.world import WorldModel
 
 log = logging.getLogger(__name__)
 VIEW_ID = "carlaverse-view"  # the view's own id in its WorldView: never a node id

@@ -24,10 +24,10 @@ from carlaverse.keys import KeySpaceError, parse
 from carlaverse.recording.reading import iter_samples
 from carlaverse.render.recording import first_pose
 from carlaverse.viz.live import VIEW_ID, viewer_interpolation
+from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import ActorFeed
 from carlaverse.viz.scene import SceneLogger
 from carlaverse.viz.store import SampleStore
-from carlaverse.viz.world import WorldModel
 
 PLAUSIBLE_LATENCY_S = 10.0  # [s] above this (or below 0) the two clocks are not comparable
 ACTOR_CHANNELS = {("ego", "pose"), ("world", "npc")}

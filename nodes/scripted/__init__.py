@@ -1,17 +1,18 @@
 """A scripted participant: an honest simulated node driving a known path at a set speed.
 
-Its pose is an exact function of session time (`carlaverse.paths`), so whoever knows its
-config knows where it truly is — the reference for interpolation-error measurements.
+Its pose is an exact function of session time (`trajectories.py` beside this file), so whoever
+knows its config knows where it truly is — the reference for interpolation-error measurements.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from carlaverse_nodes.scripted.trajectories import CirclePath, PathSpec
+
 from carlaverse.config import StrictStruct
 from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
 from carlaverse.fabric.session import FabricSettings
-from carlaverse.paths import CirclePath, PathSpec
 
 
 class ScriptedConfig(StrictStruct):

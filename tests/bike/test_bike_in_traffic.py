@@ -22,7 +22,7 @@ from carlaverse_nodes.bike.bike_loop import BikeLoop
 from carlaverse_nodes.bike.config import BikeNodeConfig, resolve_table
 
 from carlaverse.authority.memory_outbox import MemoryOutbox
-from carlaverse.authority.world import TrafficDomain
+from carlaverse.authority.traffic_domain import TrafficDomain
 from carlaverse.hal import open_speed_sensor
 from carlaverse.messages import ContactStarted, Extent
 from tests.traffic.helpers import (

@@ -8,11 +8,11 @@ import random
 
 import msgspec
 import pytest
+from carlaverse_nodes.scripted.trajectories import CirclePath, PolylinePath
 
 from carlaverse.fabric.remote_actor import InterpolationSettings, Phase, RemoteActor
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
-from carlaverse.paths import CirclePath, PolylinePath
 
 CIRCLE = CirclePath(radius=30.0, speed_mps=14.0)
 S = InterpolationSettings()

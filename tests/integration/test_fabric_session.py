@@ -8,11 +8,11 @@ import time
 from pathlib import Path
 
 import yaml
+from carlaverse_nodes.scripted.trajectories import CirclePath
 
 from carlaverse import messages as m
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
-from carlaverse.paths import CirclePath
 from tests.support import Cluster, wait_until
 
 TIMEOUT_S = 3.0  # the authority's default despawn timeout

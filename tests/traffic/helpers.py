@@ -13,7 +13,7 @@ import pytest
 
 from carlaverse.authority.domain import EgoTrack
 from carlaverse.authority.memory_outbox import MemoryOutbox
-from carlaverse.authority.world import TrafficDomain, load_domain
+from carlaverse.authority.traffic_domain import TrafficDomain, load_domain
 from carlaverse.config import shipped_dir
 from carlaverse.messages import EgoInfo, Extent, MapReply, NpcBatch, Pose
 

@@ -249,7 +249,7 @@ def write_scripted_config(
     actor_kind: str = "car",
 ) -> Path:
     """A scripted node's YAML: it follows `path_spec` (`{"type": "circle", ...}`, see
-    `carlaverse.paths`) and connects to `endpoint`."""
+    `carlaverse_nodes.scripted.trajectories`) and connects to `endpoint`."""
     config = {
         "node": {
             "node_id": node_id,

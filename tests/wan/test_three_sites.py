@@ -23,8 +23,8 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from carlaverse_nodes.scripted.trajectories import CirclePath, PolylinePath
 
-from carlaverse.paths import CirclePath, PolylinePath
 from carlaverse.testing.linkemu import LinkProfile
 from carlaverse.testing.render_metrics import probe_metrics, window
 from tests.wan.lab import SiteProcess, WanLab, write_scripted_config

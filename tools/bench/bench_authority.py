@@ -31,7 +31,7 @@ from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse.authority.domain import EgoTrack
 from carlaverse.authority.memory_outbox import MemoryOutbox
-from carlaverse.authority.world import TrafficDomain, load_domain
+from carlaverse.authority.traffic_domain import TrafficDomain, load_domain
 from carlaverse.messages import EgoInfo, Extent, MapReply, Pose
 
 TICK_S = 0.02  # [s] 50 Hz

@@ -30,10 +30,11 @@ PEER_RATE_HZ = 50.0  # [Hz] the scripted peers' pose rate
 def peers(endpoint: str, first: int, count: int, stop: mp.synchronize.Event) -> None:
     """Scripted peers in one process; quiet, since a loaded host makes their queries slow."""
     logging.disable(logging.WARNING)
+    from carlaverse_nodes.scripted.trajectories import CirclePath
+
     from carlaverse.fabric.clock import MonotonicClock
     from carlaverse.fabric.node_client import NodeClient, NodeSettings
     from carlaverse.fabric.session import FabricSettings, open_session
-    from carlaverse.paths import CirclePath
 
     clients = []
     for i in range(first, first + count):

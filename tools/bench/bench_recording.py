@@ -44,10 +44,10 @@ from carlaverse.recording.recorder import DEFAULT_QUEUE_SIZE
 from carlaverse.recording.sink import McapSink
 from carlaverse.recording.synthetic import ego_pose, npc_rows
 from carlaverse.viz.live import VIEW_ID, viewer_interpolation
+from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import ActorFeed
 from carlaverse.viz.scene import SceneLogger
 from carlaverse.viz.store import SampleStore
-from carlaverse.viz.world import WorldModel
 
 KEYS = Keys("bench")
 

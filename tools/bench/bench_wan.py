@@ -107,7 +107,8 @@ def verdict(grid: dict) -> tuple[bool, float, float]:  # type: ignore[type-arg]
 
 
 def run_live(seconds: float, workdir: Path) -> list[tuple[tuple[int, int, float], dict]]:  # type: ignore[type-arg]
-    from carlaverse.paths import CirclePath
+    from carlaverse_nodes.scripted.trajectories import CirclePath
+
     from carlaverse.testing.linkemu import LinkEmulator
     from carlaverse.testing.render_metrics import probe_metrics, window
 

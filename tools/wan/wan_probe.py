@@ -29,6 +29,7 @@ from typing import Any
 
 import zenoh
 from carlaverse_nodes.scripted import ScriptedConfig
+from carlaverse_nodes.scripted.trajectories import PathSpec
 
 from carlaverse import messages as m
 from carlaverse.config import load_config
@@ -36,7 +37,6 @@ from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys, KeySpaceError, parse
-from carlaverse.paths import PathSpec
 from carlaverse.testing.render_metrics import RENDERERS, RendererSet
 
 SCRIPT = Path(__file__).resolve()

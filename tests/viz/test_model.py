@@ -8,9 +8,9 @@ from carlaverse import messages as m
 from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import Keys
+from carlaverse.viz.model import ActorLook, WorldModel
 from carlaverse.viz.raw import ActorFeed, RawTap
 from carlaverse.viz.store import SampleStore
-from carlaverse.viz.world import ActorLook, WorldModel
 
 KEYS = Keys("w")
 
