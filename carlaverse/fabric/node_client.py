@@ -40,6 +40,8 @@ log = logging.getLogger(__name__)
 
 PoseSource = Callable[[float], m.Pose | None]
 
+LEAVE_EVENT_WAIT_S = 1.5  # [s] longest a leaving node waits to see its own `left` event
+
 
 class JoinRefused(RuntimeError):
     """The authority refused this node (a duplicate id, a schema mismatch)."""
@@ -264,9 +266,11 @@ class NodeClient:
         if not self.joined.is_set():
             return
         request = m.LeaveRequest(self.node_id, self.instance)
-        raw = self._query(self.keys.authority("leave"), m.LEAVE_REQUEST.encode(request), 0.5)
+        raw = self._query(self.keys.authority("leave"), m.LEAVE_REQUEST.encode(request), 1.0)
         if raw is not None:
-            self.inbound.left.wait(0.5)
+            # The event goes out with the authority's next tick (~20 ms); a loaded host can
+            # starve that thread for hundreds of ms, and leaving early turns `left` into a loss.
+            self.inbound.left.wait(LEAVE_EVENT_WAIT_S)
 
     def _query(self, key: str, payload: bytes, timeout: float) -> bytes | None:
         return self._ask(key, payload, timeout)[0]
