@@ -20,9 +20,6 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 BENCH = ROOT / "tools" / "bench"
 DOC = ROOT / "docs" / "benchmarks.md"
-# Sections (and their scripts) another helper owns that still predate benchdoc's markers; each
-# is checked by a strict xfail below, which fails as soon as it is fixed, so the entry goes then.
-PENDING = {"WAN": "bench_wan.py"}
 # What a hand-typed machine description looks like in a script's prose.
 HAND_TYPED = re.compile(
     r"CPython \d|x86_64|aarch64|\b\d+ (shared )?cores\b|"
@@ -100,26 +97,12 @@ def reproduce_problems(generated: str, benchdoc: ModuleType) -> list[str]:
 
 
 def test_every_section_is_generated_and_regenerable() -> None:
-    assert problems(DOC.read_text(), load_benchdoc(), frozenset(PENDING)) == []
+    assert problems(DOC.read_text(), load_benchdoc(), frozenset()) == []
 
 
 def test_benchmark_scripts_detect_the_machine_rather_than_spell_it() -> None:
-    scripts = [s for s in sorted(BENCH.glob("*.py")) if s.name not in PENDING.values()]
+    scripts = [s for s in sorted(BENCH.glob("*.py"))]
     assert hand_typed(scripts) == []
-
-
-@pytest.mark.xfail(
-    strict=True,
-    reason="bench_wan.py (helper clock's) spells the machine and its section predates the "
-    "markers: pass benchdoc.RunInfo/command_line, drop the typed machine text, rerun it "
-    "with --write, then remove its PENDING entry",
-)
-@pytest.mark.parametrize("title", sorted(PENDING))
-def test_pending_sections_are_generated_too(title: str) -> None:
-    benchdoc = load_benchdoc()
-    others = frozenset(sections(DOC.read_text())) - {title}
-    assert problems(DOC.read_text(), benchdoc, others) == []
-    assert hand_typed([BENCH / PENDING[title]]) == []
 
 
 def test_a_hand_typed_figure_or_a_missing_command_is_caught() -> None:

@@ -238,7 +238,11 @@ def _run_session(
         ids.append(node_id)
     watched = _watch(args, endpoint, ids, children, stop)
     nodes = _collect_nodes(children, args.duration + 60.0, stop)
-    _stop_all([c for c in children if c.role != "node"])
+    # The authority first, so its last puts still reach the router and the recorder; then the
+    # tools that listen; the router that carries it all last. Stopped together, a loaded host
+    # let the authority count a final put as sent after the recorder had gone.
+    for role in ("authority", "tool", "router"):
+        _stop_all([c for c in children if c.role == role])
     authority = next(c for c in children if c.role == "authority")
     tools = [c for c in children if c.role == "tool"]
     return summarise(

@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from benchdoc import write_section
+from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse.testing.linkemu import LinkProfile
 from carlaverse.testing.render_metrics import RENDERERS, Metrics
@@ -215,8 +215,7 @@ def body(grid: dict, live: list, run: SimRun, live_s: float) -> str:  # type: ig
         + grid_table(grid, "datagram")
         + f"\n\n### Live subset (real Zenoh, real clock sync, `LinkEmulator` on 127.0.0.1)\n\n"
         f"A scripted bike on a circle (r = 20 m) behind the relay, {live_s:g} s per row after "
-        "3 s settling; the error includes the clock-sync error. CPython 3.11, x86_64, "
-        "2 shared cores (other work running).\n\n"
+        "3 s settling; the error includes the clock-sync error.\n\n"
         + live_table(live)
         + "\n\n**Default render mode: `present`.** Measured against where actors are now, "
         "past mode is behind by speed × delay (its delay must cover latency, jitter and, over "
@@ -234,6 +233,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-live", action="store_true", help="simulation only")
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
     args = parser.parse_args(argv)
+    measured = RunInfo.start()
     run = SimRun()
     started = time.process_time()
     grid = simulate_grid(run)
@@ -246,10 +246,7 @@ def main(argv: list[str] | None = None) -> int:
     text = body(grid, live, run, args.live_seconds)
     print(text)
     if args.write:
-        command = "python tools/bench/bench_wan.py"
-        if args.live_seconds != 10.0:
-            command += f" --live-seconds {args.live_seconds:g}"
-        write_section("WAN", text, command)
+        write_section("WAN", text, command_line(argv), measured)
     return 0 if verdict(grid)[0] and not math.isnan(verdict(grid)[1]) else 1
 
 
