@@ -185,7 +185,8 @@ def _wait_admitted(
             return missing
         if limits.join_by is not None and now >= limits.join_by:
             raise JoinTimeout(missing)
-    notice.poll()  # says "reached ..." if it had said what it was waiting for
+    # the join reply may arrive before the authority's token: say so from the join itself
+    notice.resolved(f"admitted to session {client.keys.session!r} by its authority")
     return ""
 
 

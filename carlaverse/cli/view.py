@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import signal
 import sys
 import threading
@@ -17,7 +18,6 @@ from carlaverse.cli.common import add_fabric_args, attend, fabric_from_args
 from carlaverse.config import ConfigError
 from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config
 from carlaverse.keys import Keys, KeySpaceError, check_token
-from carlaverse.recording.sink import RecordingError
 
 if TYPE_CHECKING:
     from carlaverse.viz.outputs import ViewOutput
@@ -110,10 +110,44 @@ def run(args: argparse.Namespace) -> int:
     except FabricError as exc:
         return _fail(str(exc), 3)
     try:
+        if not _load_viewer(stop):
+            return 0  # stopped while Rerun was still loading: a normal end
         return _show(args, viewer_url, stop, Live(session, Keys(args.session), deadline))
+    except ModuleNotFoundError as exc:
+        return _fail(
+            f"needs the missing module '{exc.name}': pip install 'carlaverse[view,record]'", 3
+        )
     finally:
         notice.close()
         session.close()
+
+
+VIEWER_MODULES = ("carlaverse.recording.sink", "carlaverse.viz.outputs", "carlaverse.viz.live")
+
+
+def _load_viewer(stop: threading.Event) -> bool:
+    """Import Rerun and the view (seconds on a loaded machine) in a worker thread, so a
+    signal meanwhile ends the process at once; False if `stop` came first. Raises the
+    worker's ModuleNotFoundError (no rerun-sdk) here."""
+    loaded = threading.Event()
+    missing: list[ModuleNotFoundError] = []
+
+    def load() -> None:
+        try:
+            for name in VIEWER_MODULES:
+                importlib.import_module(name)
+        except ModuleNotFoundError as exc:
+            missing.append(exc)
+        finally:
+            loaded.set()
+
+    threading.Thread(target=load, name="load-viewer", daemon=True).start()
+    while not loaded.wait(0.05):
+        if stop.is_set():
+            return False
+    if missing:
+        raise missing[0]
+    return True
 
 
 @dataclass(frozen=True)
@@ -128,6 +162,7 @@ class Live:
 def _show(
     args: argparse.Namespace, viewer_url: str | None, stop: threading.Event, live: Live | None
 ) -> int:
+    from carlaverse.recording.sink import RecordingError  # imports mcap: after the session
     from carlaverse.viz.outputs import Outputs, ViewerError, ViewOutput
 
     outputs = Outputs(

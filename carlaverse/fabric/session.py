@@ -190,9 +190,10 @@ def _should_give_up(stop: threading.Event | None, deadline: float | None) -> boo
 class _OpenAttempt:
     """One zenoh.open in a worker thread, so the caller can give up at once on a signal.
 
-    zenoh.open blocks in Rust for up to CLIENT_ATTEMPT_MS; an abandoned attempt finishes on
-    its own within that and closes the session it may still have opened. The worker blocks
-    SIGINT/SIGTERM, so threads Zenoh starts from it leave the signals to the main thread.
+    zenoh.open blocks in Rust for up to CLIENT_ATTEMPT_MS. `abandon` waits that long for it:
+    a process that exits while a thread is inside zenoh.open aborts ("FATAL: exception not
+    rethrown": the interpreter's pthread_exit unwinds through Rust frames). The worker
+    blocks SIGINT/SIGTERM, so threads Zenoh starts from it leave the signals to the main one.
     """
 
     def __init__(self, config: zenoh.Config) -> None:
@@ -201,7 +202,10 @@ class _OpenAttempt:
         self.done = threading.Event()
         self._abandoned = False
         self._lock = threading.Lock()
-        threading.Thread(target=self._open, args=(config,), name="zenoh-open", daemon=True).start()
+        self._thread = threading.Thread(
+            target=self._open, args=(config,), name="zenoh-open", daemon=True
+        )
+        self._thread.start()
 
     def _open(self, config: zenoh.Config) -> None:
         signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
@@ -218,11 +222,13 @@ class _OpenAttempt:
             self.done.set()
 
     def abandon(self) -> None:
+        """Give up: the attempt's session, if any, is closed; returns once it has ended."""
         with self._lock:
             self._abandoned = True
             session, self.session = self.session, None
         if session is not None:
             session.close()
+        self._thread.join(timeout=CLIENT_ATTEMPT_MS / 1e3 + 1.0)
 
 
 def reaches_anyone(session: zenoh.Session) -> bool:

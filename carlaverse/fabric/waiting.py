@@ -23,10 +23,11 @@ import zenoh
 from carlaverse.fabric.session import FabricSettings, reaches_anyone
 from carlaverse.keys import AUTHORITY_ID, Keys
 
-# On a LAN a router answers within ~100 ms and the authority's liveliness token arrives right
-# after; waiting this long before speaking keeps normal starts silent while leaving most of
-# the 5 s a user tolerates to a slow interpreter start on a loaded machine.
-GRACE_S = 1.0
+# open_session has already given a peer ~0.5 s to connect, and on a LAN the router answers
+# within ~100 ms with the authority's liveliness token right after; so half a second more
+# keeps a normal start silent while leaving most of the 5 s a user tolerates to a slow
+# interpreter start on a loaded machine. (A late token costs a line and its "reached" line.)
+GRACE_S = 0.5
 POLL_S = 0.1
 
 
@@ -87,7 +88,8 @@ class WaitNotice:
         self.grace_s = grace_s
         self.clock = clock
         self.started = clock()
-        self.said: str | None = None
+        self.said: str | None = None  # the waiting line in force
+        self.spoke = False  # a waiting line was said at all
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
@@ -101,7 +103,14 @@ class WaitNotice:
         elif missing not in (None, self.said) and self.clock() - self.started >= self.grace_s:
             self.say(missing)  # type: ignore[arg-type]
             self.said = missing
+            self.spoke = True
         return missing
+
+    def resolved(self, message: str) -> None:
+        """Say `message` once if a waiting line was ever said: the wait is over (joined)."""
+        if self.spoke:
+            self.say(message)
+            self.said, self.spoke = None, False
 
     def start(self) -> WaitNotice:
         """Poll from a daemon thread until close(): for processes whose loop is not ours."""

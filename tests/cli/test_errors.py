@@ -131,19 +131,21 @@ def test_a_client_gives_up_at_its_deadline_and_says_what_it_waits_for() -> None:
     with pytest.raises(FabricUnreachable):
         open_session(_dead_client(), deadline=started + 2.5, on_wait=said.append)
     took = time.monotonic() - started
-    # one attempt lasts CLIENT_ATTEMPT_MS; the deadline is checked every 50 ms meanwhile
-    assert 2.5 <= took < 2.5 + 0.5, took
+    # the deadline is checked every 50 ms; giving up waits for the attempt in flight (at most
+    # CLIENT_ATTEMPT_MS): a process must not exit while a thread is inside zenoh.open
+    assert 2.5 <= took < 2.5 + CLIENT_ATTEMPT_MS / 1e3 + 0.5, took
     assert len(said) == 1 and said[0].startswith("waiting for a router at tcp/127.0.0.1:")
     assert CLIENT_ATTEMPT_MS <= 1000  # what keeps the first line within ~1 s
 
 
-def test_a_waiting_client_stops_at_once_when_told() -> None:
+def test_a_waiting_client_stops_within_one_attempt_when_told() -> None:
     stop = threading.Event()
     threading.Timer(0.3, stop.set).start()
     started = time.monotonic()
     with pytest.raises(FabricUnreachable):
         open_session(_dead_client(), stop=stop)
-    assert time.monotonic() - started < 0.3 + 0.3  # not the rest of a 1 s attempt
+    # at most the rest of the attempt in flight, never a further one
+    assert time.monotonic() - started < 0.3 + CLIENT_ATTEMPT_MS / 1e3 + 0.5
 
 
 def test_a_client_told_nothing_tries_once_and_says_why() -> None:

@@ -58,3 +58,16 @@ def test_a_normal_start_says_nothing() -> None:
     clock.t += 5.0
     notice.poll()
     assert said == []
+
+
+def test_a_resolved_wait_is_said_once_and_only_if_a_wait_was_said() -> None:
+    wait, clock, said = FakeWait(), ManualClock(), []
+    notice = WaitNotice(wait, said.append, grace_s=1.0, clock=clock)  # type: ignore[arg-type]
+    notice.resolved("admitted")
+    assert said == []  # nothing was said, so nothing to take back
+    wait.now = "waiting for the authority of session 'lab'"
+    clock.t += 2.0
+    notice.poll()
+    notice.resolved("admitted")
+    notice.resolved("admitted")
+    assert said == [wait.now, "admitted"]

@@ -66,8 +66,12 @@ def test_node_names_the_missing_authority_then_joins_when_it_comes(
         "--mode", mode, "--json", name="node",
     )  # fmt: skip
     _line(node, f"waiting for the authority of session 't' via {cluster.endpoint}", started)
-    cluster.authority()
-    wait_until(lambda: "reached the router and the authority" in node.output(), 20, "the join")
+    authority = cluster.authority()
+    admitted = "admitted to session 't' by its authority"
+    try:
+        wait_until(lambda: admitted in node.output(), 20, "the join")
+    except AssertionError as exc:
+        raise AssertionError(f"{exc}\nnode:\n{node.output()}\nauthority:\n{authority.output()}")
     code, took = _exit_after(node, signal.SIGINT)
     assert code == 0, node.output()
     assert took < EXIT_WITHIN_S
