@@ -71,7 +71,9 @@ def test_node_names_the_missing_authority_then_joins_when_it_comes(
     try:
         wait_until(lambda: admitted in node.output(), 20, "the join")
     except AssertionError as exc:
-        raise AssertionError(f"{exc}\nnode:\n{node.output()}\nauthority:\n{authority.output()}")
+        raise AssertionError(
+            f"{exc}\nnode:\n{node.output()}\nauthority:\n{authority.output()}"
+        ) from exc
     code, took = _exit_after(node, signal.SIGINT)
     assert code == 0, node.output()
     assert took < EXIT_WITHIN_S
