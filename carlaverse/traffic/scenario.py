@@ -11,10 +11,13 @@ serves the scenario exactly as it ran.
     traffic: {vehicles: {count: 30}, pedestrians: {count: 20}}
     weather: {initial: {cloudiness: 0.3}, timeline: [{at_s: 600, precipitation: 0.6}]}
     egos: {drive: [{lane: A0B0_2, pos_m: 20}], walk: [{x: 50, y: 40, yaw_deg: 90}]}
+    grades: {default_percent: 0, areas: [{polygon: [[0, 0], [30, 0], [30, 120], [0, 120]],
+                                          grade_percent: 5, uphill_yaw_deg: 90}]}
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Literal
@@ -211,6 +214,38 @@ class WeatherSpec(StrictStruct):
             raise ValueError(f"weather timeline keyframes must be in time order, got {times}")
 
 
+# --------------------------------------------------------------------------- road grades
+
+GradePercent = Annotated[float, msgspec.Meta(ge=-40, le=40)]  # [%] rise per 100 m
+
+
+class GradeArea(StrictStruct):
+    """A stretch of road tilted as a plane: it rises `grade_percent` towards `uphill_yaw_deg`.
+
+    A rider heading ψ feels grade · cos(ψ − uphill): the full climb going uphill, the same
+    descent coming back, nothing riding across the slope.
+    """
+
+    polygon: Annotated[list[tuple[float, float]], msgspec.Meta(min_length=3)]  # [m] map frame
+    grade_percent: Annotated[float, msgspec.Meta(ge=0, le=40)]  # [%] along the uphill direction
+    uphill_yaw_deg: float  # [deg] counter-clockwise from east, like a spawn's yaw_deg
+    name: str = ""  # for the record ("ramp to the bridge")
+
+    def __post_init__(self) -> None:
+        if not all(math.isfinite(c) for point in self.polygon for c in point):
+            raise ValueError(f"polygon corners must be finite numbers, got {self.polygon}")
+        if not math.isfinite(self.uphill_yaw_deg):
+            raise ValueError("uphill_yaw_deg must be a finite angle in degrees")
+
+
+class Grades(StrictStruct):
+    """The road's grade where the map carries no elevation: areas (the first that holds the
+    point wins), else `default_percent` (felt at any heading), else the node's own config."""
+
+    default_percent: GradePercent | None = None
+    areas: list[GradeArea] = []
+
+
 # --------------------------------------------------------------------------- egos, session
 
 
@@ -281,6 +316,7 @@ class ScenarioSpec(StrictStruct, kw_only=True):
     egos: dict[str, list[Spawn]] = {}  # node kind (drive, bike, walk, ...) -> spawn points
     session: Session = Session()
     collisions: CollisionSpec = CollisionSpec()
+    grades: Grades = Grades()
 
     @property
     def step_length_s(self) -> float:
