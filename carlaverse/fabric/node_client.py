@@ -272,6 +272,16 @@ class NodeClient:
             # starve that thread for hundreds of ms, and leaving early turns `left` into a loss.
             self.inbound.left.wait(LEAVE_EVENT_WAIT_S)
 
+    def query(
+        self, name: str, payload: bytes = b"", timeout_s: float | None = None
+    ) -> bytes | None:
+        """The authority's answer to its query `name` ("scenario", "map", ...), else None.
+
+        It blocks up to `timeout_s` (default: the join timeout): call it off a control loop.
+        """
+        timeout = self.settings.join_timeout_s if timeout_s is None else timeout_s
+        return self._query(self.keys.authority(name), payload, timeout)
+
     def _query(self, key: str, payload: bytes, timeout: float) -> bytes | None:
         return self._ask(key, payload, timeout)[0]
 

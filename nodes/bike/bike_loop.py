@@ -7,7 +7,8 @@
 
 and returns a `BikeOutput`: the pose (with the lean as roll and absolute velocity), the
 resistance force and the trainer's resistance level, and the fork's FFB command. Whoever runs
-the loop (the loop process, a test, a benchmark) owns the clock, the devices and the fabric.
+the loop (the loop process, a test, a benchmark) owns the clock, the devices and the fabric,
+and sets `grade_percent` when the road under the bike changes (the scenario's grades).
 """
 
 from __future__ import annotations
@@ -63,6 +64,7 @@ class BikeLoop:
         self.fork = ForkFeel(config.fork, config.bicycle)
         self.t = 0.0
         self.inbox = ImpulseInbox(config.bicycle.mass_kg)
+        self.grade_percent = config.road.grade_percent  # [%] along the heading, uphill positive
 
     def place(self, x: float, y: float, yaw: float) -> None:
         self.bike.place(x, y, yaw)
@@ -75,12 +77,11 @@ class BikeLoop:
         applied = self._collisions(impulses, now)
         p = self.config.bicycle
         s = self.bike.step(dt, wheel_speed_mps, steer_axis * p.max_steer_rad)
-        road = self.config.road
         force = resistance_force(
-            self.config.resistance, p.mass_kg, s.speed_mps, road.grade_percent, tailwind_mps
+            self.config.resistance, p.mass_kg, s.speed_mps, self.grade_percent, tailwind_mps
         )
         percent = self.table.percent(s.speed_mps, force)
-        ffb = self.fork.update(dt, s.speed_mps, s.steer_rad, road.roughness)
+        ffb = self.fork.update(dt, s.speed_mps, s.steer_rad, self.config.road.roughness)
         return BikeOutput(
             now, s.x, s.y, s.yaw, s.lean_rad, s.vx, s.vy, s.yaw_rate, s.ax, s.ay, s.speed_mps,
             s.steer_rad, force, percent, s.fallen, ffb, applied,

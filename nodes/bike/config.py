@@ -7,8 +7,10 @@
     resistance:   {rolling_coefficient, drag_coefficient, frontal_area_m2, air_density_kgm3}
     table:        bike-trainer-table.yaml   the calibrated speed × force → % table (a file
                                             relative to this one, or shipped)
-    road:         {grade_percent, roughness}   the grade is this config value: the map
-                                            carries no elevation yet
+    road:         {grade_percent, roughness}   the grade comes from the scenario's `grades:`
+                                            (the map carries no elevation); this
+                                            grade_percent is the fallback where the
+                                            scenario declares none
     speed_source: trainer | speed_sensor    which wheel speed drives the bike
     trainer, speed_sensor, input, ffb:      carlaverse.hal blocks
     fork, loop

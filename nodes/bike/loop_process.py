@@ -25,7 +25,7 @@ from carlaverse.shm import SharedBlock, new_record
 
 log = logging.getLogger(__name__)
 
-CONTROL_POLL_S = 0.05  # [s] re-read clock offset, spawn and wind
+CONTROL_POLL_S = 0.05  # [s] re-read clock offset, spawn, wind and grade
 EVENT_POLL_S = 0.005  # [s] look at the event queue
 
 
@@ -133,6 +133,7 @@ class BikeRunner:
         c = self.control.read()
         self.offset = float(c["clock_offset"])
         self.wind = (float(c["wind_speed_mps"]), float(c["wind_from_deg"]))
+        self.loop.grade_percent = float(c["grade_percent"])
         if int(c["spawn_seq"]) != self.spawn_seq:
             self.spawn_seq = int(c["spawn_seq"])
             self.loop.place(float(c["spawn_x"]), float(c["spawn_y"]), float(c["spawn_yaw"]))
@@ -144,7 +145,7 @@ class BikeRunner:
             r[name] = getattr(out, name)
         r["lean"] = out.lean_rad
         r["power_w"], r["cadence_rpm"] = ts.power_w, ts.cadence_rpm
-        r["grade_percent"] = self.config.road.grade_percent
+        r["grade_percent"] = self.loop.grade_percent
         r["ticks"], r["ffb_sent"], r["impulses_applied"] = self.ticks, self.ffb_sent, self.impulses
         r["running"] = 1
         self.state.write(r)

@@ -3,7 +3,9 @@
 This process owns the fabric; the physics + haptics loop runs in a child process
 (`loop_process`). The pose publisher reads the loop's shared state at the pose rate; the
 node's step forwards impulses to the loop's queue and hands it the clock offset, the spawn
-pose and the authority's wind.
+pose, the authority's wind, and the road's grade under the bike (looked up here, at the
+step rate, in the scenario's `grades:`; the node config's `road.grade_percent` where the
+scenario says nothing).
 """
 
 from __future__ import annotations
@@ -11,17 +13,20 @@ from __future__ import annotations
 import logging
 import multiprocessing as mp
 import queue
+import threading
 from typing import Any
 
 import msgspec
 from carlaverse_nodes.bike.config import BikeNodeConfig, node_settings, resolve_table
 from carlaverse_nodes.bike.loop_process import BikeLoopSpec, run_bike_loop
+from carlaverse_nodes.bike.road_grade import RoadGrade
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
 
+from carlaverse import messages as m
+from carlaverse.config import ConfigError
 from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.hal import FfbConfig, InputConfig, TrainerConfig
 from carlaverse.hal.input.pursuit import scripted_route
-from carlaverse.messages import Pose
 from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import SharedBlock, block_name
 
@@ -47,6 +52,8 @@ class BikeNode:
         self._spawn_seq = 0
         self._forwarded = 0
         self._loop_summary: dict[str, Any] = {}
+        self._grades: RoadGrade | None = None  # the scenario's, once fetched
+        self._grades_join = 0  # the join whose scenario was asked for
 
     @classmethod
     def with_backend(cls, config: BikeNodeConfig, backend: str) -> BikeNodeConfig:
@@ -65,7 +72,9 @@ class BikeNode:
     def start(self, session: str, node_id: str, offset: float) -> None:
         self._state = SharedBlock(block_name(session, node_id, "state"), STATE, create=True)
         self._control = SharedBlock(block_name(session, node_id, "control"), CONTROL, create=True)
-        self._control.write_fields(clock_offset=offset)
+        self._control.write_fields(
+            clock_offset=offset, grade_percent=self.config.road.grade_percent
+        )
         self._events, self._results = self._ctx.Queue(), self._ctx.Queue()
         self._stop = self._ctx.Event()
         spec = BikeLoopSpec(self.config, self.table, self._state.name, self._control.name)
@@ -82,14 +91,14 @@ class BikeNode:
         return OwnPoseBlock(name, STATE, n.actor_kind, n.extent)
 
     def pose_source(self) -> PoseSource | None:
-        def source(t: float) -> Pose | None:
+        def source(t: float) -> m.Pose | None:
             if self._state is None:
                 return None
             s = self._state.read()
             if not s["running"]:
                 return None
             f = {name: float(s[name]) for name in ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")}
-            return Pose(0, **f, roll=float(s["lean"]), wz=float(s["yaw_rate"]))
+            return m.Pose(0, **f, roll=float(s["lean"]), wz=float(s["yaw_rate"]))
 
         return source
 
@@ -103,6 +112,7 @@ class BikeNode:
             clock_offset=client.clock.offset, wind_speed_mps=wind[0], wind_from_deg=wind[1]
         )
         self._place_at_spawn(client)
+        self._follow_grade(client)
         while client.impulses:
             self._events.put(client.impulses.popleft())
             self._forwarded += 1
@@ -123,6 +133,34 @@ class BikeNode:
             spawn_seq=self._spawn_seq, spawn_x=sp.x, spawn_y=sp.y, spawn_yaw=sp.yaw
         )
 
+    def _follow_grade(self, client: NodeClient) -> None:
+        """Ask each authority joined for its scenario's grades; tell the loop the grade here."""
+        if client.joins != self._grades_join:
+            self._grades_join = client.joins
+            fetch = threading.Thread(target=self._fetch_grades, args=(client,), daemon=True)
+            fetch.start()  # the query waits on the authority: never in the step
+        assert self._control is not None
+        self._control.write_fields(grade_percent=self._grade_here())
+
+    def _fetch_grades(self, client: NodeClient) -> None:
+        raw = client.query("scenario")
+        if raw is None:  # no scenario (`--scenario none`) or no answer: nothing changes
+            return
+        try:
+            self._grades = RoadGrade.from_scenario_yaml(m.SCENARIO.decode(raw).yaml)
+        except (m.MessageError, ConfigError) as exc:
+            log.warning("scenario grades unusable, riding road.grade_percent instead: %s", exc)
+
+    def _grade_here(self) -> float:
+        """[%] at the bike's position and heading; the config's where the scenario is silent."""
+        fallback = self.config.road.grade_percent
+        assert self._state is not None
+        s = self._state.read()
+        if self._grades is None or not s["running"]:
+            return fallback
+        grade = self._grades.at(float(s["x"]), float(s["y"]), float(s["yaw"]))
+        return fallback if grade is None else grade
+
     def close(self) -> None:
         if self._process is None:
             return
@@ -139,4 +177,6 @@ class BikeNode:
                 block.close()
 
     def report(self) -> dict[str, Any]:
-        return {"loop": self._loop_summary, "events_forwarded": self._forwarded}
+        areas = len(self._grades.tilts) if self._grades is not None else None
+        return {"loop": self._loop_summary, "events_forwarded": self._forwarded,
+                "scenario_grade_areas": areas}  # fmt: skip

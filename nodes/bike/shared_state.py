@@ -2,7 +2,8 @@
 
 `STATE` is written by the loop process every tick, read by the fabric process (pose,
 a future HMI page: speed, power, cadence, grade). `CONTROL` is written by the fabric process:
-the session-clock offset, the spawn pose, and the authority's wind.
+the session-clock offset, the spawn pose, the authority's wind and the road's grade at the
+bike (from the scenario, looked up by the fabric process at its step rate).
 """
 
 from __future__ import annotations
@@ -26,5 +27,6 @@ CONTROL = np.dtype(
         ("clock_offset", "<f8"),  # [s] session time = monotonic + this
         ("spawn_seq", "<u4"), ("spawn_x", "<f8"), ("spawn_y", "<f8"), ("spawn_yaw", "<f8"),
         ("wind_speed_mps", "<f8"), ("wind_from_deg", "<f8"),  # the authority's weather
+        ("grade_percent", "<f8"),  # [%] felt along the heading, uphill positive
     ]
 )  # fmt: skip
