@@ -12,9 +12,10 @@ Layout: 8-byte little-endian sequence counter, then one record of a numpy struct
 
 from __future__ import annotations
 
+import os
 import struct
 import time
-from multiprocessing import shared_memory
+from multiprocessing import resource_tracker, shared_memory
 
 import numpy as np
 
@@ -26,6 +27,17 @@ class TornRead(RuntimeError):
     """The writer kept writing while we tried to read: retries exhausted."""
 
 
+def _untrack(shm: shared_memory.SharedMemory) -> None:
+    """Stop this process's resource tracker from unlinking a block it only attached to.
+
+    Before Python 3.13 (`track=False`), attaching registers the block with the tracker, which
+    unlinks it when the attaching process exits: a view closing first would remove the running
+    node's block under it. Only the creator may unlink.
+    """
+    if os.name == "posix":
+        resource_tracker.unregister(shm._name, "shared_memory")  # type: ignore[attr-defined]
+
+
 class SharedBlock:
     """One seqlock-protected record in shared memory."""
 
@@ -34,6 +46,8 @@ class SharedBlock:
         size = HEADER + self.dtype.itemsize
         self._shm = shared_memory.SharedMemory(name=name, create=create, size=size)
         self._owner = create
+        if not create:
+            _untrack(self._shm)
         self._buf = self._shm.buf
         self._record = np.ndarray((), dtype=self.dtype, buffer=self._buf, offset=HEADER)
         self.retries = 0

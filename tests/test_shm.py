@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import multiprocessing as mp
+import os
+import subprocess
+import sys
 import uuid
 
 import numpy as np
@@ -57,3 +60,18 @@ def test_write_fields_keeps_the_rest() -> None:
         assert block.sequence() == 4
     finally:
         block.close()
+
+
+def test_a_process_that_only_attached_leaves_the_block_to_its_owner() -> None:
+    """Python < 3.13 tracks attached blocks and unlinked them when the attaching process exited."""
+    owner = SharedBlock(f"cv-test-{os.getpid()}-attach", np.dtype([("v", "<f8")]), create=True)
+    try:
+        code = (
+            "import numpy as np; from carlaverse.shm import SharedBlock; "
+            f"SharedBlock({owner.name!r}, np.dtype([('v', '<f8')])).close()"
+        )
+        subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
+        again = SharedBlock(owner.name, np.dtype([("v", "<f8")]))  # still there
+        again.close()
+    finally:
+        owner.close()

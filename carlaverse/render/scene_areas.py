@@ -10,6 +10,7 @@ from __future__ import annotations
 import zlib
 from collections.abc import Iterable, Sequence
 
+from carlaverse.geometry import inside_polygon
 from carlaverse.messages import MapArea
 from carlaverse.render import palette
 from carlaverse.render.meshes import MeshBuilder, Point2, open_outline
@@ -49,7 +50,7 @@ def build_areas(areas: Iterable[MapArea]) -> MeshBuilder:
         elif area.kind == "vegetation":
             mesh.polygon(outline, palette.JUNCTION_Z, palette.VEGETATION)
             for x, y in tree_spots(outline):
-                if not any(inside(pond, (x, y)) for pond in ponds):  # no trees in a pond
+                if not any(inside_polygon(pond, x, y) for pond in ponds):  # no trees in a pond
                     _tree(mesh, x, y)
     return mesh
 
@@ -68,21 +69,11 @@ def tree_spots(outline: Sequence[Point2]) -> list[Point2]:
     while x < max(xs) and len(spots) < TREE_LIMIT:
         y = min(ys) + TREE_SPACING_M / 2
         while y < max(ys) and len(spots) < TREE_LIMIT:
-            if inside(outline, (x, y)):
+            if inside_polygon(outline, x, y):
                 spots.append((x, y))
             y += TREE_SPACING_M
         x += TREE_SPACING_M
     return spots
-
-
-def inside(outline: Sequence[Point2], p: Point2) -> bool:
-    """Even-odd rule point-in-polygon test."""
-    x, y = p
-    hit = False
-    for (x0, y0), (x1, y1) in zip(outline, [*list(outline[1:]), outline[0]], strict=True):
-        if (y0 > y) != (y1 > y) and x < x0 + (y - y0) * (x1 - x0) / (y1 - y0):
-            hit = not hit
-    return hit
 
 
 def _tree(mesh: MeshBuilder, x: float, y: float) -> None:

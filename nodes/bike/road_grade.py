@@ -11,10 +11,10 @@ point.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
 from dataclasses import dataclass
 
 from carlaverse.config import ConfigError, convert, parse_yaml
+from carlaverse.geometry import inside_polygon
 from carlaverse.traffic.scenario import GradeArea, Grades
 
 Point = tuple[float, float]
@@ -36,7 +36,7 @@ class _Tilt:
 
     def holds(self, x: float, y: float) -> bool:
         x0, y0, x1, y1 = self.box
-        return x0 <= x <= x1 and y0 <= y <= y1 and inside(self.outline, x, y)
+        return x0 <= x <= x1 and y0 <= y <= y1 and inside_polygon(self.outline, x, y)
 
     def felt(self, yaw_rad: float) -> float:
         """The grade [%] along the heading: a plane's slope is linear in the direction."""
@@ -67,12 +67,3 @@ class RoadGrade:
             if tilt.holds(x, y):
                 return tilt.felt(yaw_rad)
         return self.default_percent
-
-
-def inside(outline: Sequence[Point], x: float, y: float) -> bool:
-    """Even-odd rule point-in-polygon test (the renderer's own lives behind Panda3D)."""
-    hit = False
-    for (x0, y0), (x1, y1) in zip(outline, [*outline[1:], outline[0]], strict=True):
-        if (y0 > y) != (y1 > y) and x < x0 + (y - y0) * (x1 - x0) / (y1 - y0):
-            hit = not hit
-    return hit

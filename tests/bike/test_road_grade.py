@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import threading
-from multiprocessing import resource_tracker
 from pathlib import Path
 
 import pytest
@@ -161,6 +160,4 @@ def _attach(name: str) -> SharedBlock | None:
         block = SharedBlock(name, STATE)
     except FileNotFoundError:
         return None
-    # Python 3.11 tracks attached blocks too and would unlink the node's at our exit.
-    resource_tracker.unregister(f"/{name}", "shared_memory")
     return block
