@@ -68,7 +68,9 @@ def test_a_process_that_only_attached_leaves_the_block_to_its_owner() -> None:
     try:
         code = (
             "import numpy as np; from carlaverse.shm import SharedBlock; "
-            f"SharedBlock({owner.name!r}, np.dtype([('v', '<f8')])).close()"
+            f"SharedBlock({owner.name!r}, np.dtype([('v', '<f8')])).close(); "
+            # wait for this process's tracker to clean up, as it would at exit
+            "from multiprocessing import resource_tracker as rt; rt._resource_tracker._stop()"
         )
         subprocess.run([sys.executable, "-c", code], check=True, timeout=60)
         again = SharedBlock(owner.name, np.dtype([("v", "<f8")]))  # still there
