@@ -16,6 +16,8 @@ joint-angle maps.
 from __future__ import annotations
 
 import logging
+import threading
+import time
 from collections import Counter
 from dataclasses import dataclass, replace
 
@@ -24,7 +26,7 @@ import zenoh
 
 from carlaverse import messages as m
 from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
+from carlaverse.fabric.node_client import JoinRefused, NodeClient, NodeSettings
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import KeySpaceError, parse
 from carlaverse.render.frame import (
@@ -41,6 +43,12 @@ log = logging.getLogger(__name__)
 VIEW_SUFFIX = ".view"  # the render process joins as `<node id>.view`
 OWN_POSE_FIELDS = ("t", "x", "y", "yaw")  # an own-pose block must have these (session s, m, rad)
 CAR_EXTENT = m.Extent()
+MAP_QUERY_S = 5.0  # [s] the map is large: give its query time
+ARRIVAL_POLL_S = 0.05  # [s] between looks for the first actors
+
+
+class WorldMissing(Exception):
+    """Part of a live session did not arrive in time; the message names which part."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -154,18 +162,63 @@ class LiveWorld:
         self.client.start()
         return self
 
-    def fetch_map(self, timeout_s: float) -> m.MapReply | None:
-        """The session's map from the authority, or None when it does not answer in time."""
+    def wait_for_map(self, deadline: float, stop: threading.Event) -> m.MapReply | None:
+        """The session's map once the authority has admitted this view (it may start after
+        us); None when the session has no map (`--scenario none`). Raises WorldMissing
+        naming what did not come before the monotonic `deadline` (or when `stop` is set)."""
+        try:
+            while not self.client.wait_joined(0.2):
+                if stop.is_set() or time.monotonic() > deadline:
+                    raise WorldMissing(self._not_admitted())
+        except JoinRefused as exc:
+            raise WorldMissing(f"the authority refused {self.client.node_id!r}: {exc}") from exc
+        answered, road_map = self._query_map(MAP_QUERY_S)
+        if not answered:
+            raise WorldMissing(f"the authority did not answer for its map in {MAP_QUERY_S:g} s")
+        return road_map
+
+    def wait_for_actors(
+        self, deadline: float, stop: threading.Event, actor_id: str | None = None
+    ) -> SceneFrame:
+        """The first frame with actor `actor_id` in it, or (None) after an NPC batch or
+        another node's pose has arrived. Raises WorldMissing when that does not happen
+        before the monotonic `deadline` (or when `stop` is set)."""
+        while True:
+            frame = self.frame()
+            if self._arrived(frame, actor_id):
+                return frame
+            if stop.wait(ARRIVAL_POLL_S) or time.monotonic() > deadline:
+                raise WorldMissing(self._not_arrived(frame, actor_id))
+
+    def _arrived(self, frame: SceneFrame, actor_id: str | None) -> bool:
+        if actor_id is not None:
+            return frame.actor(actor_id) is not None
+        world = self.client.world
+        return bool(world.egos.keys() - {self.node_id}) or world.npc_frame(frame.t) is not None
+
+    def _not_arrived(self, frame: SceneFrame, actor_id: str | None) -> str:
+        session = self.client.settings.session
+        if actor_id is None:
+            return f"no NPC batch and no node's pose arrived: session {session!r} is empty"
+        egos = ", ".join(sorted(a.actor_id for a in frame.actors if a.ego)) or "none"
+        return f"node {actor_id!r} is not in session {session!r} (nodes there: {egos})"
+
+    def _not_admitted(self) -> str:
+        return f"no authority of session {self.client.settings.session!r} admitted this view"
+
+    def _query_map(self, timeout_s: float) -> tuple[bool, m.MapReply | None]:
+        """(whether the authority answered, its map): an error reply means it has none."""
         key = self.client.keys.authority("map")
         try:
             for reply in self.client.session.get(key, timeout=timeout_s):
-                if reply.ok is not None:
-                    return m.MAP.decode(reply.ok.payload.to_bytes())
+                if reply.ok is None:
+                    return True, None
+                return True, m.MAP.decode(reply.ok.payload.to_bytes())
         except zenoh.ZError as exc:
             log.warning("map query failed: %s", exc)
         except m.MessageError as exc:
             log.warning("the authority's map does not decode: %s", exc)
-        return None
+        return False, None
 
     def frame(self) -> SceneFrame:
         now = self.client.update()

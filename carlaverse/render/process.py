@@ -35,7 +35,6 @@ from carlaverse.render.rig import RenderConfig
 log = logging.getLogger(__name__)
 
 OWN, FREE = "own", "free"
-MAP_QUERY_S = 5.0  # [s] the map is large: give its query time
 CLOSE_TIMEOUT_S = 10.0  # [s] for the render process to finish its frame and report
 
 
@@ -141,13 +140,15 @@ def _run(spec: ViewSpec, stop: Any, summary: ViewSummary) -> None:
 
 
 def _wait_for_map(world: Any, timeout_s: float, stop: Any) -> Any:
-    """The authority's map once it has admitted our view (it may start after us); None when
-    it has no map (`--scenario none`) or does not admit us within `timeout_s`."""
-    deadline = time.monotonic() + timeout_s
-    while not world.client.admitted.wait(0.2):
-        if stop.is_set() or time.monotonic() > deadline:
-            return None
-    return world.fetch_map(MAP_QUERY_S)
+    """The authority's map; None when the session has none, or when it does not come (the
+    view then draws the actors over plain ground, and says why in the log)."""
+    from carlaverse.render.live import WorldMissing
+
+    try:
+        return world.wait_for_map(time.monotonic() + timeout_s, stop)
+    except WorldMissing as exc:
+        log.warning("the view of %s draws no map: %s", world.node_id, exc)
+        return None
 
 
 def _loop(spec: ViewSpec, stop: Any, world: Any, renderer: Any, summary: ViewSummary) -> None:
