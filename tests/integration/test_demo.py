@@ -15,13 +15,15 @@ import yaml
 
 from tests.support import Proc, wait_until
 
-# One-way loopback latency p99 between demo nodes, beyond what the machine's scheduler adds.
-# Measured 0.3-3 ms on an idle 2-core machine and 5.8-7.9 ms with two CPU-bound processes
-# beside the demo (`python -c 'while True: pass'` twice); 20 ms is over twice the loaded
-# figure and still fails a pose path that falls a whole 50 Hz period (20 ms) behind. When
-# the machine is busier still, each wake-up on the path (publisher thread, router,
-# subscriber callback) waits for a core, so the bound adds WAKEUPS_ON_PATH x the scheduler
-# delay p99 measured during the same run by SchedulerProbe.
+# One-way loopback latency between demo nodes. Measured on an idle 2-core machine: p50
+# ~0.3-1 ms, p99 0.3-3 ms; with two CPU-bound processes beside the demo (`python -c 'while
+# True: pass'` twice): p50 0.9-1.5 ms, p99 5.8-7.9 ms. So p50 < 5 ms (a path that does not
+# queue), and p99 < 20 ms, over twice the loaded figure and still failing a pose path that
+# falls a whole 50 Hz period (20 ms) behind, plus what the machine itself stalled: when it
+# is busier still (other suites on it), a process on the path (publisher, router, receiver)
+# may not run for tens of ms, and a sample waits for each. SchedulerProbe measures the
+# longest such stall during the same run.
+LOOPBACK_P50_MS = 5.0
 LOOPBACK_P99_MS = 20.0
 WAKEUPS_ON_PATH = 3
 
@@ -49,9 +51,8 @@ class SchedulerProbe:
             time.sleep(self.period_s)  # the measurement itself: how late does it return?
             self.late_ms.append((time.perf_counter() - asked - self.period_s) * 1e3)
 
-    def p99_ms(self) -> float:
-        ordered = sorted(self.late_ms)
-        return ordered[int(0.99 * (len(ordered) - 1))] if ordered else 0.0
+    def worst_ms(self) -> float:
+        return max(self.late_ms, default=0.0)
 
 
 class Demo:
@@ -92,7 +93,7 @@ def test_demo_runs_and_every_node_sees_every_other() -> None:
     with SchedulerProbe() as probe:
         demo = Demo("--duration", "20", "--json", "--quiet")
         code, out, err = demo.finish(timeout=180)
-    bound_ms = LOOPBACK_P99_MS + WAKEUPS_ON_PATH * probe.p99_ms()
+    bound_ms = LOOPBACK_P99_MS + WAKEUPS_ON_PATH * probe.worst_ms()
     assert code == 0, err[-3000:]
     summary = json.loads(out)
     assert summary["all_seen"], json.dumps(summary["nodes"], indent=1)
@@ -102,9 +103,10 @@ def test_demo_runs_and_every_node_sees_every_other() -> None:
         assert row["joined"] and row["exit_code"] == 0 and row["error"] == ""
         assert set(row["actors_seen"]) == set(nodes) - {node_id}
         assert row["latency_p99_ms"] is not None
+        latency = f"{node_id}: p50 {row['latency_p50_ms']} ms, p99 {row['latency_p99_ms']} ms"
+        assert row["latency_p50_ms"] < LOOPBACK_P50_MS, latency
         assert row["latency_p99_ms"] < bound_ms, (
-            f"{node_id}: p99 {row['latency_p99_ms']} ms (p50 {row['latency_p50_ms']} ms) over "
-            f"{bound_ms:.1f} ms; scheduler delay p99 {probe.p99_ms():.1f} ms"
+            f"{latency} over {bound_ms:.1f} ms; longest stall {probe.worst_ms():.1f} ms"
         )
     assert summary["authority"]["tick"]["ticks"] > 20 * 40  # ~50 Hz for 20 s
     assert summary["interrupted"] == ""
