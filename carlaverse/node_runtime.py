@@ -18,6 +18,7 @@ the whole run, waiting included.
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from collections.abc import Callable
@@ -71,10 +72,11 @@ class NodeSummary(msgspec.Struct):
     handler_errors: dict[str, int] = {}
     impulses_accepted: int = 0
     peers: dict[str, StreamSummary] = {}
-    clock_uncertainty_ms: float = float("nan")
+    clock_uncertainty_ms: float | None = None  # [ms] None until the first clock exchange
     extra: dict[str, Any] = {}
     # Never admitted: what it was still waiting for when stopped or out of time.
     waiting_for: str = ""
+    before_join: dict[str, int] = {}  # world messages that came before the authority was known
 
 
 class UnknownNodeKind(LookupError):
@@ -162,6 +164,11 @@ def run_node(
         close_node()  # also when never connected: a node may own processes or devices
 
 
+def _finite_ms(seconds: float) -> float | None:
+    """Milliseconds for JSON, which has no NaN or infinity: None when not known."""
+    return round(seconds * 1e3, 3) if math.isfinite(seconds) else None
+
+
 def _once(action: Callable[[], None]) -> Callable[[], None]:
     done = False
 
@@ -225,7 +232,8 @@ def _summary(node: NodeKind, client: NodeClient, duration: float) -> NodeSummary
         rejected=counters.rejected,
         handler_errors=counters.handler_errors,
         impulses_accepted=counters.impulses_accepted,
+        before_join=counters.before_join,
         peers={k: s.summary(now) for k, s in sorted(world.stats.items())},
-        clock_uncertainty_ms=round(client.clock.uncertainty_s * 1e3, 3),
+        clock_uncertainty_ms=_finite_ms(client.clock.uncertainty_s),
         extra=node.report(),
     )

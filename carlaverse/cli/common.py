@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import signal
 import sys
 import threading
@@ -119,8 +120,25 @@ def say(command: str) -> Callable[[str], None]:
 
 
 def print_json(value: Any) -> None:
-    sys.stdout.write(json.dumps(msgspec.to_builtins(value), indent=2, sort_keys=True) + "\n")
+    sys.stdout.write(to_json(value) + "\n")
     sys.stdout.flush()
+
+
+def to_json(value: Any) -> str:
+    """Strict JSON for --json outputs: a figure never measured (NaN, infinity) becomes null."""
+    return json.dumps(
+        _finite(msgspec.to_builtins(value)), indent=2, sort_keys=True, allow_nan=False
+    )
+
+
+def _finite(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(v) for v in value]
+    return value
 
 
 def fail(command: str, message: str, code: int = 2) -> int:

@@ -7,9 +7,10 @@ among the actors a node saw leave, those that left on purpose (`left`) from thos
 
 from __future__ import annotations
 
-import json
 import math
 from typing import Any
+
+from carlaverse.cli.common import to_json
 
 # Despawn reasons (messages.Despawned.reason) that mean "left on purpose"; every other one
 # (liveliness, timeout, authority) is a loss.
@@ -80,7 +81,7 @@ def _worst(peers: Any, field_name: str) -> float | None:
 
 def format_summary(summary: dict[str, Any], as_json: bool) -> str:
     if as_json:
-        return json.dumps(summary, indent=2, sort_keys=True)
+        return to_json(summary)
     lines = [
         f"{'node':<14} {'status':<7} {'joined':<7} {'saw':<4} {'NPCs':>5} {'p50 ms':>8} "
         f"{'p99 ms':>8} {'left':>5} {'lost':>5} {'dropped':>8} {'rejected':>8}  missing"

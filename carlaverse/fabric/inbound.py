@@ -63,6 +63,9 @@ class Inbound:
         self.overrides: deque[m.Override] = deque(maxlen=64)
         self.dropped = Tally()  # undecodable payloads, by channel
         self.rejected = Tally()  # well-formed but refused, by `<channel>/<why>`
+        # World messages that arrive before the join reply names the authority cannot be
+        # checked; the snapshot fetched after joining supersedes them. Not hostile: kept apart.
+        self.before_join = Tally()
         self.accepted = Tally()  # impulses handed to the node, and whatever else is worth a count
         self.guard = HandlerGuard(log)
         self.authority_id = ""  # zid of the joined authority's session; "" before a join
@@ -114,6 +117,9 @@ class Inbound:
 
     def _from_authority(self, sample: zenoh.Sample, channel: str) -> bool:
         """Whether the sample was stamped by the joined authority's session (module docstring)."""
+        if not self.authority_id:
+            self.before_join.add(channel)
+            return False
         stamp = sample.timestamp
         if stamp is not None and self.authority_id and str(stamp.get_id()) == self.authority_id:
             return True

@@ -54,6 +54,7 @@ class FabricCounters(msgspec.Struct, frozen=True):
     rejected: dict[str, int]  # well-formed but refused, by `<channel>/<why>`
     handler_errors: dict[str, int]  # unexpected exceptions in callbacks, by handler
     impulses_accepted: int  # impulses handed to the node after de-duplication
+    before_join: dict[str, int] = {}  # world messages ignored before the authority was known
 
 
 class NodeSettings(StrictStruct):
@@ -142,6 +143,7 @@ class NodeClient:
             rejected=inbound.rejected.snapshot(),
             handler_errors=inbound.guard.errors.snapshot(),
             impulses_accepted=inbound.accepted["impulse"],
+            before_join=inbound.before_join.snapshot(),
         )
 
     def start(self, pose_source: PoseSource | None = None) -> NodeClient:
