@@ -9,8 +9,8 @@ import threading
 import time
 from pathlib import Path
 
-from carlaverse.cli.common import add_fabric_args, fabric_from_args
-from carlaverse.fabric.session import FabricError, open_session
+from carlaverse.cli.common import add_fabric_args, attend, fabric_from_args
+from carlaverse.fabric.session import FabricError, FabricUnreachable
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.recorder import (
     DEFAULT_QUEUE_BYTES,
@@ -102,7 +102,15 @@ def _recover(args: argparse.Namespace) -> int:
 
 def _record(args: argparse.Namespace) -> int:
     keys = Keys(args.session)
-    session = open_session(fabric_from_args(args))
+    stop = _stop_event()
+    deadline = None if args.duration is None else time.monotonic() + args.duration
+    try:
+        # Like nodes and the viewer: one line naming what it waits for (router, authority),
+        # retrying until then, and SIGINT/SIGTERM or --duration end the wait.
+        session, notice = attend("record", fabric_from_args(args), keys, stop, deadline)
+    except FabricUnreachable as exc:
+        print(f"carlaverse record: {exc}", file=sys.stderr)
+        return 0 if stop.is_set() else 5
     try:
         sink = McapSink(
             args.output,
@@ -116,9 +124,10 @@ def _record(args: argparse.Namespace) -> int:
         recorder.start()
         # Said once subscribed: a script starting the session after it can wait for this line.
         print(f"recording session {args.session} into {args.output}", file=sys.stderr, flush=True)
-        _wait(recorder, args.duration, args.progress_s)
+        _wait(recorder, stop, deadline, args.progress_s)
         stats = recorder.stop()
     finally:
+        notice.close()
         session.close()
     print(f"recorded {_describe(stats)} into {args.output}", file=sys.stderr)
     if stats.failure:
@@ -127,12 +136,11 @@ def _record(args: argparse.Namespace) -> int:
     return 0
 
 
-def _wait(recorder: Recorder, duration_s: float | None, progress_s: float) -> None:
-    """Block until the duration passes, SIGINT/SIGTERM arrives or the writer fails."""
-    stop = _stop_event()
-    start = time.monotonic()
-    deadline = None if duration_s is None else start + duration_s
-    last = (start, 0)
+def _wait(
+    recorder: Recorder, stop: threading.Event, deadline: float | None, progress_s: float
+) -> None:
+    """Block until the deadline passes, SIGINT/SIGTERM arrives or the writer fails."""
+    last = (time.monotonic(), 0)
     try:
         while not stop.is_set() and recorder.stats().failure == "":
             now = time.monotonic()

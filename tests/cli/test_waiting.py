@@ -147,3 +147,30 @@ def test_stats_in_client_mode_names_the_dead_router_and_obeys_sigint() -> None:
     finally:
         stats.stop(signal.SIGKILL)
     assert took < EXIT_WITHIN_S and code == 130, stats.output()
+
+
+@pytest.mark.parametrize("mode", ["client", "peer"])
+def test_recorder_names_the_dead_router_and_obeys_sigterm(mode: str, tmp_path: Path) -> None:
+    endpoint = _dead_endpoint()
+    started = time.monotonic()
+    record = Proc(["record", "--session", "t", "--connect", endpoint, "--mode", mode,
+                   "-o", str(tmp_path / "x.mcap")])  # fmt: skip
+    try:
+        _line(record, f"carlaverse record: waiting for a router at {endpoint}", started)
+        code, took = _exit_after(record, signal.SIGTERM)
+    finally:
+        record.stop(signal.SIGKILL)
+    assert took < EXIT_WITHIN_S, f"record took {took:.2f} s to obey SIGTERM"
+    assert code == 0, record.output()
+
+
+def test_recorder_names_the_missing_authority(cluster: Cluster, tmp_path: Path) -> None:
+    cluster.router()
+    started = time.monotonic()
+    record = cluster.start(
+        "record", "--session", "t", "--connect", cluster.endpoint, "-o",
+        str(tmp_path / "x.mcap"), name="record",
+    )  # fmt: skip
+    _line(record, "waiting for the authority of session 't'", started)
+    code, took = _exit_after(record, signal.SIGINT)
+    assert code == 0 and took < EXIT_WITHIN_S, record.output()

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import bisect
 import json
 import subprocess
 import sys
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -117,7 +119,7 @@ def test_demo_rrd_has_the_actors_on_recorded_paths_lights_and_map(demo: tuple) -
             poses.setdefault(parsed.node_id, {})[round(pose.t, 6)] = pose
         elif parsed.channel == "lights":
             state = messages.LIGHTS.decode(s.payload)
-            lights[round(state.t, 6)] = state
+            lights[state.t] = state
         elif parsed.channel == "map":
             road_map = messages.MAP.decode(s.payload)
     for n in summary["nodes"]:
@@ -132,7 +134,7 @@ def test_demo_rrd_has_the_actors_on_recorded_paths_lights_and_map(demo: tuple) -
     for path in light_paths:
         tls = path.rsplit("/", 1)[-1]
         for row in rows[path]:
-            state = lights.get(round(row["sim_time"], 6))
+            state = _same_time(lights, row["sim_time"])
             if state is None:
                 continue  # from the authority's snapshot, not a published state
             truth = next(x.state for x in state.lights if x.id == tls)
@@ -140,3 +142,14 @@ def test_demo_rrd_has_the_actors_on_recorded_paths_lights_and_map(demo: tuple) -
             assert shown == truth, (tls, shown, truth)
             checked += 1
     assert checked >= len(light_paths), "every light shown at a published state"
+
+
+SAME_TIME_S = 1e-6  # [s] far below the time between states, far above the 1 ns rerun stores
+
+
+def _same_time(by_time: dict[float, Any], t: float) -> Any:
+    """The entry logged at t. Rerun keeps integer nanoseconds, so rounding both sides to the
+    microsecond splits times within 1 ns of a half-microsecond boundary: match by nearest."""
+    times = sorted(by_time)
+    i = bisect.bisect_left(times, t - SAME_TIME_S)
+    return by_time[times[i]] if i < len(times) and abs(times[i] - t) <= SAME_TIME_S else None
