@@ -16,6 +16,7 @@ from typing import Any
 
 import pytest
 
+from carlaverse import messages as m
 from tests.support import Cluster, wait_until
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "thirdparty_client.py"
@@ -94,7 +95,8 @@ def test_partner_client_joins_is_seen_decodes_the_world_and_is_despawned_when_ki
     authority = cluster.authority("--scenario", "crossing")
     partner = example()
     partner.wait_for(lambda s: s.get("joined"), 30, "the example to join")
-    node = cluster.scripted("car-1")  # its spawn is an event the partner must decode
+    # Its spawn is an event the partner must decode; -v logs its despawns, which we wait on.
+    node = cluster.scripted("car-1", None, "-v")
     observer = cluster.observer()
     status = partner.wait_for(_decoded_everything, 40, "the example to decode every message")
     assert not [k for k in status["counts"] if k.startswith("dropped")], status
@@ -119,6 +121,9 @@ def test_partner_client_joins_is_seen_decodes_the_world_and_is_despawned_when_ki
     assert [d.reason for d in observer.world.despawns if d.actor_id == "partner-1"] == [
         "liveliness"
     ]
+    # The node is another process: its own view drops the partner when its subscriber hears
+    # the token go, which on a loaded host can come after the observer's.
+    wait_until(lambda: "despawned partner-1" in node.output(), LEASE_S + MARGIN_S, "node's despawn")
     node.stop()
     summary = node.json()
     assert "partner-1" in summary["actors_seen"] and "partner-1" not in summary["actors_now"]
@@ -149,9 +154,18 @@ def test_a_frozen_partner_is_dropped_by_its_lease_before_the_silence_timeout(
     assert waited > LEASE_S * 0.5, f"despawned after {waited:.2f} s: not by the lease"
     # Thawed, it finds it was dropped (clock reply `known: false`) and joins again.
     wait_until(lambda: observer.update() and "partner-1" in observer.world.egos, 15, "re-join")
-    partner.wait_for(lambda s: s["events"].count("spawned:partner-1") == 2, 5, "its second spawn")
+    # Its Zenoh session re-declares the token by itself on reconnect, so being seen again is not
+    # proof of a join; the authority's roster is. (Its own second `spawned` may be published
+    # before the router has re-learned its subscriber, so that is not waited for.)
+    wait_until(lambda: "partner-1" in _roster(observer), 10, "the partner in the roster again")
     # Leaving on purpose (SIGTERM: `authority/leave`, then the token) reads as `left`.
     partner.proc.send_signal(signal.SIGTERM)
     assert partner.proc.wait(timeout=10) == 0
     wait_until(lambda: observer.update() and "partner-1" not in observer.world.egos, 2, "leave")
     assert [d.reason for d in observer.world.despawns if d.actor_id == "partner-1"][-1] == "left"
+
+
+def _roster(observer: Any) -> set[str]:
+    """Who the authority lists as joined (its snapshot)."""
+    raw = observer.query("snapshot", timeout_s=2.0)
+    return {e.node_id for e in m.SNAPSHOT.decode(raw).egos} if raw else set()
