@@ -153,6 +153,7 @@ def run_node(
                 if not missing:
                     _loop(node, client, limits, stop, 1.0 / loop_hz)
                 close_node()  # first: its report (e.g. the control loop's timing) is final
+                client.close()  # then publishing stops, so the counts below are final too
                 summary = _summary(node, client, time.monotonic() - limits.started)
                 return msgspec.structs.replace(summary, waiting_for=missing)
             finally:
