@@ -52,7 +52,11 @@ def test_demo_recording_has_every_key_the_counts_and_the_configs(demo: tuple) ->
     # authority's first put, and the demo must stop the authority before the recorder and the
     # router, or its last put (counted as sent) reaches nobody.
     for stream, sent in summary["authority"]["sent"].items():
-        assert counts[keys.world(stream)] == sent, f"world/{stream}: sent {sent}"
+        assert counts[keys.world(stream)] == sent, (
+            f"world/{stream}: sent {sent}; recorded at session times "
+            f"{[round(x.publish_time_ns / 1e9, 3) for x in samples if x.key == keys.world(stream)]}"
+            f" (the demo ran {summary['authority']['tick']})"
+        )
     # Poses are DROP class, so a bound, not a count; against what each node says it sent,
     # not the nominal 50 Hz, which a loaded machine does not keep.
     for n in nodes:
