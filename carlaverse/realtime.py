@@ -11,8 +11,11 @@ from __future__ import annotations
 
 import logging
 import os
+import queue
 import time
 from array import array
+from collections.abc import Iterable
+from typing import Any
 
 from carlaverse.fabric.stats import percentile
 
@@ -91,3 +94,26 @@ class Pacer:
             "period_error_p99_ms": round(percentile(errors, 0.99) * 1e3, 4),
             "period_error_max_ms": round(self.max_error_s * 1e3, 4),
         }
+
+
+def stop_loop_process(
+    process: Any, stop: Any, results: Any, blocks: Iterable[Any], what: str
+) -> Any:
+    """Stop a node's loop process: signal it, take its final report, reap it, free its blocks.
+
+    Returns the report the loop put on `results`, or None if it did not report in time (logged).
+    The blocks are the node's shared-memory blocks (closed here, as their owner).
+    """
+    stop.set()
+    try:
+        summary = results.get(timeout=10)
+    except queue.Empty:
+        summary = None
+        log.error("the %s did not report", what)
+    process.join(timeout=5)
+    if process.is_alive():
+        process.kill()
+    for block in blocks:
+        if block is not None:
+            block.close()
+    return summary

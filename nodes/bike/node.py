@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
-import queue
 import threading
 from typing import Any
 
@@ -27,6 +26,7 @@ from carlaverse.config import ConfigError
 from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.hal import FfbConfig, InputConfig, TrainerConfig
 from carlaverse.hal.input.pursuit import scripted_route
+from carlaverse.realtime import stop_loop_process
 from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import SharedBlock, block_name
 
@@ -164,17 +164,9 @@ class BikeNode:
     def close(self) -> None:
         if self._process is None:
             return
-        self._stop.set()
-        try:
-            self._loop_summary = self._results.get(timeout=10)
-        except queue.Empty:
-            log.error("the bike loop did not report")
-        self._process.join(timeout=5)
-        if self._process.is_alive():
-            self._process.kill()
-        for block in (self._state, self._control):
-            if block is not None:
-                block.close()
+        self._loop_summary = stop_loop_process(
+            self._process, self._stop, self._results, (self._state, self._control), "bike loop"
+        )
 
     def report(self) -> dict[str, Any]:
         areas = len(self._grades.tilts) if self._grades is not None else None

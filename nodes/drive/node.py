@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
-import queue
 from typing import Any
 
 import msgspec
@@ -23,6 +22,7 @@ from carlaverse.hal import FfbConfig, InputConfig, MotionConfig
 from carlaverse.hal.input.pursuit import scripted_route
 from carlaverse.messages import EgoState, Pose
 from carlaverse.physics.params import VehicleParams
+from carlaverse.realtime import stop_loop_process
 from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import SharedBlock, block_name
 
@@ -173,17 +173,9 @@ class DriveNode:
     def close(self) -> None:
         if self._process is None:
             return
-        self._stop.set()
-        try:
-            self._loop_summary = self._results.get(timeout=10)
-        except queue.Empty:
-            log.error("the control loop did not report")
-        self._process.join(timeout=5)
-        if self._process.is_alive():
-            self._process.kill()
-        for block in (self._state, self._control):
-            if block is not None:
-                block.close()
+        self._loop_summary = stop_loop_process(
+            self._process, self._stop, self._results, (self._state, self._control), "control loop"
+        )
 
     def report(self) -> dict[str, Any]:
         return {"loop": self._loop_summary, "events_forwarded": self._forwarded}
