@@ -35,6 +35,8 @@ from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 DEFAULT_NODES = "scripted,scripted,scripted"
 ERROR_TAIL_LINES = 20  # stderr lines kept per child, to say why it failed
 STOP_GRACE_S = 10.0  # [s] a child stopped by SIGINT is killed after this
+READY_TIMEOUT_S = 60.0  # [s] for the recorder to say it is subscribed (slow on a loaded host)
+RECORDER_READY = "recording session "  # what `record` prints once its subscribers are declared
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -90,6 +92,10 @@ class Child:
         return lines[-1] if lines else ""
 
 
+class ChildFailed(RuntimeError):
+    """A child the session needs did not start; the message says which and why."""
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -106,6 +112,22 @@ def _spawn(name: str, role: str, argv: list[str]) -> Child:
         reader.start()
         child.readers.append(reader)
     return child
+
+
+def _await_line(child: Child, prefix: str, timeout: float, stop: threading.Event) -> None:
+    """Wait until `child` prints a stderr line starting with `prefix`; fail if it exits first
+    or the timeout passes (a signal ends the wait too: the caller stops everything)."""
+    deadline = time.monotonic() + timeout
+    while not any(line.startswith(prefix) for line in list(child.err)):
+        if child.proc.poll() is not None:
+            _finish_reading(child)
+            raise ChildFailed(
+                f"the {child.name} exited ({child.proc.returncode}): {child.last_error()}"
+            )
+        if time.monotonic() > deadline:
+            raise ChildFailed(f"the {child.name} did not start within {timeout:.0f} s")
+        if stop.wait(0.05):
+            return
 
 
 def _drain(stream: Any, sink: list[str] | deque[str]) -> None:
@@ -183,6 +205,9 @@ def run(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory(prefix="carlaverse-demo-") as tmp:
         try:
             summary = _run_session(args, kinds, endpoint, Path(tmp), children, stop)
+        except ChildFailed as exc:
+            _stop_all(children)
+            return fail("demo", str(exc), 1)
         finally:
             _stop_all(children)
     print(format_summary(summary, args.json), flush=True)
@@ -200,6 +225,24 @@ def _run_session(
     stop: threading.Event,
 ) -> dict[str, Any]:
     children.append(_spawn("router", "router", ["router", "--listen", endpoint]))
+    # The listeners before the authority, and the recorder confirmed subscribed: started
+    # together, a loaded host let the authority's first reliable put (world/lights at t = 0)
+    # reach the router before the recorder's subscription did, and the recording lost it.
+    if args.record:
+        recorder = _spawn(
+            "recorder", "tool", ["record", "--session", args.session, "--connect", endpoint,
+                                 "-o", args.record],
+        )  # fmt: skip
+        children.append(recorder)
+        _await_line(recorder, RECORDER_READY, READY_TIMEOUT_S, stop)
+    if args.rrd:
+        children.append(
+            _spawn(
+                "viewer",
+                "tool",
+                ["view", "--session", args.session, "--connect", endpoint, "--save", args.rrd],
+            )
+        )
     authority_argv = [
         "authority",
         "--session",
@@ -211,22 +254,6 @@ def _run_session(
         "--json",
     ]
     children.append(_spawn("authority", "authority", authority_argv))
-    if args.record:
-        children.append(
-            _spawn(
-                "recorder",
-                "tool",
-                ["record", "--session", args.session, "--connect", endpoint, "-o", args.record],
-            )
-        )
-    if args.rrd:
-        children.append(
-            _spawn(
-                "viewer",
-                "tool",
-                ["view", "--session", args.session, "--connect", endpoint, "--save", args.rrd],
-            )
-        )
     scripted = [i for i, k in enumerate(kinds) if k == "scripted"]
     ids = []
     for i, kind in enumerate(kinds):

@@ -179,3 +179,15 @@ def test_an_unknown_kind_or_missing_config_fails_before_anything_starts(tmp_path
         )  # fmt: skip
         assert done.returncode == 2, done.stderr
         assert done.stderr.count("\n") == 1 and says in done.stderr, done.stderr
+
+
+def test_a_recorder_that_cannot_start_stops_the_demo_before_the_authority(tmp_path: Path) -> None:
+    # The recorder starts (and says it is subscribed) before the authority, so a recording
+    # holds the session from its first reliable message; one that cannot start ends the demo
+    # with its own error line instead of a session recorded by nobody.
+    demo = Demo("--duration", "3", "--quiet", "--record", str(tmp_path / "missing" / "x.mcap"))
+    code, out, err = demo.finish(timeout=120)
+    assert code == 1, (out, err)
+    assert err.count("\n") == 1, err
+    assert "demo: the recorder exited (1): carlaverse record: cannot create recording" in err
+    assert not demo.leftovers()

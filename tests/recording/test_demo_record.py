@@ -48,9 +48,10 @@ def test_demo_recording_has_every_key_the_counts_and_the_configs(demo: tuple) ->
     expected |= {keys.authority(q) for q in ("map", "scenario", "snapshot", "configs")}
     expected |= {keys.node(n) for n in nodes}
     assert expected <= set(counts), sorted(expected - set(counts))
-    # Exact for every stream, NPC batches included: the recorder is listening before the
-    # authority's first put, and the demo must stop the authority before the recorder and the
-    # router, or its last put (counted as sent) reaches nobody.
+    # Exact for every stream, NPC batches included: the demo starts the authority only after
+    # the recorder said it is subscribed (else a loaded host loses the first world/lights put),
+    # and stops the authority before the recorder and the router (else its last put, counted
+    # as sent, reaches nobody).
     for stream, sent in summary["authority"]["sent"].items():
         assert counts[keys.world(stream)] == sent, (
             f"world/{stream}: sent {sent}; recorded at session times "
