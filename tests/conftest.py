@@ -5,7 +5,10 @@ from pathlib import Path
 
 import pytest
 
+from tests.browser import chromium, missing_browser, page, screenshot_dir
 from tests.support import Cluster
+
+__all__ = ["chromium", "page", "screenshot_dir"]  # browser fixtures for every test
 
 
 @pytest.fixture
@@ -27,6 +30,10 @@ def pytest_addoption(parser: pytest.Parser) -> None:
 
 
 def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    no_browser = missing_browser()
+    for item in items:
+        if "browser" in item.keywords and no_browser:
+            item.add_marker(pytest.mark.skip(reason=no_browser))
     if config.getoption("--hardware"):
         return
     skip = pytest.mark.skip(reason="needs a real device: run with --hardware")
