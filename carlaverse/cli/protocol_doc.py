@@ -143,6 +143,13 @@ def lights_region() -> str:
     return _table(["bit", "light"], [[f"{v} (`{hex(v)}`)", f"`{n}`"] for v, n in wc.light_bits()])
 
 
+def audio_region() -> str:
+    """Per emitter kind, what its two drive values mean; then the siren patterns."""
+    rows = [[f"`{k}`", a, b] for k, (a, b) in m.AUDIO_DRIVE_MEANING.items()]
+    patterns = _table(["`drive_a`", "siren pattern"], enumerate(m.SIREN_PATTERNS))
+    return _table(["kind", "`drive_a`", "`drive_b`"], rows) + "\n" + patterns
+
+
 def _span(offset: int, size: int) -> str:
     return str(offset) if size == 1 else f"{offset}–{offset + size - 1}"
 
@@ -152,6 +159,7 @@ REGIONS: dict[str, Callable[[], str]] = {
     "pose": pose_region,
     "npc-row": npc_region,
     "light-bits": lights_region,
+    "audio-drive": audio_region,
     "messages": messages_region,
     "outputs": outputs_region,
 }

@@ -50,6 +50,15 @@ def examples() -> list[tuple[m.Codec, object]]:
         (m.WORLD_EVENT, m.ContactEnded(4, 2.0, 9, "n", "v1")),
         (m.IMPULSE, m.Impulse(1, 2.0, 9, (1.0, 0, 0), (0, 0, 0.5), (1.0, 0, 0), "v1", "car", 3.0)),
         (
+            m.AUDIO_SCENE,
+            m.AudioScene(
+                1,
+                2.0,
+                "n",
+                [m.AudioEmitter("v1.engine", "engine", 1, 2, 0, 3, 0, 0, 80.0, 0.0, 2400.0, 0.5)],
+            ),
+        ),
+        (
             m.JOIN_REQUEST,
             m.JoinRequest(m.SCHEMA_VERSION, "n", "abc", "drive", config_yaml="a: 1\n"),
         ),
@@ -133,3 +142,26 @@ def test_npc_batch_rows_are_structured_arrays() -> None:
     rows["x"] = [1, 2, 3]
     batch = m.NPC_BATCH.decode(m.NPC_BATCH.encode(m.NpcBatch.pack(1, 0.0, ["a", "b", "c"], rows)))
     assert list(batch.array()["x"]) == [1, 2, 3]
+
+
+@pytest.mark.parametrize(
+    "kind,drive_a,drive_b",
+    [("engine", 2400.0, 1.5), ("tyres", -1.0, 0.0), ("siren", 0.5, 0.0), ("siren", 9.0, 0.0),
+     ("rain", 1.2, 0.0), ("wind", 0.5, 3.0)],
+)  # fmt: skip
+def test_audio_drive_values_outside_their_kinds_range_are_refused(
+    kind: str, drive_a: float, drive_b: float
+) -> None:
+    emitter = m.AudioEmitter("s", kind, 0, 0, 0, 0, 0, 0, 70.0, drive_a=drive_a, drive_b=drive_b)
+    with pytest.raises(m.MessageError, match="audio emitter 's'"):
+        m.AUDIO_SCENE.decode(m.AUDIO_SCENE.encode(m.AudioScene(1, 0.0, "n", [emitter])))
+
+
+def test_audio_scene_refuses_an_unknown_kind_and_too_many_emitters() -> None:
+    horn = ["s", "horn", 0, 0, 0, 0, 0, 0, 70.0]
+    wire = msgspec.msgpack.encode({"seq": 1, "t": 0.0, "listener": "n", "emitters": [horn]})
+    with pytest.raises(m.MessageError, match="horn"):
+        m.AUDIO_SCENE.decode(wire)
+    many = [m.AudioEmitter(f"s{i}", "rain", 0, 0, 0, 0, 0, 0, 60.0) for i in range(257)]
+    with pytest.raises(m.MessageError, match="at most 256"):
+        m.AUDIO_SCENE.decode(m.AUDIO_SCENE.encode(m.AudioScene(1, 0.0, "n", many)))
