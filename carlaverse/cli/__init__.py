@@ -33,6 +33,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "render": ("carlaverse.cli.render", "render a recorded moment (PNG) or clip (MP4) in 3D"),
     "certs": ("carlaverse.cli.certs", "generate a test CA and certificates for a lab"),
     "roster": ("carlaverse.cli.roster", "session roster tools: generate router ACLs"),
+    "swarm": ("carlaverse.cli.swarm", "N synthetic egos in one process: load for the fabric"),
     "schema": ("carlaverse.cli.schema", "print the wire contract: JSON Schema of every message"),
 }
 

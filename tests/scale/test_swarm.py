@@ -1,0 +1,41 @@
+"""`carlaverse swarm`: many egos in one process join, move and leave like real nodes."""
+
+from __future__ import annotations
+
+import math
+
+from carlaverse.cli import main
+from tests.support import Cluster, wait_until
+
+EGOS = 12
+
+
+def test_swarm_egos_join_publish_and_leave(cluster: Cluster) -> None:
+    cluster.router()
+    authority = cluster.authority()
+    obs = cluster.observer()
+    swarm = cluster.start(
+        "swarm", "--egos", str(EGOS), "--session", "t", "--connect", cluster.endpoint,
+        "--spread", "600", "--duration", "4", "--json", name="swarm",
+    )  # fmt: skip
+    ids = {f"swarm-{i}" for i in range(EGOS)}
+    wait_until(lambda: obs.update() and ids <= set(obs.world.egos), 30, "every swarm ego")
+    now = obs.update()
+    for view in obs.world.ego_views(now):
+        assert 0.0 <= view.x <= 600.0 and 0.0 <= view.y <= 600.0, view
+        assert 8.0 <= math.hypot(view.vx, view.vy) <= 14.0, view  # block loops at town speeds
+    assert swarm.wait(30) == 0, swarm.output()
+    report = swarm.json()
+    assert report["joined"] == EGOS and report["left"] == EGOS, report
+    assert report["offered_fraction"] > 0.9 and report["late_slots"] <= 2, report
+    # Leaving on purpose reads as `left` everywhere, never as a loss.
+    wait_until(lambda: obs.update() is not None and not ids & set(obs.world.egos), 10, "leaves")
+    reasons = {d.actor_id: d.reason for d in obs.world.despawns}
+    assert all(reasons[i] == "left" for i in ids), reasons
+    assert authority.alive()
+
+
+def test_swarm_refuses_bad_flags_in_one_line(capsys) -> None:
+    assert main(["swarm", "--egos", "0", "--connect", "tcp/127.0.0.1:7447"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "egos" in err and ">= 1" in err, err
