@@ -30,6 +30,9 @@ EXPECTED = {
     "configs/rigs/rig-cave.yaml": "rig",
     "configs/rigs/rig-desktop.yaml": "rig",
     "configs/rigs/rig-three-displays.yaml": "rig",
+    "configs/walk-sim.yaml": "walk node",
+    "configs/walk-desktop.yaml": "walk node",
+    "configs/walk-vr.yaml": "walk node",
 }
 
 

@@ -1,10 +1,12 @@
-"""XR headsets: where the participant's head is, for the renderer's camera.
+"""XR headsets: where the participant's head is, and what their controllers say.
 
-Backends: `sim` (a seated head that looks around) now; OpenXR comes with the nodes that
-render in VR. Third parties add more under the entry-point group `carlaverse.hal.xr`.
+Backends: `sim` (a seated or standing participant, scripted thumbstick; headless, seeded),
+`mouse` (desktop mode: mouse look through pygame, no headset), `openxr` (a real headset through
+pyopenxr: `pip install 'carlaverse[xr]'` and an OpenXR runtime). Third parties add more under
+the entry-point group `carlaverse.hal.xr`.
 
 Frame: x right, y up, z backwards (OpenXR's stage space), metres; orientation a unit
-quaternion (w, x, y, z).
+quaternion (w, x, y, z). `carlaverse.hal.xr.frames` turns it into the world and Unreal frames.
 """
 
 from __future__ import annotations
@@ -14,7 +16,11 @@ import msgspec
 from carlaverse.hal.device import Device, DeviceConfig
 from carlaverse.hal.registry import BackendSpec, Registry
 
-BACKENDS = {"sim": BackendSpec("carlaverse.hal.xr.sim", "SimHeadset")}
+BACKENDS = {
+    "sim": BackendSpec("carlaverse.hal.xr.sim", "SimHeadset"),
+    "mouse": BackendSpec("carlaverse.hal.xr.mouse", "MouseLook", "input"),
+    "openxr": BackendSpec("carlaverse.hal.xr.openxr_headset", "OpenXrHeadset", "xr"),
+}
 
 
 class XrConfig(DeviceConfig):
@@ -28,16 +34,38 @@ class HeadPose(msgspec.Struct, frozen=True):
     tracked: bool = True  # False when tracking is lost; the pose is then the last good one
 
 
+class XrActions(msgspec.Struct, frozen=True):
+    """The locomotion actions bound on the controllers (OpenXR action set `walk`)."""
+
+    move: tuple[float, float] = (0.0, 0.0)  # thumbstick: x right, y forward, each -1..1
+    run: bool = False
+    interact: bool = False
+    hand_yaw: float | None = None  # [rad] the moving hand's yaw in stage space, when tracked
+
+
 class XrHeadset(Device):
-    """Base class: `pose` samples the head now."""
+    """Base class: `pose` samples the head now, `actions` the controllers."""
 
     def pose(self) -> HeadPose:
         now = self.clock()
         position, orientation, tracked = self._pose(now)
         return HeadPose(now, position, orientation, tracked)
 
+    def actions(self) -> XrActions:
+        """The controllers now; a stick outside the unit circle is scaled back onto it."""
+        raw = self._actions(self.clock())
+        x, y = raw.move
+        norm = (x * x + y * y) ** 0.5
+        if norm > 1.0:
+            raw = msgspec.structs.replace(raw, move=(x / norm, y / norm))
+        return raw
+
     def _pose(self, now: float) -> tuple[tuple[float, float, float], tuple, bool]:
         raise NotImplementedError
+
+    def _actions(self, now: float) -> XrActions:
+        """Backend hook; a headset without controllers reports none."""
+        return XrActions()
 
 
 def registry() -> Registry[XrHeadset]:

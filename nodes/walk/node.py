@@ -1,0 +1,213 @@
+"""The walk node as a `carlaverse join` kind: the fabric side of WalkoCARLA.
+
+This process owns the fabric; the control loop (headset, controllers, walking) runs in a child
+process (`loop_process`). The pose publisher reads the loop's shared state at the pose rate and
+sends it as a `pedestrian` (the authority carries walkers into SUMO as persons, so NPC cars
+yield to them at crossings). The node's step hands the loop the clock offset and the spawn
+pose, sends it the walkable lanes of the map when `lanes.snap` is on (fetched from the
+authority in a thread), and publishes the body's joints from the skeleton source (`body:`) on
+`ego/<id>/skeleton`.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import queue
+import threading
+from typing import Any
+
+import msgspec
+import zenoh
+from carlaverse_nodes.walk.body import SkeletonSource, check_body, open_skeleton_source
+from carlaverse_nodes.walk.config import WalkNodeConfig, node_settings
+from carlaverse_nodes.walk.loop_process import WalkLoopSpec, run_walk_loop
+from carlaverse_nodes.walk.shared_state import CONTROL, STATE
+from carlaverse_nodes.walk.walkable import Walkable
+
+from carlaverse import messages as m
+from carlaverse.fabric.node_client import NodeClient, PoseSource
+from carlaverse.hal import XrConfig, xr
+from carlaverse.hal.errors import HalError
+from carlaverse.realtime import stop_loop_process
+from carlaverse.render.live import OwnPoseBlock
+from carlaverse.shm import SharedBlock, block_name
+
+log = logging.getLogger(__name__)
+
+SIM_SCRIPT = [  # the headless walker of `--backend sim`: stroll, look around, jog, stop
+    {"t": 0.0, "axes": {"move_y": 0.0}},
+    {"t": 1.0, "axes": {"move_y": 1.0}},
+    {"t": 8.0, "axes": {"move_y": 1.0, "move_x": 0.0}, "buttons": {"run": True}},
+    {"t": 12.0, "axes": {"move_y": 0.6, "move_x": 0.4}, "buttons": {"run": False}},
+    {"t": 20.0, "axes": {"move_y": 0.0, "move_x": 0.0}},
+]
+
+
+def preflight_headset(cfg: XrConfig) -> None:
+    """Fail here, in one line, when the headset cannot work (no pyopenxr, no runtime)."""
+    try:
+        backend = xr.registry().resolve(cfg.backend)
+        check = getattr(backend, "preflight", None)
+        if check is not None:
+            check()
+    except HalError as exc:
+        raise ValueError(str(exc)) from exc
+
+
+class WalkNode:
+    name = "walk"
+    config_type = WalkNodeConfig
+
+    def __init__(self, config: WalkNodeConfig) -> None:
+        preflight_headset(config.xr)
+        check_body(config.body)
+        self.config = config
+        self.node_settings = node_settings(config)
+        self._ctx = mp.get_context("spawn")
+        self._state: SharedBlock | None = None
+        self._control: SharedBlock | None = None
+        self._process: Any = None
+        self._events: Any = None
+        self._results: Any = None
+        self._stop: Any = None
+        self._joins_seen = 0
+        self._spawn_seq = 0
+        self._lanes_join = 0  # the join whose map was asked for
+        self._walkable_segments: int | None = None
+        self._body: SkeletonSource | None = open_skeleton_source(config.body)
+        self._skeleton_pub: Any = None
+        self._skeleton_seq = 0
+        self._loop_summary: dict[str, Any] = {}
+
+    @classmethod
+    def with_backend(cls, config: WalkNodeConfig, backend: str) -> WalkNodeConfig:
+        """Every device simulated: a standing walker strolls, jogs and looks around."""
+        if backend != "sim":
+            raise ValueError(f"--backend {backend!r}: the walk node can force only 'sim'")
+        headset = XrConfig(backend="sim", options={"posture": "standing", "script": SIM_SCRIPT,
+                                                   "yaw_amplitude_rad": 0.3})  # fmt: skip
+        return msgspec.structs.replace(config, xr=headset, input=None)
+
+    def start(self, session: str, node_id: str, offset: float) -> None:
+        self._state = SharedBlock(block_name(session, node_id, "state"), STATE, create=True)
+        self._control = SharedBlock(block_name(session, node_id, "control"), CONTROL, create=True)
+        self._control.write_fields(clock_offset=offset)
+        self._events, self._results = self._ctx.Queue(), self._ctx.Queue()
+        self._stop = self._ctx.Event()
+        spec = WalkLoopSpec(self.config, self._state.name, self._control.name)
+        self._process = self._ctx.Process(
+            target=run_walk_loop, args=(spec, self._events, self._results, self._stop),
+            name=f"{node_id}-loop", daemon=True,
+        )  # fmt: skip
+        self._process.start()
+
+    def own_pose_block(self) -> OwnPoseBlock:
+        """Where a view reads this walker's head without network delay (the loop's state)."""
+        n = self.node_settings
+        name = block_name(n.session, n.node_id, "state")
+        return OwnPoseBlock(name, STATE, n.actor_kind, n.extent)
+
+    def pose_source(self) -> PoseSource | None:
+        def source(t: float) -> m.Pose | None:
+            if self._state is None:
+                return None
+            s = self._state.read()
+            if not s["running"]:
+                return None
+            f = {name: float(s[name]) for name in ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")}
+            return m.Pose(0, **f)  # the body stands upright; the head's pitch stays local
+
+        return source
+
+    def step(self, client: NodeClient, now: float) -> None:
+        if self._process is None:
+            self.start(client.settings.session, client.node_id, client.clock.offset)
+        assert self._control is not None
+        self._control.write_fields(clock_offset=client.clock.offset)
+        self._place_at_spawn(client)
+        self._follow_lanes(client)
+        self._publish_skeleton(client)
+        while client.impulses:
+            self._events.put(client.impulses.popleft())
+        if not self._process.is_alive():
+            raise ValueError(f"the walk loop stopped: {self._loop_error()}")
+
+    def _loop_error(self) -> str:
+        try:
+            report = self._results.get(timeout=1.0)
+        except queue.Empty:
+            return f"exit code {self._process.exitcode}"
+        self._loop_summary = report
+        return str(report.get("error", f"exit code {self._process.exitcode}"))
+
+    def _place_at_spawn(self, client: NodeClient) -> None:
+        reply = client.join_reply
+        if reply is None or reply.spawn is None or client.joins == self._joins_seen:
+            return
+        self._joins_seen = client.joins
+        if self._spawn_seq:  # a re-join keeps the walker where it is
+            return
+        self._spawn_seq += 1
+        sp = reply.spawn
+        assert self._control is not None
+        self._control.write_fields(
+            spawn_seq=self._spawn_seq, spawn_x=sp.x, spawn_y=sp.y, spawn_yaw=sp.yaw
+        )
+
+    def _follow_lanes(self, client: NodeClient) -> None:
+        """With snapping on, ask each authority joined for its map; the loop gets the lanes."""
+        if not self.config.lanes.snap or client.joins == self._lanes_join:
+            return
+        self._lanes_join = client.joins
+        fetch = threading.Thread(target=self._fetch_lanes, args=(client,), daemon=True)
+        fetch.start()  # the query waits on the authority: never in the step
+
+    def _fetch_lanes(self, client: NodeClient) -> None:
+        raw = client.query("map")
+        if raw is None:
+            log.warning("no map from the authority: the walker is not kept on walkable lanes")
+            return
+        try:
+            walkable = Walkable.from_map(m.MAP.decode(raw), self.config.lanes)
+        except m.MessageError as exc:
+            log.warning("map unusable, the walker is not kept on walkable lanes: %s", exc)
+            return
+        self._walkable_segments = len(walkable)
+        self._events.put(walkable.to_arrays())
+
+    def _publish_skeleton(self, client: NodeClient) -> None:
+        """The body's newest joints, on session time with the node's sequence (`body.py`)."""
+        if self._body is None:
+            return
+        skeleton = self._body.poll()
+        if skeleton is None:
+            return
+        if self._skeleton_pub is None:
+            self._skeleton_pub = client.session.declare_publisher(
+                client.keys.ego(client.node_id, "skeleton"),
+                congestion_control=zenoh.CongestionControl.DROP,
+            )
+        self._skeleton_seq += 1
+        stamped = msgspec.structs.replace(
+            skeleton, seq=self._skeleton_seq, t=skeleton.t + client.clock.offset
+        )
+        self._skeleton_pub.put(m.SKELETON.encode(stamped))
+
+    def close(self) -> None:
+        if self._body is not None:
+            self._body.close()
+            self._body = None
+        if self._skeleton_pub is not None:
+            self._skeleton_pub.undeclare()
+            self._skeleton_pub = None
+        if self._process is None:
+            return
+        summary = stop_loop_process(
+            self._process, self._stop, self._results, (self._state, self._control), "walk loop"
+        )
+        self._loop_summary = summary or self._loop_summary
+
+    def report(self) -> dict[str, Any]:
+        return {"loop": self._loop_summary, "skeletons_sent": self._skeleton_seq,
+                "walkable_segments": self._walkable_segments}  # fmt: skip
