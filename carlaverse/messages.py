@@ -375,6 +375,19 @@ class Extent(msgspec.Struct, frozen=True, array_like=True):
     height: Finite = 1.5  # [m]
 
 
+# Typical extents per actor kind [m], for an actor whose own extent is not known.
+KIND_EXTENTS: dict[str, Extent] = {
+    "car": Extent(4.5, 1.8, 1.5),
+    "van": Extent(5.2, 2.0, 2.3),
+    "truck": Extent(9.0, 2.5, 3.4),
+    "bus": Extent(12.0, 2.55, 3.1),
+    "motorcycle": Extent(2.1, 0.8, 1.5),
+    "bicycle": Extent(1.8, 0.6, 1.7),
+    "pedestrian": Extent(0.5, 0.6, 1.75),
+    "other": Extent(4.0, 1.8, 1.6),
+}
+
+
 class SpawnPoint(msgspec.Struct, frozen=True, array_like=True):
     x: Finite
     y: Finite

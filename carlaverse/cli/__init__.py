@@ -31,6 +31,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "replay": ("carlaverse.cli.replay", "republish an MCAP recording into a live session"),
     "view": ("carlaverse.cli.view", "live Rerun view of a session or a recording"),
     "render": ("carlaverse.cli.render", "render a recorded moment (PNG) or clip (MP4) in 3D"),
+    "analyze": (
+        "carlaverse.cli.analyze",
+        "trajectories and safety measures (TTC, PET) of a recording",
+    ),
     "certs": ("carlaverse.cli.certs", "generate a test CA and certificates for a lab"),
     "roster": ("carlaverse.cli.roster", "session roster tools: generate router ACLs"),
     "swarm": ("carlaverse.cli.swarm", "N synthetic egos in one process: load for the fabric"),

@@ -161,7 +161,8 @@ def _config(args: argparse.Namespace):  # -> RenderConfig
 
 
 def _render_recording(args: argparse.Namespace, stop: threading.Event) -> int:
-    from carlaverse.render.recording import RecordedWorld, first_pose_time, recorded_map
+    from carlaverse.recording.reading import recorded_map
+    from carlaverse.render.recording import RecordedWorld, first_pose_time
     from carlaverse.render.renderer import Renderer
 
     world = RecordedWorld(args.source)

@@ -20,6 +20,7 @@ from mcap.records import Channel, Message
 from mcap.stream_reader import StreamReader
 from zstandard import ZstdError
 
+from carlaverse import messages
 from carlaverse.messages import MessageError
 from carlaverse.recording.encoding import payload_of
 from carlaverse.recording.sink import RecordingError
@@ -119,3 +120,14 @@ def read_metadata(path: str | Path) -> dict[str, dict[str, str]]:
     """Metadata name -> values (the latest record for a name written more than once)."""
     with _open(Path(path)) as f:
         return {m.name: dict(m.metadata) for m in make_reader(f).iter_metadata()}
+
+
+def recorded_map(path: str | Path) -> messages.MapReply | None:
+    """The first map reply kept in the recording, if any."""
+    for sample in iter_samples(path):
+        if sample.key.endswith("/authority/map") and sample.kind == "put":
+            try:
+                return messages.MAP.decode(sample.payload)
+            except MessageError as exc:
+                log.warning("recorded map does not decode: %s", exc)
+    return None

@@ -16,6 +16,7 @@ from dataclasses import dataclass, replace
 
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import (
+    KIND_EXTENTS,
     LIGHT_LEFT_BLINKER,
     LIGHT_RIGHT_BLINKER,
     EgoState,
@@ -25,17 +26,6 @@ from carlaverse.messages import (
     Weather,
 )
 
-# Typical extents per kind [m]: length, width, height.
-KIND_EXTENTS: dict[str, Extent] = {
-    "car": Extent(4.5, 1.8, 1.5),
-    "van": Extent(5.2, 2.0, 2.3),
-    "truck": Extent(9.0, 2.5, 3.4),
-    "bus": Extent(12.0, 2.55, 3.1),
-    "motorcycle": Extent(2.1, 0.8, 1.5),
-    "bicycle": Extent(1.8, 0.6, 1.7),
-    "pedestrian": Extent(0.5, 0.6, 1.75),
-    "other": Extent(4.0, 1.8, 1.6),
-}
 INDICATOR_BITS = {
     "off": 0,
     "left": LIGHT_LEFT_BLINKER,

@@ -26,17 +26,6 @@ log = logging.getLogger(__name__)
 VIEW_ID = "carlaverse-render"  # never a node id of the session: ids are reserved per node
 
 
-def recorded_map(path: str | Path) -> m.MapReply | None:
-    """The first map reply kept in the recording, if any."""
-    for sample in iter_samples(path):
-        if sample.key.endswith("/authority/map") and sample.kind == "put":
-            try:
-                return m.MAP.decode(sample.payload)
-            except m.MessageError as exc:
-                log.warning("recorded map does not decode: %s", exc)
-    return None
-
-
 def first_pose(path: str | Path) -> RecordedSample | None:
     for sample in iter_samples(path):
         if sample.key.endswith("/pose") and sample.kind == "put":

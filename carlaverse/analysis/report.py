@@ -1,0 +1,138 @@
+"""A report a researcher reads first: the map, every trajectory, the conflicts, the numbers.
+
+`report.png` draws the road network the authority served (lanes at their widths, areas),
+NPC paths thin and grey, human paths in colour, and marks the worst TTC instant of each
+critical pair and every crossing conflict below the thresholds. `report.html` shows that
+picture and the summary, the most critical pairs and conflicts as tables.
+"""
+
+from __future__ import annotations
+
+import html
+import math
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")  # files only: no display here or on a lab's analysis server
+import matplotlib.pyplot as plt
+from matplotlib.collections import LineCollection
+
+from carlaverse import messages as m
+from carlaverse.analysis.surrogate import Conflict, PairMeasures, Thresholds
+from carlaverse.analysis.tracks import Tracks
+
+AREA_COLOURS = {"vegetation": "#cfe8c4", "water": "#bcd7f0", "building": "#d9d4cc"}
+MAX_ROWS = 25  # per table: the worst first
+
+
+def draw(
+    path: Path,
+    tracks: Tracks,
+    road_map: m.MapReply | None,
+    pairs: list[PairMeasures],
+    conflicts: list[Conflict],
+    th: Thresholds,
+) -> None:
+    fig, ax = plt.subplots(figsize=(10, 10), dpi=110)
+    if road_map is not None:
+        _draw_map(ax, road_map)
+    _draw_tracks(ax, tracks)
+    _mark_conflicts(ax, tracks, pairs, conflicts, th)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (east) [m]")
+    ax.set_ylabel("y (north) [m]")
+    ax.legend(loc="upper right", fontsize=8)
+    ax.set_title(f"{len(tracks.actors)} road users, {len(conflicts)} crossing conflicts")
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+
+
+def _draw_map(ax: plt.Axes, road_map: m.MapReply) -> None:
+    for area in road_map.areas:
+        if area.kind in AREA_COLOURS and len(area.polygon) >= 3:
+            ax.fill(*zip(*area.polygon, strict=True), color=AREA_COLOURS[area.kind], zorder=0)
+    for lane in road_map.lanes:
+        if len(lane.centerline) >= 2:
+            colour = "#bbbbbb" if lane.kind == "road" else "#e2e2e2"
+            ax.plot(*zip(*lane.centerline, strict=True), color=colour, zorder=1,
+                    linewidth=max(0.5, lane.width * 1.5), solid_capstyle="butt")  # fmt: skip
+
+
+def _draw_tracks(ax: plt.Axes, tracks: Tracks) -> None:
+    npc = [_segments(tracks, i) for i, a in enumerate(tracks.actors) if not a.human]
+    ax.add_collection(LineCollection([s for s in npc if len(s)], colors="#888888",
+                                     linewidths=0.6, zorder=2, label="NPCs"))  # fmt: skip
+    colours = plt.get_cmap("tab10")
+    for n, (i, actor) in enumerate((i, a) for i, a in enumerate(tracks.actors) if a.human):
+        ax.plot(tracks.x[i], tracks.y[i], color=colours(n % 10), linewidth=1.6, zorder=3,
+                label=f"{actor.id} ({actor.kind})")  # fmt: skip
+    ax.autoscale_view()
+
+
+def _segments(tracks: Tracks, i: int) -> list[tuple[float, float]]:
+    keep = tracks.present[i]
+    return list(zip(tracks.x[i, keep], tracks.y[i, keep], strict=True))
+
+
+def _mark_conflicts(ax, tracks: Tracks, pairs, conflicts, th: Thresholds) -> None:
+    critical = [p for p in pairs if p.min_ttc_s < th.ttc_s and not math.isnan(p.t_min_ttc)]
+    for p in critical:
+        k = int(abs(tracks.t - p.t_min_ttc).argmin())
+        i = tracks.index(p.a)
+        ax.scatter(tracks.x[i, k], tracks.y[i, k], marker="o", s=60, facecolors="none",
+                   edgecolors="#d62728", zorder=4)  # fmt: skip
+    close = [c for c in conflicts if c.pet_s < th.ttc_s]
+    if close:
+        ax.scatter([c.x for c in close], [c.y for c in close], marker="x", s=70,
+                   color="#d62728", zorder=5, label=f"PET < {th.ttc_s:g} s")  # fmt: skip
+    if critical:
+        ax.scatter([], [], marker="o", facecolors="none", edgecolors="#d62728",
+                   label=f"min TTC < {th.ttc_s:g} s")  # fmt: skip
+
+
+def write_html(path: Path, image: str, summary: dict, pairs, conflicts, source: str) -> None:
+    worst_pairs = sorted(pairs, key=lambda p: (p.min_ttc_s, p.min_gap_m))[:MAX_ROWS]
+    worst_conflicts = sorted(conflicts, key=lambda c: c.pet_s)[:MAX_ROWS]
+    body = [
+        f"<h1>Session analysis</h1><p>{html.escape(source)}</p>",
+        _table(["measure", "value"], [[k, _fmt(v)] for k, v in summary.items()]),
+        f'<img src="{html.escape(image)}" alt="map, trajectories and conflicts" width="800">',
+        "<h2>Pairs, lowest TTC first</h2>",
+        _table(["a", "b", "min TTC [s]", "time below [s]", "min gap [m]", "max DRAC [m/s²]"],
+               [[p.a, p.b, _fmt(p.min_ttc_s), _fmt(p.ttc_below_s), _fmt(p.min_gap_m),
+                 _fmt(p.max_drac_mps2)] for p in worst_pairs]),
+        "<h2>Crossing conflicts, lowest PET first</h2>",
+        _table(["first", "second", "x [m]", "y [m]", "PET [s]", "angle [°]"],
+               [[c.first, c.second, _fmt(c.x), _fmt(c.y), _fmt(c.pet_s), _fmt(c.angle_deg)]
+                for c in worst_conflicts]),
+    ]  # fmt: skip
+    style = "body{font-family:sans-serif;margin:2em}td,th{padding:2px 10px;text-align:left}"
+    path.write_text(
+        f"<!doctype html><html><head><meta charset='utf-8'><title>CARLAverse analysis</title>"
+        f"<style>{style}</style></head><body>{''.join(body)}</body></html>",
+        encoding="utf-8",
+    )
+
+
+def _table(header: list[str], rows: list[list]) -> str:
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    cells = "".join(
+        "<tr>" + "".join(f"<td>{html.escape(str(c))}</td>" for c in row) + "</tr>" for row in rows
+    )
+    return f"<table><tr>{head}</tr>{cells}</table>"
+
+
+def _fmt(value: object) -> str:
+    if isinstance(value, float):
+        return (
+            "—"
+            if not math.isfinite(value)
+            else f"{value:.3g}"
+            if abs(value) < 100
+            else f"{value:.1f}"
+        )
+    if isinstance(value, list):
+        return ", ".join(map(str, value))
+    return "—" if value is None else str(value)

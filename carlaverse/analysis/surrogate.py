@@ -1,0 +1,207 @@
+"""Surrogate safety measures for every pair of road users, humans and NPCs alike.
+
+- TTC, time to collision: at each instant, how long until the two footprints touch if both
+  keep their velocity and heading (exact for rectangles, `footprints.time_to_contact`).
+  Reported: the minimum, and the time exposed below the threshold (the TET of Minderhoud and
+  Bovy, 2001). TTCs beyond `ttc_horizon_s` are not an encounter.
+- Gap: the smallest distance between the footprints (0 = they touched).
+- DRAC, deceleration rate to avoid a crash: closing speed along the line of centres squared
+  over twice the gap (Almqvist et al., 1991); for a follower that is dv^2 / 2s.
+- PET, post-encroachment time, at every point where the two centre paths cross (at an angle
+  of at least `min_crossing_deg`; paths that share a lane are following, not crossing): the
+  time from the first actor's footprint leaving the point to the second's reaching it
+  (Allen et al., 1978). 0 means both covered the point at once.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from carlaverse.analysis import footprints
+from carlaverse.analysis.tracks import Tracks
+
+
+@dataclass(frozen=True, slots=True)
+class Thresholds:
+    ttc_s: float = 1.5  # [s] time below this is counted as exposed
+    ttc_horizon_s: float = 10.0  # [s] a longer TTC is no encounter
+    near_m: float = 30.0  # [m] pairs whose centres never come closer are not measured
+    pet_max_s: float = 10.0  # [s] crossings further apart in time are no conflict
+    min_crossing_deg: float = 15.0  # [deg] shallower crossings are following
+
+
+@dataclass(frozen=True, slots=True)
+class PairMeasures:
+    a: str
+    b: str
+    min_ttc_s: float  # inf if never on a collision course within the horizon
+    t_min_ttc: float  # [s] session time (nan without a TTC)
+    ttc_below_s: float  # [s] time with TTC below the threshold
+    min_gap_m: float
+    t_min_gap: float
+    max_drac_mps2: float  # 0 if never closing
+    t_max_drac: float
+
+
+@dataclass(frozen=True, slots=True)
+class Conflict:
+    first: str  # reaches the crossing point first
+    second: str
+    x: float  # [m] the crossing point
+    y: float
+    t_first_leaves: float  # [s] session time the first's footprint clears the point
+    t_second_arrives: float  # [s] session time the second's footprint reaches it
+    pet_s: float
+    angle_deg: float  # between the paths at the point
+
+
+def measure(
+    tracks: Tracks, th: Thresholds = Thresholds()
+) -> tuple[list[PairMeasures], list[Conflict]]:
+    """Measures for every pair that comes within `th.near_m`, and every crossing conflict."""
+    pairs, conflicts = [], []
+    for i, j in near_pairs(tracks, th.near_m):
+        pairs.append(pair_measures(tracks, i, j, th))
+        conflicts.extend(crossing_conflicts(tracks, i, j, th))
+    return pairs, conflicts
+
+
+def near_pairs(tracks: Tracks, near_m: float) -> list[tuple[int, int]]:
+    out = []
+    for i in range(len(tracks.actors) - 1):
+        d = np.hypot(tracks.x[i + 1 :] - tracks.x[i], tracks.y[i + 1 :] - tracks.y[i])
+        with np.errstate(invalid="ignore"):
+            close = np.nanmin(np.where(np.isnan(d), np.inf, d), axis=1) <= near_m
+        out.extend((i, i + 1 + k) for k in np.flatnonzero(close))
+    return out
+
+
+def pair_measures(tracks: Tracks, i: int, j: int, th: Thresholds) -> PairMeasures:
+    both = tracks.present[i] & tracks.present[j]
+    t = tracks.t[both]
+    a, b = tracks.actors[i], tracks.actors[j]
+    ca, cb = _column(tracks, i, both), _column(tracks, j, both)
+    offset, rel_v = cb["p"] - ca["p"], cb["v"] - ca["v"]
+    ttc = footprints.time_to_contact(
+        offset, rel_v, ca["yaw"], cb["yaw"], (a.length, a.width), (b.length, b.width)
+    )
+    ttc[ttc > th.ttc_horizon_s] = np.inf
+    gap = footprints.gap(
+        footprints.corners(ca["p"], ca["yaw"], a.length, a.width),
+        footprints.corners(cb["p"], cb["yaw"], b.length, b.width),
+    )
+    drac = _drac(offset, rel_v, gap)
+    dt = float(np.median(np.diff(tracks.t))) if len(tracks.t) > 1 else 0.0
+    k_ttc, k_gap, k_drac = np.argmin(ttc), np.argmin(gap), np.argmax(drac)
+    return PairMeasures(
+        a.id, b.id,
+        float(ttc[k_ttc]), float(t[k_ttc]) if np.isfinite(ttc[k_ttc]) else math.nan,
+        float(np.count_nonzero(ttc < th.ttc_s) * dt),
+        float(gap[k_gap]), float(t[k_gap]),
+        float(drac[k_drac]), float(t[k_drac]) if drac[k_drac] > 0 else math.nan,
+    )  # fmt: skip
+
+
+def _column(tracks: Tracks, i: int, mask: np.ndarray) -> dict[str, np.ndarray]:
+    return {
+        "p": np.stack([tracks.x[i, mask], tracks.y[i, mask]], -1),
+        "v": np.stack([tracks.vx[i, mask], tracks.vy[i, mask]], -1),
+        "yaw": tracks.yaw[i, mask],
+    }
+
+
+def _drac(offset: np.ndarray, rel_v: np.ndarray, gap: np.ndarray) -> np.ndarray:
+    """Closing speed along the line of centres squared over twice the gap; 0 when opening
+    or touching (a contact is in the gap, not here)."""
+    distance = np.maximum(np.hypot(offset[:, 0], offset[:, 1]), 1e-9)
+    closing = -np.sum(offset * rel_v, axis=-1) / distance
+    ok = (closing > 0) & (gap > 0)
+    return np.where(ok, closing**2 / (2 * np.where(ok, gap, 1.0)), 0.0)
+
+
+def crossing_conflicts(tracks: Tracks, i: int, j: int, th: Thresholds) -> list[Conflict]:
+    """Every point where the centre paths of i and j cross within `pet_max_s` of each other."""
+    pa, pb = _path(tracks, i), _path(tracks, j)
+    dt = float(np.median(np.diff(tracks.t))) if len(tracks.t) > 1 else 0.0
+    if dt <= 0:
+        return []
+    window = int(np.ceil(th.pet_max_s / dt))
+    hits = [_crossings(pa, pb, shift, th.min_crossing_deg) for shift in range(-window, window + 1)]
+    out = []
+    for k, m, ua, ub, angle in (h for group in hits for h in group):
+        conflict = _conflict(tracks, (i, pa, k, ua), (j, pb, m, ub), angle)
+        if conflict is not None and conflict.pet_s <= th.pet_max_s:
+            out.append(conflict)
+    return out
+
+
+def _path(tracks: Tracks, i: int) -> dict[str, np.ndarray]:
+    points = np.stack([tracks.x[i], tracks.y[i]], -1)
+    steps = np.diff(points, axis=0)
+    lengths = np.nan_to_num(np.hypot(steps[:, 0], steps[:, 1]))
+    return {"points": points, "steps": steps, "cum": np.concatenate([[0.0], np.cumsum(lengths)])}
+
+
+def _crossings(pa: dict, pb: dict, shift: int, min_deg: float) -> list[tuple]:
+    """Segment k of a against segment k + shift of b: (k, m, u_a, u_b, angle) where they cross."""
+    n = len(pa["steps"])
+    k = np.arange(max(0, -shift), min(n, n - shift))
+    if len(k) == 0:
+        return []
+    m = k + shift
+    r, s = pa["steps"][k], pb["steps"][m]
+    q = pb["points"][m] - pa["points"][k]
+    denom = _cross(r, s)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ua, ub = _cross(q, s) / denom, _cross(q, r) / denom
+        sine = np.abs(denom) / (np.hypot(*r.T) * np.hypot(*s.T))
+        hit = (
+            (ua >= 0) & (ua < 1) & (ub >= 0) & (ub < 1) & (sine >= math.sin(math.radians(min_deg)))
+        )
+    idx = np.flatnonzero(hit)
+    angles = np.degrees(
+        np.arccos(
+            np.clip(_dot(r[idx], s[idx]) / (np.hypot(*r[idx].T) * np.hypot(*s[idx].T)), -1, 1)
+        )
+    )
+    return list(zip(k[idx], m[idx], ua[idx], ub[idx], angles, strict=True))
+
+
+def _conflict(tracks: Tracks, a: tuple, b: tuple, angle: float) -> Conflict | None:
+    """PET at the crossing of segment k of a with segment m of b (u: fractions along them)."""
+    (i, pa, k, ua), (j, pb, m, ub) = a, b
+    point = pa["points"][k] + ua * pa["steps"][k]
+    passes = []
+    for idx, path, seg, u in ((i, pa, k, ua), (j, pb, m, ub)):
+        at = path["cum"][seg] + u * (path["cum"][seg + 1] - path["cum"][seg])
+        half = 0.5 * tracks.actors[idx].length
+        times = [_time_at(path["cum"], tracks.t, s) for s in (at - half, at, at + half)]
+        passes.append((times[1], idx, times[0], times[2]))
+    (_, first, _, first_leaves), (_, second, second_arrives, _) = sorted(passes)
+    if math.isnan(first_leaves) or math.isnan(second_arrives):
+        return None  # the recording ends while one of them is still on the point
+    return Conflict(
+        tracks.actors[first].id, tracks.actors[second].id, float(point[0]), float(point[1]),
+        first_leaves, second_arrives, max(0.0, second_arrives - first_leaves), float(angle),
+    )  # fmt: skip
+
+
+def _time_at(cum: np.ndarray, t: np.ndarray, s: float) -> float:
+    """First time the arc length along the path reaches `s` (nan if it never does)."""
+    idx = int(np.searchsorted(cum, s, side="left"))
+    if idx == 0 or idx >= len(cum):  # on the point before the recording began, or after it ended
+        return math.nan
+    span = cum[idx] - cum[idx - 1]
+    frac = (s - cum[idx - 1]) / span if span > 0 else 0.0
+    return float(t[idx - 1] + frac * (t[idx] - t[idx - 1]))
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+
+
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.sum(a * b, axis=-1)

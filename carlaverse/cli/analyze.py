@@ -1,0 +1,69 @@
+"""`carlaverse analyze FILE.mcap --out DIR`: trajectories and surrogate safety measures.
+
+Writes into DIR:
+
+    trajectories.parquet/.csv   every road user (humans and NPCs) at --rate Hz
+    events.parquet/.csv         every world event (spawns, leaves, contacts, triggers)
+    pairs.parquet/.csv          per pair that came within --near m: min TTC, time below the
+                                TTC threshold, min gap, max DRAC
+    conflicts.parquet/.csv      every crossing of two paths with its PET
+    summary.json                the headline numbers
+    report.png, report.html     the map, the trajectories, the conflicts and the tables
+
+The measures and their definitions are in `carlaverse.analysis.surrogate`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+from carlaverse.cli.common import fail
+
+NAME = "analyze"
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.description = (
+        "Analyse a recording: per-participant trajectories at a fixed rate (Parquet and CSV), "
+        "the events, surrogate safety measures for every pair of road users (TTC, PET, "
+        "minimum gap, DRAC) and a report with the map, trajectories and conflicts."
+    )
+    parser.add_argument("recording", type=Path, metavar="FILE.mcap", help="a session recording")
+    parser.add_argument("--out", type=Path, required=True, metavar="DIR", help="output folder")
+    parser.add_argument("--rate", type=float, default=10.0, metavar="HZ",
+                        help="trajectory sample rate [Hz] (default 10)")  # fmt: skip
+    parser.add_argument("--ttc", type=float, default=1.5, metavar="S",
+                        help="TTC/PET threshold [s] counted as critical (default 1.5)")  # fmt: skip
+    parser.add_argument("--near", type=float, default=30.0, metavar="M",
+                        help="measure pairs coming within this [m] (default 30)")  # fmt: skip
+    parser.add_argument("--pet-max", type=float, default=10.0, metavar="S",
+                        help="longest PET counted as a conflict [s] (default 10)")  # fmt: skip
+
+
+def run(args: argparse.Namespace) -> int:
+    from carlaverse.analysis.run import AnalysisError, analyze
+    from carlaverse.analysis.surrogate import Thresholds
+
+    for name in ("rate", "ttc", "near", "pet_max"):
+        if not getattr(args, name) > 0:
+            return fail(NAME, f"--{name.replace('_', '-')} must be > 0, got {getattr(args, name)}")
+    if not args.recording.is_file():
+        return fail(NAME, f"{args.recording}: no such recording")
+    th = Thresholds(ttc_s=args.ttc, near_m=args.near, pet_max_s=args.pet_max)
+    started = time.monotonic()
+    try:
+        result = analyze(args.recording, args.out, args.rate, th, progress=_progress)
+    except AnalysisError as exc:
+        return fail(NAME, str(exc), 1)
+    print(json.dumps(result, indent=2), flush=True)
+    print(f"analysed {args.recording} in {time.monotonic() - started:.1f} s; "
+          f"open {args.out / 'report.html'}", file=sys.stderr)  # fmt: skip
+    return 0
+
+
+def _progress(message: str) -> None:
+    print(f"analyze: {message}", file=sys.stderr, flush=True)

@@ -1,0 +1,135 @@
+"""Surrogate safety measures on constructed encounters whose answers are worked out by hand."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from carlaverse.analysis import footprints
+from carlaverse.analysis.surrogate import Thresholds, crossing_conflicts, measure, pair_measures
+from carlaverse.analysis.tracks import Actor, Tracks
+
+RATE_HZ = 10.0
+CAR = (4.5, 1.8)  # [m] length, width
+BIKE = (1.8, 0.6)
+
+
+def straight(t: np.ndarray, x0: float, y0: float, heading: float, speed: float) -> np.ndarray:
+    """(5, T): x, y, yaw, vx, vy of a constant-velocity road user."""
+    vx, vy = speed * math.cos(heading), speed * math.sin(heading)
+    return np.stack([x0 + vx * t, y0 + vy * t, np.full_like(t, heading),
+                     np.full_like(t, vx), np.full_like(t, vy)])  # fmt: skip
+
+
+def tracks(duration_s: float, *users: tuple[str, tuple, np.ndarray]) -> Tracks:
+    t = np.arange(round(duration_s * RATE_HZ) + 1) / RATE_HZ
+    actors = [
+        Actor(name, "car" if size == CAR else "bicycle", True, *size) for name, size, _ in users
+    ]
+    motion = np.stack([path(t) for _, _, path in users])
+    return Tracks(t, actors, *(motion[:, c] for c in range(5)))
+
+
+def test_head_on_ttc_is_the_bumper_gap_over_the_closing_speed() -> None:
+    # 50 m apart, 10 m/s each towards the other: contact when the gap of 50 - 4.5 m closes at
+    # 20 m/s, TTC(t) = 2.275 - t. Over 2 s the minimum is 0.275 s at t = 2; TTC < 1.5 s from
+    # t > 0.775 s: the 13 samples 0.8 ... 2.0 at 10 Hz, 1.3 s.
+    tr = tracks(2.0, ("a", CAR, lambda t: straight(t, 0, 0, 0.0, 10)),
+                ("b", CAR, lambda t: straight(t, 50, 0, math.pi, 10)))  # fmt: skip
+    p = pair_measures(tr, 0, 1, Thresholds())
+    assert p.min_ttc_s == pytest.approx(0.275, abs=1e-9)
+    assert p.t_min_ttc == pytest.approx(2.0)
+    assert p.ttc_below_s == pytest.approx(1.3, abs=1e-9)
+    assert p.min_gap_m == pytest.approx(50 - 4.5 - 40, abs=1e-9)
+    # closing 20 m/s over a 5.5 m gap: 400 / 11
+    assert p.max_drac_mps2 == pytest.approx(400 / 11, rel=1e-9)
+
+
+def test_car_following_ttc_and_drac() -> None:
+    # Leader's rear 20 - 2.25 m, follower's front 2.25 m: gap 15.5 m at t = 0, closing 5 m/s.
+    # At t = 1 s the gap is 10.5 m: TTC 2.1 s, DRAC = 5^2 / (2 * 10.5).
+    tr = tracks(1.0, ("follower", CAR, lambda t: straight(t, 0, 0, 0.0, 15)),
+                ("leader", CAR, lambda t: straight(t, 20, 0, 0.0, 10)))  # fmt: skip
+    p = pair_measures(tr, 0, 1, Thresholds())
+    assert p.min_ttc_s == pytest.approx(2.1, abs=1e-9)
+    assert p.min_gap_m == pytest.approx(10.5, abs=1e-9)
+    assert p.max_drac_mps2 == pytest.approx(25 / 21, rel=1e-9)
+    assert p.ttc_below_s == 0.0
+
+
+def test_perpendicular_approach_ttc_uses_the_rotated_footprint() -> None:
+    # a from (-20, 0) east, b from (0, -20) north, both 10 m/s: b's long side faces a's nose.
+    # On x the reach is a's half length + b's half width, 2.25 + 0.9 = 3.15 m, likewise on y:
+    # TTC(0) = (20 - 3.15) / 10 = 1.685 s.
+    tr = tracks(0.0, ("a", CAR, lambda t: straight(t, -20, 0, 0.0, 10)),
+                ("b", CAR, lambda t: straight(t, 0, -20, math.pi / 2, 10)))  # fmt: skip
+    assert pair_measures(tr, 0, 1, Thresholds()).min_ttc_s == pytest.approx(1.685, abs=1e-9)
+
+
+def test_side_by_side_at_the_same_speed_never_collides() -> None:
+    tr = tracks(3.0, ("a", CAR, lambda t: straight(t, 0, 0, 0.0, 12)),
+                ("b", CAR, lambda t: straight(t, 0, 3.5, 0.0, 12)))  # fmt: skip
+    p = pair_measures(tr, 0, 1, Thresholds())
+    assert math.isinf(p.min_ttc_s) and math.isnan(p.t_min_ttc)
+    assert p.max_drac_mps2 == 0.0
+    assert p.min_gap_m == pytest.approx(3.5 - 1.8, abs=1e-9)
+
+
+def test_gap_between_a_box_and_a_turned_square() -> None:
+    # 4 x 2 box at the origin; a 2 x 2 square turned 45 degrees at (5, 0): its near corner is
+    # at x = 5 - sqrt(2), the box's front at x = 2.
+    a = footprints.corners(np.array([0.0, 0.0]), np.array(0.0), 4.0, 2.0)
+    b = footprints.corners(np.array([5.0, 0.0]), np.array(math.pi / 4), 2.0, 2.0)
+    assert footprints.gap(a, b) == pytest.approx(3 - math.sqrt(2), abs=1e-12)
+    inside = footprints.corners(np.array([2.5, 0.5]), np.array(0.3), 2.0, 2.0)
+    assert footprints.gap(a, inside) == 0.0
+
+
+def test_pet_at_a_perpendicular_crossing() -> None:
+    # The car passes the origin at t = 2 s (10 m/s east), the bike at t = 3 s (5 m/s north).
+    # The car's footprint clears the point 2.25 m / 10 m/s after, the bike's reaches it
+    # 0.9 m / 5 m/s before: PET = (3 - 0.18) - (2 + 0.225) = 0.595 s.
+    tr = tracks(6.0, ("car", CAR, lambda t: straight(t, -20, 0, 0.0, 10)),
+                ("bike", BIKE, lambda t: straight(t, 0, -15, math.pi / 2, 5)))  # fmt: skip
+    (c,) = crossing_conflicts(tr, 0, 1, Thresholds())
+    assert (c.first, c.second) == ("car", "bike")
+    assert (c.x, c.y) == (pytest.approx(0.0, abs=1e-9), pytest.approx(0.0, abs=1e-9))
+    assert c.t_first_leaves == pytest.approx(2.225, abs=1e-9)
+    assert c.t_second_arrives == pytest.approx(2.82, abs=1e-9)
+    assert c.pet_s == pytest.approx(0.595, abs=1e-9)
+    assert c.angle_deg == pytest.approx(90.0)
+
+
+def test_pet_at_an_oblique_crossing_and_the_order_of_arrival() -> None:
+    # Paths crossing at 60 degrees at (10, 0): the bike (first, 4 m/s) passes at t = 2.5 s,
+    # the car (8 m/s) at t = 4 s. PET = (4 - 2.25/8) - (2.5 + 0.9/4) = 0.99375 s.
+    heading = math.radians(60)
+    x0, y0 = 10 - 10 * math.cos(heading), -10 * math.sin(heading)  # 10 m before the point
+    tr = tracks(8.0, ("car", CAR, lambda t: straight(t, -22, 0, 0.0, 8)),
+                ("bike", BIKE, lambda t: straight(t, x0, y0, heading, 4)))  # fmt: skip
+    (c,) = crossing_conflicts(tr, 0, 1, Thresholds())
+    assert (c.first, c.second) == ("bike", "car")
+    assert (c.x, c.y) == (pytest.approx(10.0, abs=1e-9), pytest.approx(0.0, abs=1e-9))
+    assert c.pet_s == pytest.approx(4 - 2.25 / 8 - 2.5 - 0.9 / 4, abs=1e-9)
+    assert c.angle_deg == pytest.approx(60.0)
+
+
+def test_following_on_one_lane_is_no_crossing_and_far_pairs_are_not_measured() -> None:
+    tr = tracks(4.0, ("a", CAR, lambda t: straight(t, 0, 0, 0.0, 10)),
+                ("b", CAR, lambda t: straight(t, 15, 0, 0.0, 10)),
+                ("far", CAR, lambda t: straight(t, 0, 500, 0.0, 10)))  # fmt: skip
+    pairs, conflicts = measure(tr, Thresholds(near_m=30))
+    assert [(p.a, p.b) for p in pairs] == [("a", "b")]
+    assert conflicts == []
+
+
+def test_absent_samples_are_left_out_of_the_pair() -> None:
+    # b exists only for the first second; the pair is measured over that second alone.
+    tr = tracks(3.0, ("a", CAR, lambda t: straight(t, 0, 0, 0.0, 10)),
+                ("b", CAR, lambda t: straight(t, 40, 0, math.pi, 10)))  # fmt: skip
+    for c in (tr.x, tr.y, tr.yaw, tr.vx, tr.vy):
+        c[1, tr.t > 1.0] = np.nan
+    p = pair_measures(tr, 0, 1, Thresholds())
+    assert p.min_ttc_s == pytest.approx((40 - 4.5) / 20 - 1.0, abs=1e-9)
