@@ -22,6 +22,7 @@ class MemoryOutbox:
     weathers: list[m.Weather] = field(default_factory=list)
     events: list[m.WorldEvent] = field(default_factory=list)
     impulses: list[tuple[str, m.Impulse]] = field(default_factory=list)
+    audio_scenes: list[tuple[str, m.AudioScene]] = field(default_factory=list)
     bytes_sent: int = 0
     _seq: itertools.count = field(default_factory=lambda: itertools.count(1))
 
@@ -42,6 +43,9 @@ class MemoryOutbox:
 
     def impulse(self, node_id: str, impulse: m.Impulse) -> None:
         self._sent(m.IMPULSE.encode(impulse), self.impulses, (node_id, impulse))
+
+    def audio(self, node_id: str, scene: m.AudioScene) -> None:
+        self._sent(m.AUDIO_SCENE.encode(scene), self.audio_scenes, (node_id, scene))
 
     def _sent(self, payload: bytes, into: list, item: object) -> None:
         self.bytes_sent += len(payload)

@@ -1,8 +1,8 @@
 """The authority's outbox on Zenoh: one publisher per world channel, right delivery class each.
 
-NPC batches may drop under congestion (the next batch supersedes them); lights, weather,
-events and impulses must arrive, so they are reliable with congestion control BLOCK and carry
-sequence numbers for idempotent receivers (docs/architecture.md §4).
+NPC batches and audio scenes may drop under congestion (the next one supersedes them);
+lights, weather, events and impulses must arrive, so they are reliable with congestion control
+BLOCK and carry sequence numbers for idempotent receivers (docs/architecture.md §4).
 
 Every put carries a timestamp from the authority's own session: its id is the session's zid,
 which the join reply names, so nodes can tell the authority's world messages from anyone
@@ -69,3 +69,13 @@ class ZenohOutbox:
             timestamp=self._session.new_timestamp(),
         )
         self._count("impulse")
+
+    def audio(self, node_id: str, scene: m.AudioScene) -> None:
+        # Best effort like NPC batches: the next scene, one audio period later, supersedes it.
+        self._session.put(
+            self._keys.audio(node_id),
+            m.AUDIO_SCENE.encode(scene),
+            congestion_control=zenoh.CongestionControl.DROP,
+            timestamp=self._session.new_timestamp(),
+        )
+        self._count("audio")

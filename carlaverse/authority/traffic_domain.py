@@ -5,7 +5,8 @@
 1. dead-reckon every embodied ego to t and carry it in the engine (so NPCs react to it);
 2. step the engine up to t (one step normally; a few after a stall, then the lag is dropped);
 3. run the collision matrix over egos and NPCs: contact events, impulses, hit NPCs stop;
-4. publish the NPC batch (at `npc_rate_hz`), lights and weather (on change and at 1 Hz).
+4. publish the NPC batch (at `npc_rate_hz`), lights and weather (on change and at 1 Hz);
+5. send each ego what it can hear on `audio/<id>` (at the scenario's `audio.rate_hz`).
 
 Everything that talks to the engine runs on the tick's thread. The snapshot, map and scenario
 getters may be called from query threads: they only read immutable messages, swapped in
@@ -24,6 +25,7 @@ from carlaverse.authority.actors import build_actors, egos_at
 from carlaverse.authority.collisions import CollisionMatrix, TickContacts
 from carlaverse.authority.domain import EgoTrack, Outbox
 from carlaverse.authority.lights import LightPublisher, apply_overrides
+from carlaverse.authority.sound_publisher import SoundPublisher
 from carlaverse.authority.weather import WeatherPublisher
 from carlaverse.config import ConfigError
 from carlaverse.messages import (
@@ -75,6 +77,7 @@ class TrafficDomain:
         self._lights = LightPublisher(engine, spec.session.status_rate_hz)
         self._weather = WeatherPublisher(spec.weather, spec.session.status_rate_hz)
         self._collisions = CollisionMatrix(spec.collisions.npc_npc)
+        self._sound = SoundPublisher(spec.audio, map_reply.areas if map_reply else [])
         self._offset_s: float | None = None  # session time minus engine time
         self._next_npc_t = -math.inf
         self._removals: dict[str, float] = {}  # hit NPC id -> session time it leaves
@@ -112,6 +115,7 @@ class TrafficDomain:
         self._publish_contacts(t, self._collisions.step(t, actors, out.next_seq), out)
         self._remove_hit_npcs(t)
         self._publish_world(t, out)
+        self._sound.tick(t, now, self._engine.npcs(), self._weather.latest, out)
 
     def snapshot_parts(self) -> tuple[NpcBatch | None, LightsState | None, Weather | None]:
         return self._npc_batch, self._lights.current, self._weather.latest

@@ -19,7 +19,8 @@ What each role may do (`S` = `carlaverse/<session>`), as verified against zenoh 
 | observer/recorder| nothing more: read only                                      |
 | other sites      | the union of the above for the nodes not at this site        |
 
-Egress (what the router may deliver): to a node, puts on `S/**`, replies from
+Egress (what the router may deliver): to a node, puts on `S/**` — but to a participant (not
+an observer/recorder) `S/audio/**` only as its own `S/audio/<id>` — replies from
 `S/authority/**`, liveliness tokens and the declarations a peer-mode node needs for
 write-side filtering; queries only to the authority. To another site's router, every message
 on `S/**`: it applies its own rules to its own nodes. Nothing outside `S/**` passes.
@@ -37,7 +38,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from carlaverse.keys import Keys
+from carlaverse.keys import KEY_AREAS, Keys
 from carlaverse.security.roster import (
     AUTHORITY_KIND,
     READ_ONLY_KINDS,
@@ -88,7 +89,7 @@ def node_grants(keys: Keys, node: RosterNode) -> list[Grant]:
         Grant("presence", ("liveliness_token",), (keys.node(node.id),), "ingress"),
         Grant("read", READ_MESSAGES, everything, "ingress"),
         Grant("ask", ("query",), (keys.subtree("authority"),), "ingress"),
-        Grant("receive", ("put", "delete"), everything, "egress"),
+        Grant("receive", ("put", "delete"), receivable(keys, node), "egress"),
         Grant("answers", ("reply",), (keys.subtree("authority"),), "egress"),
         Grant("presence-of-others", ("liveliness_token",), (keys.subtree("node"),), "egress"),
         Grant("declarations", DECLARATIONS, everything, "egress"),
@@ -98,6 +99,16 @@ def node_grants(keys: Keys, node: RosterNode) -> list[Grant]:
     elif node.kind not in READ_ONLY_KINDS:
         grants.append(Grant("ego", ("put", "delete"), (keys.subtree("ego", node.id),), "ingress"))
     return grants
+
+
+def receivable(keys: Keys, node: RosterNode) -> tuple[str, ...]:
+    """What the router may deliver to a node: all of the session, except that a participant
+    gets only its own `audio/<id>` (what it can hear is private to it); read-only kinds
+    (observers, recorders) keep all of it, so a recording can be rendered for any listener."""
+    if node.kind in READ_ONLY_KINDS | {AUTHORITY_KIND}:
+        return (keys.everything,)
+    areas = tuple(keys.subtree(area) for area in KEY_AREAS if area != "audio")
+    return (*areas, keys.audio(node.id))
 
 
 def authority_grants(keys: Keys) -> list[Grant]:

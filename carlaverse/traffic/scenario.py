@@ -26,6 +26,7 @@ import msgspec
 
 from carlaverse.config import StrictStruct, convert, parse_yaml, read_text, resolve_path
 from carlaverse.messages import ACTOR_KINDS
+from carlaverse.traffic.soundscape import AudioSpec, check_siren_vehicles
 
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
 Positive = Annotated[float, msgspec.Meta(gt=0)]
@@ -317,6 +318,10 @@ class ScenarioSpec(StrictStruct, kw_only=True):
     session: Session = Session()
     collisions: CollisionSpec = CollisionSpec()
     grades: Grades = Grades()
+    audio: AudioSpec = AudioSpec()
+
+    def __post_init__(self) -> None:
+        check_siren_vehicles(self.audio, [v.id for v in self.traffic.scripted_vehicles])
 
     @property
     def step_length_s(self) -> float:

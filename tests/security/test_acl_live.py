@@ -38,7 +38,8 @@ class Site:
         lab.write()
         self.routers = [lab.router("a"), lab.router("b")]
         self.s = {node_id: lab.node(node_id, site) for node_id, _, site in NODES}
-        self.inbox = {name: Inbox() for name in ("a-obs", "b-obs", "a-drive", "authority")}
+        listening = ("a-obs", "b-obs", "a-drive", "a-walk", "b-bike", "authority")
+        self.inbox = {name: Inbox() for name in listening}
         for name, inbox in self.inbox.items():
             self.s[name].declare_subscriber(K.everything, inbox)
         auth = self.s["authority"]
@@ -119,6 +120,28 @@ def test_the_authority_can_write_world_and_impulses(site: Site) -> None:
         wait_until(lambda i=inbox: b"npc-batch" in i.payloads(K.world("npc")), 10, name)
     wait_until(lambda: b"impulse" in site.inbox["a-drive"].payloads(), 10, "impulse")
     wait_until(lambda: b"audio" in site.inbox["b-obs"].payloads(), 10, "audio at b")
+
+
+def test_a_participant_receives_only_its_own_audio(site: Site) -> None:
+    """Each participant's round sends the others' scenes first, then its own: once its own
+    has arrived (same publisher session, same priority, in order), a leaked one would have."""
+    auth, participants = site.s["authority"], ("a-drive", "a-walk", "b-bike")
+
+    def scenes(node: str) -> set[str]:
+        """Audio keys `node` received from the authority (not its own local forgeries)."""
+        return {k for k, p in site.inbox[node].items if p.startswith(b"scene-")}
+
+    for me in participants:
+        for other in participants:
+            if other != me:
+                auth.put(K.audio(other), f"scene-{other}-round-{me}".encode())
+        auth.put(K.audio(me), f"scene-{me}-round-{me}".encode())
+        wait_until(lambda me=me: K.audio(me) in scenes(me), 10, f"own scene at {me}")
+    for me in participants:
+        assert scenes(me) == {K.audio(me)}, me
+    every = {K.audio(n) for n in participants}
+    for observer in ("a-obs", "b-obs"):  # read-only kinds see every scene (recordings)
+        wait_until(lambda o=observer: every <= scenes(o), 10, f"all scenes at {observer}")
 
 
 def test_a_node_cannot_serve_authority_queries(site: Site) -> None:

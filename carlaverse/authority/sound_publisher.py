@@ -1,0 +1,100 @@
+"""The authority's audio: every `audio.rate_hz`, what each joined human can hear.
+
+Called from the domain's tick (never from a Zenoh callback); the scenes go out through the
+outbox on `audio/<node id>`, best effort: a scene that cannot go out now is superseded by the
+next one 50 ms later, so nothing waits for a slow link. Listeners are the embodied egos at the
+tick time; a node without a pose (an observer) has no place to hear from.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from carlaverse.authority.actors import EgoNow
+from carlaverse.authority.domain import Outbox
+from carlaverse.authority.sound_areas import ListenerAreas
+from carlaverse.authority.sound_audibility import (
+    audible_on_actors,
+    emitters,
+    levels_at,
+    loudest,
+)
+from carlaverse.authority.sound_sources import ActorSounds, PointSources, actor_columns
+from carlaverse.messages import AudioScene, MapArea, Weather
+from carlaverse.traffic.engine import NpcFrame
+from carlaverse.traffic.soundscape import AudioSpec
+
+
+@dataclass(slots=True)
+class SoundStats:
+    scenes: int = 0
+    emitters: int = 0
+    compute_ms: deque[float] = field(default_factory=lambda: deque(maxlen=10_000))
+
+
+class SoundPublisher:
+    """Decides when audio goes out and builds one scene per listener."""
+
+    def __init__(self, spec: AudioSpec, areas: Sequence[MapArea]) -> None:
+        self._spec = spec
+        self._actors = ActorSounds(spec.sirens)
+        self._areas = ListenerAreas(areas if spec.map_ambience else [], spec.construction)
+        self._next_t = -math.inf
+        self.stats = SoundStats()
+
+    def tick(
+        self,
+        t: float,
+        egos: Sequence[EgoNow],
+        frame: NpcFrame,
+        weather: Weather | None,
+        out: Outbox,
+    ) -> None:
+        """Publish the scenes due at session time `t` [s]."""
+        if not self._spec.enabled or not egos or t < self._next_t:
+            return
+        period = 1.0 / self._spec.rate_hz
+        self._next_t = max(self._next_t + period, t + period / 2)
+        began = time.perf_counter()
+        scenes = self.scenes(t, egos, frame, weather, out.next_seq)
+        self.stats.compute_ms.append((time.perf_counter() - began) * 1e3)
+        for scene in scenes:
+            out.audio(scene.listener, scene)
+            self.stats.scenes += 1
+            self.stats.emitters += len(scene.emitters)
+
+    def scenes(
+        self,
+        t: float,
+        egos: Sequence[EgoNow],
+        frame: NpcFrame,
+        weather: Weather | None,
+        next_seq: Callable[[], int] | None = None,
+    ) -> list[AudioScene]:
+        """One scene per ego: what it hears at `t`, loudest first, at most `max_emitters`."""
+        spec = self._spec
+        wetness = weather.wetness if weather is not None else 0.0
+        on_actors = self._actors.sources(t, actor_columns(egos, frame), wetness)
+        ears = np.array([(e.x, e.y, e.z) for e in egos], dtype=np.float64)
+        ids = [e.node_id for e in egos]
+        heard = audible_on_actors(ears, ids, on_actors, spec.threshold_db, spec.max_emitters)
+        out = []
+        for ear, node_id, (index, _) in zip(ears, ids, heard, strict=True):
+            around = self._areas.sources(ear, weather, spec.threshold_db)
+            chosen = self._pick(ear, on_actors.take(index), around)
+            seq = next_seq() if next_seq is not None else 0
+            out.append(AudioScene(seq, t, node_id, emitters(chosen)))
+        return out
+
+    def _pick(self, ear: np.ndarray, actors: PointSources, around: PointSources) -> PointSources:
+        both = PointSources.concat([actors, around])
+        if not len(both):
+            return both
+        levels = levels_at(ear[None, :], both)[0]
+        return both.take(loudest(levels, self._spec.threshold_db, self._spec.max_emitters))

@@ -1,0 +1,170 @@
+"""The sound sources on actors at one instant: engines, tyres and sirens, as columns.
+
+Sources ride on NPCs and on the humans' actors alike (a listener hears another driver's car
+like any other); each carries its owner, so no listener is sent its own engine (its node
+renders that from its own powertrain). Acceleration, which sets an engine's load, is the
+change of speed since the previous audio instant, per actor id.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from carlaverse.authority.actors import EgoNow
+from carlaverse.authority.sound_models import MIN_ROLLING_MPS, EngineBank, TyreBank
+from carlaverse.messages import AUDIO_KINDS, SIREN_PATTERNS
+from carlaverse.traffic.engine import NpcFrame, kind_code
+from carlaverse.traffic.soundscape import SirenSpec
+
+KIND_INDEX = {kind: i for i, kind in enumerate(AUDIO_KINDS)}
+
+
+@dataclass(frozen=True, slots=True)
+class ActorColumns:
+    """Every actor (egos, then NPCs) at one instant."""
+
+    ids: list[str]
+    kind: np.ndarray  # actor-kind code (messages.ACTOR_KINDS)
+    pos: np.ndarray  # (n, 3) [m]
+    vel: np.ndarray  # (n, 3) [m/s]
+
+    @property
+    def speed(self) -> np.ndarray:
+        return np.hypot(self.vel[:, 0], self.vel[:, 1])  # [m/s] over ground
+
+
+def actor_columns(egos: Sequence[EgoNow], frame: NpcFrame) -> ActorColumns:
+    rows = frame.rows
+    ego_pos = np.array([(e.x, e.y, e.z) for e in egos], dtype=np.float64).reshape(-1, 3)
+    ego_vel = np.array([(e.vx, e.vy, 0.0) for e in egos], dtype=np.float64).reshape(-1, 3)
+    npc_pos = np.stack([rows["x"], rows["y"], rows["z"]], axis=1).astype(np.float64)
+    npc_vel = np.stack([rows["vx"], rows["vy"], np.zeros(len(rows))], axis=1).astype(np.float64)
+    ego_kind = np.array([kind_code(e.actor_kind) for e in egos], dtype=np.intp)
+    return ActorColumns(
+        ids=[e.node_id for e in egos] + frame.ids,
+        kind=np.concatenate([ego_kind, rows["kind"].astype(np.intp)]),
+        pos=np.concatenate([ego_pos, npc_pos]),
+        vel=np.concatenate([ego_vel, npc_vel]),
+    )
+
+
+@dataclass(frozen=True, slots=True)
+class PointSources:
+    """Sources at fixed places for every listener, one entry per source."""
+
+    ids: list[str]
+    owner: np.ndarray  # actor id each source rides on, "" for none (str array)
+    kind: np.ndarray  # index into messages.AUDIO_KINDS
+    pos: np.ndarray  # (n, 3) [m]
+    vel: np.ndarray  # (n, 3) [m/s]
+    level_db: np.ndarray  # [dB SPL] at 1 m
+    drive: np.ndarray  # (n, 2) drive_a, drive_b
+    extent_m: np.ndarray  # [m] radius of an area source, 0 for a point
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def take(self, index: np.ndarray) -> PointSources:
+        """The sources at `index`, in that order."""
+        return PointSources(
+            [self.ids[i] for i in index.tolist()],
+            self.owner[index],
+            self.kind[index],
+            self.pos[index],
+            self.vel[index],
+            self.level_db[index],
+            self.drive[index],
+            self.extent_m[index],
+        )
+
+    @classmethod
+    def concat(cls, parts: Sequence[PointSources]) -> PointSources:
+        return cls(
+            ids=[i for p in parts for i in p.ids],
+            owner=np.concatenate([p.owner for p in parts]),
+            kind=np.concatenate([p.kind for p in parts]),
+            pos=np.concatenate([p.pos for p in parts]),
+            vel=np.concatenate([p.vel for p in parts]),
+            level_db=np.concatenate([p.level_db for p in parts]),
+            drive=np.concatenate([p.drive for p in parts]),
+            extent_m=np.concatenate([p.extent_m for p in parts]),
+        )
+
+
+def _on_actors(
+    actors: ActorColumns,
+    pick: np.ndarray,
+    kind: str,
+    suffix: str,
+    level: np.ndarray,
+    drive: np.ndarray,
+) -> PointSources:
+    """Sources of one `kind` on the actors selected by the boolean mask `pick`."""
+    where = np.flatnonzero(pick)
+    owners = [actors.ids[i] for i in where]
+    return PointSources(
+        ids=[f"{o}.{suffix}" for o in owners],
+        owner=np.array(owners, dtype=str),
+        kind=np.full(len(where), KIND_INDEX[kind], dtype=np.intp),
+        pos=actors.pos[where],
+        vel=actors.vel[where],
+        level_db=level[where],
+        drive=drive[where],
+        extent_m=np.zeros(len(where)),
+    )
+
+
+class ActorSounds:
+    """Engines, tyres and sirens of all actors; remembers speeds to estimate acceleration."""
+
+    def __init__(self, sirens: Sequence[SirenSpec]) -> None:
+        self._engines, self._tyres = EngineBank(), TyreBank()
+        self._sirens = {s.vehicle: s for s in sirens}
+        self._last_speed: dict[str, float] = {}
+        self._last_t: float | None = None
+
+    def sources(self, t: float, actors: ActorColumns, wetness: float) -> PointSources:
+        speed = actors.speed
+        accel = self._acceleration(t, actors.ids, speed)
+        engine = self._engines.run(actors.kind, speed, accel)
+        rolling = self._tyres.has_tyres[actors.kind] & (speed >= MIN_ROLLING_MPS)
+        tyre_level = self._tyres.level_db(actors.kind, speed, wetness)
+        tyre_drive = np.stack([speed, np.full(len(speed), wetness)], axis=1)
+        engine_drive = np.stack([engine.rpm, engine.load], axis=1)
+        parts = [
+            _on_actors(
+                actors,
+                self._engines.has_engine[actors.kind],
+                "engine",
+                "engine",
+                engine.level_db,
+                engine_drive,
+            ),
+            _on_actors(actors, rolling, "tyres", "tyres", tyre_level, tyre_drive),
+        ]
+        if self._sirens:
+            parts.append(self._siren_sources(actors))
+        return PointSources.concat(parts)
+
+    def _acceleration(self, t: float, ids: list[str], speed: np.ndarray) -> np.ndarray:
+        """[m/s²] along the path since the last call; 0 for actors new since then."""
+        last, dt = self._last_speed, (t - self._last_t) if self._last_t is not None else 0.0
+        before = np.fromiter(
+            (last.get(i, s) for i, s in zip(ids, speed.tolist(), strict=True)),
+            dtype=np.float64,
+            count=len(ids),
+        )
+        self._last_speed = dict(zip(ids, speed.tolist(), strict=True))
+        self._last_t = t
+        return (speed - before) / dt if dt > 0 else np.zeros(len(ids))
+
+    def _siren_sources(self, actors: ActorColumns) -> PointSources:
+        pick = np.array([i in self._sirens for i in actors.ids], dtype=bool)
+        specs = [self._sirens[actors.ids[i]] for i in np.flatnonzero(pick)]
+        level, drive = np.zeros(len(pick)), np.zeros((len(pick), 2))
+        level[pick] = [s.level_db for s in specs]
+        drive[pick, 0] = [SIREN_PATTERNS.index(s.pattern) for s in specs]
+        return _on_actors(actors, pick, "siren", "siren", level, drive)
