@@ -17,6 +17,7 @@ from carlaverse.render.frame import ActorDraw
 from carlaverse.render.graphics import Graphics
 from carlaverse.render.meshes import Color
 from carlaverse.render.rig import CameraView, RigLayout
+from carlaverse.render.stereo import off_axis_lens
 
 NEAR_M = 0.1  # [m] near clip plane: close enough for a cockpit
 
@@ -70,12 +71,16 @@ class CameraRig:
     def _camera(
         self, world: NodePath, graphics: Graphics, view: CameraView, far_m: float
     ) -> DisplayRegion:
-        lens = PerspectiveLens()
-        lens.set_fov(math.degrees(view.fov_h), math.degrees(view.fov_v))
-        lens.set_near_far(NEAR_M, far_m)
+        if view.frustum is not None:  # a headset's eye: its own asymmetric frustum
+            lens = off_axis_lens(view.frustum, NEAR_M, far_m)
+        else:
+            lens = PerspectiveLens()
+            lens.set_fov(math.degrees(view.fov_h), math.degrees(view.fov_v))
+            lens.set_near_far(NEAR_M, far_m)
         cam = Camera(view.name, lens)
         cam.set_scene(world)
         node = self.head.attach_new_node(cam)
+        node.set_pos(-view.offset_left_m, 0.0, 0.0)  # head frame: +x right
         node.set_hpr(math.degrees(view.yaw), math.degrees(view.pitch), math.degrees(view.roll))
         region = graphics.outputs[view.output].make_display_region(*view.viewport)
         region.set_camera(node)

@@ -55,7 +55,8 @@ class WorldMissing(Exception):
 class OwnPoseBlock:
     """Where a node exports its own pose: a seqlock block (`carlaverse.shm`) of `dtype`.
 
-    The dtype needs the fields `t, x, y, yaw`; `lights` (LIGHT_* bits) and `running` (0 until
+    The dtype needs the fields `t, x, y, yaw`; `lights` (LIGHT_* bits), `pitch` and `roll`
+    (a walker's head: the first-person camera nods and tilts with it) and `running` (0 until
     the loop's first tick) are used when present. The node kind names the block and its
     dtype, so this library never imports a node kind.
     """
@@ -88,9 +89,11 @@ class OwnPose:
             return None
         size = self.spec.extent
         lights = int(record["lights"]) if "lights" in names else 0
+        pitch, roll = (float(record[f]) if f in names else 0.0 for f in ("pitch", "roll"))
         return ActorDraw(
             self.actor_id, self.spec.kind, float(record["x"]), float(record["y"]), 0.0,
-            float(record["yaw"]), size.length, size.width, size.height, lights=lights, ego=True,
+            float(record["yaw"]), size.length, size.width, size.height, pitch, roll,
+            lights=lights, ego=True,
         )  # fmt: skip
 
     def _read(self) -> np.void | None:

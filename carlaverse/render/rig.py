@@ -29,6 +29,7 @@ from typing import Annotated, Literal
 import msgspec
 
 from carlaverse.config import StrictStruct
+from carlaverse.hal.xr.fov import EyeFov
 
 Degrees = Annotated[float, msgspec.Meta(gt=0.0, lt=180.0)]
 Pixels = Annotated[int, msgspec.Meta(ge=8, le=16384)]
@@ -84,7 +85,28 @@ class ManualRig(StrictStruct, tag="manual", tag_field="mode"):
     head: HeadPosition = HeadPosition()
 
 
-Rig = SimpleRig | PhysicalRig | ManualRig
+class XrEye(StrictStruct):
+    """One eye's field of view as OpenXR reports it [deg]: left and down negative."""
+
+    left_deg: Annotated[float, msgspec.Meta(gt=-90.0, lt=90.0)]
+    right_deg: Annotated[float, msgspec.Meta(gt=-90.0, lt=90.0)]
+    up_deg: Annotated[float, msgspec.Meta(gt=-90.0, lt=90.0)]
+    down_deg: Annotated[float, msgspec.Meta(gt=-90.0, lt=90.0)]
+
+
+class XrRig(StrictStruct, tag="xr", tag_field="mode"):
+    """A headset: two eyes side by side, each drawn with its own asymmetric frustum (an
+    off-axis lens, `render/stereo.py`); the defaults are wider outwards than towards the nose,
+    as headsets are — paste the runtime's angles for a given headset."""
+
+    eye_resolution: Resolution = Resolution(width=1024, height=1024)
+    left_eye: XrEye = XrEye(left_deg=-50.0, right_deg=40.0, up_deg=45.0, down_deg=-50.0)
+    right_eye: XrEye = XrEye(left_deg=-40.0, right_deg=50.0, up_deg=45.0, down_deg=-50.0)
+    ipd_m: Annotated[float, msgspec.Meta(ge=0.0, le=0.1)] = 0.063  # [m] between the pupils
+    head: HeadPosition = HeadPosition(z=1.65)
+
+
+Rig = SimpleRig | PhysicalRig | ManualRig | XrRig
 
 
 class RenderConfig(StrictStruct):
@@ -110,6 +132,8 @@ class CameraView:
     fov_v: float  # [rad]
     width_px: int  # pixel size of the viewport
     height_px: int
+    frustum: EyeFov | None = None  # an asymmetric eye frustum (drawn off-axis), else fov_h/v
+    offset_left_m: float = 0.0  # [m] the camera's place left of the head (an eye's half IPD)
 
 
 @dataclass(frozen=True, slots=True)
@@ -159,6 +183,8 @@ def layout(rig: Rig) -> RigLayout:
         return _simple(rig)
     if isinstance(rig, PhysicalRig):
         return _physical(rig)
+    if isinstance(rig, XrRig):
+        return _xr(rig)
     return _manual(rig)
 
 
@@ -215,6 +241,19 @@ def _manual(rig: ManualRig) -> RigLayout:
             )
         )  # fmt: skip
     return RigLayout(tuple(cams), _output_sizes(m, w, h, rig.windows), rig.head)
+
+
+def _xr(rig: XrRig) -> RigLayout:
+    w, h = rig.eye_resolution.width, rig.eye_resolution.height
+    cams = []
+    for j, (name, eye, side) in enumerate((("left_eye", rig.left_eye, 1.0),
+                                           ("right_eye", rig.right_eye, -1.0))):  # fmt: skip
+        fov = EyeFov(*(math.radians(a) for a in (eye.left_deg, eye.right_deg, eye.up_deg,
+                                                  eye.down_deg)))  # fmt: skip
+        viewport = (j / 2, (j + 1) / 2, 0.0, 1.0)
+        cams.append(CameraView(name, 0, viewport, 0.0, 0.0, 0.0, fov.right - fov.left,
+                               fov.up - fov.down, w, h, fov, side * rig.ipd_m / 2))  # fmt: skip
+    return RigLayout(tuple(cams), ((2 * w, h),), rig.head)
 
 
 def _display_slot(

@@ -33,6 +33,8 @@ EXPECTED = {
     "configs/walk-sim.yaml": "walk node",
     "configs/walk-desktop.yaml": "walk node",
     "configs/walk-vr.yaml": "walk node",
+    "configs/rigs/rig-walk-desktop.yaml": "rig",
+    "configs/rigs/rig-walk-vr.yaml": "rig",
 }
 
 
