@@ -4,6 +4,9 @@
 # offscreen tests draw through EGL; llvmpipe when there is no GPU). Installs only what is missing, only as root;
 # otherwise says what it skipped — those tests then skip with the reason.
 set -euo pipefail
+# mediapipe without its dependencies: it requires opencv-contrib-python, which would install a
+# second cv2 over opencv-python-headless; the `body` extra lists its real dependencies.
+python -m pip install --quiet --no-deps 'mediapipe==1.2.2'
 need=()
 command -v chromium >/dev/null 2>&1 || need+=(chromium)
 command -v ip >/dev/null 2>&1 || need+=(iproute2)

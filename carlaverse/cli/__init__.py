@@ -38,6 +38,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "certs": ("carlaverse.cli.certs", "generate a test CA and certificates for a lab"),
     "roster": ("carlaverse.cli.roster", "session roster tools: generate router ACLs"),
     "swarm": ("carlaverse.cli.swarm", "N synthetic egos in one process: load for the fabric"),
+    "body": ("carlaverse.cli.body", "body pose: build the pose model, joint angles of a photo"),
     "schema": ("carlaverse.cli.schema", "print the wire contract: JSON Schema of every message"),
 }
 

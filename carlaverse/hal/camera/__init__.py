@@ -1,8 +1,10 @@
 """Cameras: body tracking for the walk node (landmarks) and raw frames.
 
 A frame carries the image, the 33 body landmarks in MediaPipe Pose order, or both. Backends:
-`sim` (a synthetic walker) now; webcam + MediaPipe comes with the walk node. Third parties
-add more under the entry-point group `carlaverse.hal.camera`.
+`sim` (a synthetic walker: landmarks), `opencv` (a webcam or video through OpenCV: images)
+and `still` (a photograph as a camera: images); `carlaverse.body` turns images into
+landmarks with MediaPipe. Third parties add more under the entry-point group
+`carlaverse.hal.camera`.
 """
 
 from __future__ import annotations
@@ -14,7 +16,11 @@ import numpy as np
 from carlaverse.hal.device import Device, DeviceConfig
 from carlaverse.hal.registry import BackendSpec, Registry
 
-BACKENDS = {"sim": BackendSpec("carlaverse.hal.camera.sim", "SimCamera")}
+BACKENDS = {
+    "sim": BackendSpec("carlaverse.hal.camera.sim", "SimCamera"),
+    "opencv": BackendSpec("carlaverse.hal.camera.opencv", "OpenCvCamera", "body"),
+    "still": BackendSpec("carlaverse.hal.camera.still", "StillCamera", "body"),
+}
 
 LANDMARK_NAMES = (
     "nose", "left_eye_inner", "left_eye", "left_eye_outer", "right_eye_inner", "right_eye",

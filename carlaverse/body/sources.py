@@ -1,0 +1,104 @@
+"""Skeleton sources: what a walk node polls for its `Skeleton` (~30 Hz).
+
+    body = open_body_source(BodyConfig(source="camera"), clock=session_clock)
+    skeleton = body.poll()      # the newest Skeleton since the last poll, or None
+    body.close()
+
+`camera` runs the camera and MediaPipe in a process of their own (`pose_process`), so
+inference never stalls the node's loop; `synthetic` poses the sim camera's walker in-process
+and needs neither a camera nor mediapipe. Both stamp `Skeleton.t` with the capture time of
+the frame on the node's (session) clock.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping
+from typing import Annotated, Literal, Protocol
+
+import msgspec
+import numpy as np
+
+from carlaverse import messages as m
+from carlaverse.body.kinematics import JOINTS, LIMBS, joint_angles
+from carlaverse.config import StrictStruct
+from carlaverse.hal.camera import LANDMARK_NAMES, Camera, CameraConfig, registry
+from carlaverse.hal.device import open_device
+
+Clock = Callable[[], float]  # [s]
+JointAngles = Mapping[str, tuple[float, float, float]]
+_INDEX = {name: i for i, name in enumerate(LANDMARK_NAMES)}
+# The landmarks each joint's angles are computed from; a joint is sent only when all of them
+# are visible enough (a limb out of the picture is guessed by MediaPipe, not seen).
+NECK_LANDMARKS = ("left_ear", "right_ear", "left_eye", "right_eye", "mouth_left", "mouth_right")
+JOINT_LANDMARKS = {"neck": NECK_LANDMARKS} | {
+    joint: limb[2:5] for limb in LIMBS for joint in limb[:2]
+}
+
+
+class BodyConfig(StrictStruct):
+    """`body:` block of a walk node's config."""
+
+    source: Literal["camera", "synthetic"] = "synthetic"
+    camera: CameraConfig = msgspec.field(
+        default_factory=lambda: CameraConfig(backend="opencv")
+    )  # which camera, when source is camera
+    model: str | None = None  # pose landmarker .task; default: the one `build-model` made
+    rate_hz: Annotated[float, msgspec.Meta(gt=0, le=120)] = 30.0  # [1/s]
+    min_visibility: Annotated[float, msgspec.Meta(ge=0, le=1)] = 0.5  # per landmark, 0..1
+    start_timeout_s: Annotated[float, msgspec.Meta(gt=0)] = 60.0  # [s] camera + model ready
+
+
+class SkeletonSource(Protocol):
+    def poll(self) -> m.Skeleton | None: ...
+
+    def close(self) -> None: ...
+
+
+def visible_joints(angles: JointAngles, visibility: np.ndarray, minimum: float) -> JointAngles:
+    """The joints whose landmarks are all at least `minimum` visible."""
+    return {joint: value for joint, value in angles.items()
+            if all(visibility[_INDEX[n]] >= minimum for n in JOINT_LANDMARKS[joint])}  # fmt: skip
+
+
+def angles_bytes(angles: JointAngles) -> tuple[list[str], bytes]:
+    """Joint names in `JOINTS` order and their (roll, pitch, yaw) as float32 little-endian."""
+    names = [j for j in JOINTS if j in angles]
+    return names, np.array([angles[j] for j in names], dtype="<f4").reshape(-1).tobytes()
+
+
+class SyntheticBodySource:
+    """The sim camera's walker, posed in-process at `rate_hz`."""
+
+    def __init__(self, config: BodyConfig, clock: Clock = time.monotonic) -> None:
+        sim = config.camera if config.camera.backend == "sim" else CameraConfig(backend="sim")
+        self.camera: Camera = open_device(registry(), sim, CameraConfig, source="body.camera")
+        self.clock = clock
+        self.period_s = 1.0 / config.rate_hz
+        self.min_visibility = config.min_visibility
+        self._seq = 0
+        self._due = time.monotonic()
+
+    def poll(self) -> m.Skeleton | None:
+        now = time.monotonic()
+        if now < self._due:
+            return None
+        self._due = max(self._due + self.period_s, now - self.period_s)  # never bursts
+        frame = self.camera.read()
+        assert frame.landmarks is not None and frame.visibility is not None  # the sim's contract
+        angles = visible_joints(joint_angles(frame.landmarks), frame.visibility,
+                                self.min_visibility)  # fmt: skip
+        self._seq += 1
+        return m.Skeleton(self._seq, self.clock(), *angles_bytes(angles))
+
+    def close(self) -> None:
+        self.camera.close()
+
+
+def open_body_source(config: BodyConfig, clock: Clock = time.monotonic) -> SkeletonSource:
+    """The skeleton source `config` names; `clock` is the node's session clock [s]."""
+    if config.source == "synthetic":
+        return SyntheticBodySource(config, clock)
+    from carlaverse.body.pose_process import CameraBodySource
+
+    return CameraBodySource(config, clock).start()

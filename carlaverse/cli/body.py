@@ -1,0 +1,70 @@
+"""`carlaverse body`: the body-pose model and a check of it on a photograph.
+
+    carlaverse body build-model [--out FILE] [--wheel FILE]   # once per machine (CI: the tests)
+    carlaverse body angles PHOTO [--model FILE] [--json]     # joint angles of the person in it
+
+`build-model` makes MediaPipe's pose landmarker .task offline from the models in the pinned
+mediapipe 0.10 wheel (see `carlaverse.body.model`); `angles` runs it on one picture, prints
+the joint angles [deg] the walk node would send, and exits 1 when it finds nobody.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+from pathlib import Path
+
+from carlaverse.cli.common import fail
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
+    build = sub.add_parser("build-model", help="build the pose landmarker .task offline")
+    build.add_argument("--out", type=Path, help="where to write it (default: the user cache)")
+    build.add_argument("--wheel", type=Path, help="the pinned mediapipe 0.10 wheel, if at hand")
+    angles = sub.add_parser("angles", help="joint angles of the person in a photograph")
+    angles.add_argument("photo", type=Path, help="an image file (PNG, JPEG, ...)")
+    angles.add_argument("--model", type=Path, help="the .task file (default: the built one)")
+    angles.add_argument("--json", action="store_true", help="one JSON object on stdout")
+
+
+def run(args: argparse.Namespace) -> int:
+    from carlaverse.body.errors import BodyPoseError
+
+    try:
+        return _build(args) if args.action == "build-model" else _angles(args)
+    except BodyPoseError as exc:
+        return fail("body", str(exc), 3)
+
+
+def _build(args: argparse.Namespace) -> int:
+    from carlaverse.body import model
+
+    path = model.build(args.out, args.wheel)
+    print(f"pose model written to {path}")
+    return 0
+
+
+def _angles(args: argparse.Namespace) -> int:
+    import cv2
+
+    from carlaverse.body.kinematics import joint_angles
+    from carlaverse.body.landmarker import PoseLandmarker
+
+    bgr = cv2.imread(str(args.photo))
+    if bgr is None:
+        return fail("body", f"{args.photo} is not a readable image", 2)
+    with PoseLandmarker(args.model) as landmarker:
+        found = landmarker.detect(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), 0.0)
+    if found is None:
+        return fail("body", f"no person found in {args.photo}", 1)
+    degrees = {joint: [round(math.degrees(a), 1) for a in rpy]
+               for joint, rpy in joint_angles(found.world).items()}  # fmt: skip
+    visibility = [round(float(v), 2) for v in found.visibility]
+    if args.json:
+        print(json.dumps({"joints_deg": degrees, "visibility": visibility}))
+    else:
+        for joint, (roll, pitch, yaw) in degrees.items():
+            print(f"{joint:15s} roll {roll:7.1f}  pitch {pitch:7.1f}  yaw {yaw:7.1f}  [deg]")
+    return 0

@@ -1,0 +1,97 @@
+"""The Pose Process: a child process turns camera frames into skeletons the node polls."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from carlaverse.body.errors import BodyPoseError
+from carlaverse.body.sources import BodyConfig, open_body_source
+from carlaverse.hal.camera import CameraConfig
+from carlaverse.render.live import joint_angles
+from tests.support import wait_until
+
+
+def _collect(source, seconds: float) -> list:
+    found, end = [], time.monotonic() + seconds
+    while time.monotonic() < end:
+        skeleton = source.poll()
+        if skeleton is not None:
+            found.append((time.monotonic(), skeleton))
+        time.sleep(0.002)  # the node's loop period stand-in; poll never waits
+    return found
+
+
+def test_sim_camera_through_the_pose_process_at_30_hz() -> None:
+    config = BodyConfig(source="camera", camera=CameraConfig(backend="sim"), rate_hz=30.0)
+    source = open_body_source(config)
+    try:
+        wait_until(source.poll, 10, "a first skeleton")
+        got = _collect(source, 2.0)
+    finally:
+        source.close()
+    assert not source.alive()
+    assert len(got) >= 0.6 * 2.0 * 30, f"{len(got)} skeletons in 2 s"  # 30 Hz, loaded host
+    seqs = [s.seq for _, s in got]
+    assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
+    for received, skeleton in got:
+        angles = joint_angles(skeleton)
+        assert set(angles) == {
+            "neck",
+            "left_shoulder",
+            "left_elbow",
+            "right_shoulder",
+            "right_elbow",
+            "left_hip",
+            "left_knee",
+            "right_hip",
+            "right_knee",
+        }
+        assert angles["left_elbow"] == pytest.approx((0, -0.3, 0), abs=1e-5)  # walker's bend
+        assert abs(angles["left_hip"][1]) <= 0.35 + 1e-5  # within the walker's hip swing
+        assert 0 <= received - skeleton.t < 1.0  # stamped at capture, on the node's clock
+
+
+def test_a_photo_through_the_pose_process(pose_model: Path, grace_hopper: Path) -> None:
+    camera = CameraConfig(backend="still", options={"path": str(grace_hopper)})
+    source = open_body_source(BodyConfig(source="camera", camera=camera, model=str(pose_model)))
+    try:
+        skeleton = wait_until(source.poll, 20, "a skeleton of the photo")
+    finally:
+        source.close()
+    angles = joint_angles(skeleton)
+    # Only what is seen is sent: her head; the elbows and legs are off the picture.
+    assert list(angles) == ["neck"]
+    assert np.abs(np.degrees(angles["neck"])).max() < 15
+
+
+def test_an_absent_camera_fails_at_start_in_one_line() -> None:
+    camera = CameraConfig(backend="opencv", options={"device": 57})
+    with pytest.raises(BodyPoseError) as failed:
+        open_body_source(BodyConfig(source="camera", camera=camera))
+    message = str(failed.value)
+    assert message.startswith("camera /dev/video57 cannot be opened") and "\n" not in message
+
+
+def test_a_missing_model_fails_at_start_in_one_line(grace_hopper: Path, tmp_path: Path) -> None:
+    pytest.importorskip("mediapipe")
+    camera = CameraConfig(backend="still", options={"path": str(grace_hopper)})
+    config = BodyConfig(source="camera", camera=camera, model=str(tmp_path / "none.task"))
+    with pytest.raises(BodyPoseError, match=r"none.task is missing; build it once") as failed:
+        open_body_source(config)
+    assert "\n" not in str(failed.value)
+
+
+def test_synthetic_source_in_process() -> None:
+    source = open_body_source(BodyConfig(source="synthetic", rate_hz=50.0))
+    try:
+        first = wait_until(source.poll, 2, "a synthetic skeleton")
+        assert source.poll() is None  # not due again yet: paced at rate_hz
+        second = wait_until(source.poll, 2, "the next synthetic skeleton")
+    finally:
+        source.close()
+    assert second.seq == first.seq + 1 and second.t > first.t
+    assert joint_angles(first)["right_elbow"] == pytest.approx((0, -0.3, 0), abs=1e-5)
