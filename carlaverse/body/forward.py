@@ -3,9 +3,9 @@
 The inverse of `kinematics.joint_angles`, in the same joint convention, so a test can put known
 angles in and expect the same angles out, and a synthetic body source can pose a figure by
 script. Segment lengths and widths are fractions of body height (Winter, "Biomechanics and
-Motor Control of Human Movement"), as the sim camera's walker uses. Landmarks the angles do
-not reach (hands, feet, the face beyond eyes, ears and mouth) are placed rigidly on their
-segment.
+Motor Control of Human Movement"), as the sim camera's walker uses. Only the landmarks the
+angles are computed from are placed (shoulders, elbows, wrists, hips, knees, ankles, nose,
+eyes, ears, mouth); the rest stay at the mid-hip.
 """
 
 from __future__ import annotations
