@@ -8,7 +8,8 @@ camera and model are open, or sends its one-line error and ends — `start()` ra
 in the node, so an absent camera or model fails at start-up, not silently later.
 
 CLOCK_MONOTONIC is one clock for every process on a host, so the capture time the child
-measures is put on the node's session clock by the age of the frame when it is polled.
+measures is put on the source's clock (monotonic unless given another) by the age of the
+frame when it is polled.
 """
 
 from __future__ import annotations

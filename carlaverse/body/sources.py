@@ -1,27 +1,32 @@
 """Skeleton sources: what a walk node polls for its `Skeleton` (~30 Hz).
 
-    body = open_body_source(BodyConfig(source="camera"), clock=session_clock)
-    skeleton = body.poll()      # the newest Skeleton since the last poll, or None
+    body:                              # walk node config (nodes/walk/body.py)
+      source: camera                   # or synthetic
+      options: {camera: {backend: opencv, options: {device: 0}}, rate_hz: 30}
+
+    body = camera_source(options)      # the factory the walk node calls
+    skeleton = body.poll()             # the newest Skeleton since the last poll, or None
     body.close()
 
 `camera` runs the camera and MediaPipe in a process of their own (`pose_process`), so
 inference never stalls the node's loop; `synthetic` poses the sim camera's walker in-process
-and needs neither a camera nor mediapipe. Both stamp `Skeleton.t` with the capture time of
-the frame on the node's (session) clock.
+and needs neither a camera nor mediapipe. Both stamp `Skeleton.t` with the frame's capture
+time on `time.monotonic()` (the walk node moves it onto session time) and leave `seq` to the
+node. A factory raises ValueError in one line when its source cannot start.
 """
 
 from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from typing import Annotated, Literal, Protocol
+from typing import Annotated, Any, Protocol
 
 import msgspec
 import numpy as np
 
 from carlaverse import messages as m
 from carlaverse.body.kinematics import JOINTS, LIMBS, joint_angles
-from carlaverse.config import StrictStruct
+from carlaverse.config import StrictStruct, convert
 from carlaverse.hal.camera import LANDMARK_NAMES, Camera, CameraConfig, registry
 from carlaverse.hal.device import open_device
 
@@ -37,9 +42,8 @@ JOINT_LANDMARKS = {"neck": NECK_LANDMARKS} | {
 
 
 class BodyConfig(StrictStruct):
-    """`body:` block of a walk node's config."""
+    """`body.options` of a walk node's config, for the `camera` and `synthetic` sources."""
 
-    source: Literal["camera", "synthetic"] = "synthetic"
     camera: CameraConfig = msgspec.field(
         default_factory=lambda: CameraConfig(backend="opencv")
     )  # which camera, when source is camera
@@ -95,10 +99,18 @@ class SyntheticBodySource:
         self.camera.close()
 
 
-def open_body_source(config: BodyConfig, clock: Clock = time.monotonic) -> SkeletonSource:
-    """The skeleton source `config` names; `clock` is the node's session clock [s]."""
-    if config.source == "synthetic":
-        return SyntheticBodySource(config, clock)
+def camera_source(options: Mapping[str, Any]) -> SkeletonSource:
+    """The walk node's `body: {source: camera}`: camera + MediaPipe in the pose process."""
+    from carlaverse.body.errors import BodyPoseError
     from carlaverse.body.pose_process import CameraBodySource
 
-    return CameraBodySource(config, clock).start()
+    config = convert(dict(options), BodyConfig, "body.options")
+    try:
+        return CameraBodySource(config).start()
+    except BodyPoseError as exc:  # the node says it in one line and ends
+        raise ValueError(f"body: {exc}") from exc
+
+
+def synthetic_source(options: Mapping[str, Any]) -> SkeletonSource:
+    """The walk node's `body: {source: synthetic}`: the sim walker, in-process."""
+    return SyntheticBodySource(convert(dict(options), BodyConfig, "body.options"))

@@ -25,7 +25,10 @@ import msgspec
 from carlaverse.config import ConfigError, StrictStruct
 from carlaverse.messages import Skeleton
 
-SOURCES: dict[str, str] = {}  # name -> "module:factory"; "none" is built in
+SOURCES: dict[str, str] = {  # name -> "module:factory"; "none" is built in
+    "camera": "carlaverse.body.sources:camera_source",  # webcam + MediaPipe (carlaverse.body)
+    "synthetic": "carlaverse.body.sources:synthetic_source",  # the sim camera's walker
+}
 
 
 class SkeletonSource(Protocol):

@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from carlaverse.body.errors import BodyPoseError
-from carlaverse.body.sources import BodyConfig, open_body_source
+from carlaverse.body.pose_process import CameraBodySource
+from carlaverse.body.sources import BodyConfig, SyntheticBodySource
 from carlaverse.hal.camera import CameraConfig
 from carlaverse.render.live import joint_angles
 from tests.support import wait_until
@@ -26,8 +27,7 @@ def _collect(source, seconds: float) -> list:
 
 
 def test_sim_camera_through_the_pose_process_at_30_hz() -> None:
-    config = BodyConfig(source="camera", camera=CameraConfig(backend="sim"), rate_hz=30.0)
-    source = open_body_source(config)
+    source = CameraBodySource(BodyConfig(camera=CameraConfig(backend="sim"), rate_hz=30.0)).start()
     try:
         wait_until(source.poll, 10, "a first skeleton")
         got = _collect(source, 2.0)
@@ -57,7 +57,7 @@ def test_sim_camera_through_the_pose_process_at_30_hz() -> None:
 
 def test_a_photo_through_the_pose_process(pose_model: Path, grace_hopper: Path) -> None:
     camera = CameraConfig(backend="still", options={"path": str(grace_hopper)})
-    source = open_body_source(BodyConfig(source="camera", camera=camera, model=str(pose_model)))
+    source = CameraBodySource(BodyConfig(camera=camera, model=str(pose_model))).start()
     try:
         skeleton = wait_until(source.poll, 20, "a skeleton of the photo")
     finally:
@@ -71,7 +71,7 @@ def test_a_photo_through_the_pose_process(pose_model: Path, grace_hopper: Path) 
 def test_an_absent_camera_fails_at_start_in_one_line() -> None:
     camera = CameraConfig(backend="opencv", options={"device": 57})
     with pytest.raises(BodyPoseError) as failed:
-        open_body_source(BodyConfig(source="camera", camera=camera))
+        CameraBodySource(BodyConfig(camera=camera)).start()
     message = str(failed.value)
     assert message.startswith("camera /dev/video57 cannot be opened") and "\n" not in message
 
@@ -79,14 +79,14 @@ def test_an_absent_camera_fails_at_start_in_one_line() -> None:
 def test_a_missing_model_fails_at_start_in_one_line(grace_hopper: Path, tmp_path: Path) -> None:
     pytest.importorskip("mediapipe")
     camera = CameraConfig(backend="still", options={"path": str(grace_hopper)})
-    config = BodyConfig(source="camera", camera=camera, model=str(tmp_path / "none.task"))
+    config = BodyConfig(camera=camera, model=str(tmp_path / "none.task"))
     with pytest.raises(BodyPoseError, match=r"none.task is missing; build it once") as failed:
-        open_body_source(config)
+        CameraBodySource(config).start()
     assert "\n" not in str(failed.value)
 
 
 def test_synthetic_source_in_process() -> None:
-    source = open_body_source(BodyConfig(source="synthetic", rate_hz=50.0))
+    source = SyntheticBodySource(BodyConfig(rate_hz=50.0))
     try:
         first = wait_until(source.poll, 2, "a synthetic skeleton")
         assert source.poll() is None  # not due again yet: paced at rate_hz
