@@ -6,6 +6,9 @@ to run code, so instead of `eval` on the text we parse it with `ast`, accept onl
 grammar — numbers, the variable `x`, arithmetic, comparisons, `a if c else b`, and calls of
 whitelisted maths functions — and build a closure tree from it. Everything else is refused
 with an error that quotes the expression.
+
+Scenario triggers use the same grammar over named measurements instead of `x`
+(`compile_condition`), with `and`, `or` and `not` added.
 """
 
 from __future__ import annotations
@@ -13,7 +16,7 @@ from __future__ import annotations
 import ast
 import math
 import operator
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 
 Curve = Callable[[float], float]
 _Node = Callable[[float], float]
@@ -76,7 +79,7 @@ _BINARY = {
     ast.Div: operator.truediv, ast.Pow: operator.pow, ast.Mod: operator.mod,
     ast.FloorDiv: operator.floordiv,
 }  # fmt: skip
-_UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos}
+_UNARY = {ast.USub: operator.neg, ast.UAdd: operator.pos, ast.Not: operator.not_}
 _COMPARE = {
     ast.Lt: operator.lt, ast.LtE: operator.le, ast.Gt: operator.gt,
     ast.GtE: operator.ge, ast.Eq: operator.eq, ast.NotEq: operator.ne,
@@ -106,15 +109,43 @@ def compile_curve(text: str) -> Curve:
     return curve
 
 
+def compile_condition(text: str, names: set[str]) -> Callable[[Mapping[str, float]], bool]:
+    """Compile a condition over the measurements `names` (e.g. `eta_bike < 4 and not done`);
+    raise ExpressionError for anything outside the grammar or an unknown name."""
+    if not isinstance(text, str) or not text.strip():
+        raise ExpressionError(f"empty condition {text!r}")
+    if len(text) > _MAX_LENGTH:
+        raise ExpressionError(f"condition longer than {_MAX_LENGTH} characters: {text[:40]!r}…")
+    try:
+        tree = ast.parse(text.strip(), mode="eval")
+    except SyntaxError as exc:
+        raise ExpressionError(f"cannot parse condition {text!r}: {exc.msg}") from exc
+    body = _Compiler(text, frozenset(names)).build(tree.body)
+
+    def condition(values: Mapping[str, float]) -> bool:
+        try:
+            return bool(body(values))
+        except (ArithmeticError, ValueError, TypeError) as exc:
+            raise ExpressionError(f"condition {text!r} failed: {exc}") from exc
+
+    return condition
+
+
 class _Compiler:
-    def __init__(self, text: str) -> None:
+    """Builds closures of one argument: the value of `x` for a curve, or the mapping of
+    measurement names to values for a condition (`names` given)."""
+
+    def __init__(self, text: str, names: frozenset[str] | None = None) -> None:
         self.text = text
+        self.names = names
 
     def refuse(self, node: ast.AST, what: str) -> ExpressionError:
         col = getattr(node, "col_offset", 0)
+        variables = "x" if self.names is None else ", ".join(sorted(self.names)) or "no names"
+        logic = "" if self.names is None else ", and or not"
         return ExpressionError(
             f"{what} is not allowed in expression {self.text!r} (at column {col + 1}); "
-            "use numbers, x, + - * / ** %, comparisons, 'a if c else b' and "
+            f"use numbers, {variables}, + - * / ** %, comparisons{logic}, 'a if c else b' and "
             f"the functions {', '.join(sorted(FUNCTIONS))} or math.<name>"
         )
 
@@ -132,8 +163,11 @@ class _Compiler:
         return lambda x: v
 
     def _Name(self, node: ast.Name) -> _Node:
-        if node.id == "x":
+        if self.names is None and node.id == "x":
             return lambda x: x
+        if self.names is not None and node.id in self.names:
+            name = node.id
+            return lambda env: env[name]
         if node.id in CONSTANTS:
             v = CONSTANTS[node.id]
             return lambda x: v
@@ -148,7 +182,7 @@ class _Compiler:
 
     def _UnaryOp(self, node: ast.UnaryOp) -> _Node:
         op = _UNARY.get(type(node.op))
-        if op is None:
+        if op is None or (self.names is None and isinstance(node.op, ast.Not)):
             raise self.refuse(node, f"the operator {type(node.op).__name__}")
         operand = self.build(node.operand)
         return lambda x: op(operand(x))
@@ -167,6 +201,14 @@ class _Compiler:
             return float(all(op(a, b) for op, a, b in zip(ops, values, values[1:], strict=False)))
 
         return compare
+
+    def _BoolOp(self, node: ast.BoolOp) -> _Node:
+        if self.names is None:
+            raise self.refuse(node, f"'{type(node.op).__name__.lower()}'")
+        parts = [self.build(v) for v in node.values]
+        if isinstance(node.op, ast.And):
+            return lambda x: float(all(p(x) for p in parts))
+        return lambda x: float(any(p(x) for p in parts))
 
     def _IfExp(self, node: ast.IfExp) -> _Node:
         test, body, orelse = self.build(node.test), self.build(node.body), self.build(node.orelse)

@@ -268,7 +268,28 @@ class ContactEnded(msgspec.Struct, frozen=True, tag="contact_ended"):
     b: str
 
 
-WorldEvent = Spawned | Despawned | ContactStarted | ContactEnded
+class TriggerFired(msgspec.Struct, frozen=True, tag="trigger"):
+    """A scenario trigger's condition held and its actions ran (recorded for the analysis)."""
+
+    seq: Seq
+    t: Time
+    trigger_id: str
+    actions: list[str]  # what was done, e.g. "release waiting-car", "light C GrGr"
+    # the trigger's measurements when it fired; None where not finite (no ETA, no TTC)
+    values: dict[str, Finite | None] = {}
+
+
+class Notice(msgspec.Struct, frozen=True, tag="notice"):
+    """Text for a participant's HMI, from a scenario trigger."""
+
+    seq: Seq
+    t: Time
+    text: str
+    to: str = ""  # a node id, or "" for every participant
+    duration_s: Finite = 5.0  # [s] how long it stays up
+
+
+WorldEvent = Spawned | Despawned | ContactStarted | ContactEnded | TriggerFired | Notice
 
 
 class Impulse(msgspec.Struct, frozen=True):

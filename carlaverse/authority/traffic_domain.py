@@ -3,7 +3,8 @@
 `TrafficDomain` is the `GlobalDomain` the membership core ticks. One tick, at session time t:
 
 1. dead-reckon every embodied ego to t and carry it in the engine (so NPCs react to it);
-2. step the engine up to t (one step normally; a few after a stall, then the lag is dropped);
+2. step the engine up to t (one step normally; a few after a stall, then the lag is dropped),
+   then run the scenario's triggers on where everyone is now;
 3. run the collision matrix over egos and NPCs: contact events, impulses, hit NPCs stop;
 4. publish the NPC batch (at `npc_rate_hz`), lights and weather (on change and at 1 Hz);
 5. send each ego what it can hear on `audio/<id>` (at the scenario's `audio.rate_hz`).
@@ -26,6 +27,7 @@ from carlaverse.authority.collisions import CollisionMatrix, TickContacts
 from carlaverse.authority.domain import EgoTrack, Outbox
 from carlaverse.authority.lights import LightPublisher, apply_overrides
 from carlaverse.authority.sound_publisher import SoundPublisher
+from carlaverse.authority.triggers import TriggerRunner
 from carlaverse.authority.weather import WeatherPublisher
 from carlaverse.config import ConfigError
 from carlaverse.messages import (
@@ -77,6 +79,7 @@ class TrafficDomain:
         self._lights = LightPublisher(engine, spec.session.status_rate_hz)
         self._weather = WeatherPublisher(spec.weather, spec.session.status_rate_hz)
         self._collisions = CollisionMatrix(spec.collisions.npc_npc)
+        self._triggers = TriggerRunner(spec.triggers, engine, self._weather)
         self._sound = SoundPublisher(spec.audio, map_reply.areas if map_reply else [])
         self._offset_s: float | None = None  # session time minus engine time
         self._next_npc_t = -math.inf
@@ -111,6 +114,7 @@ class TrafficDomain:
         now = egos_at(t, egos, self._spec.collisions.max_extrapolation_s)
         placements = [e.placement() for e in now]
         self._advance(t, placements)
+        self._triggers.tick(t, t - (self._offset_s or 0.0), now, self._engine.npcs(), out)
         actors = build_actors(now, self._engine.npcs(), self._spec.collisions)
         self._publish_contacts(t, self._collisions.step(t, actors, out.next_seq), out)
         self._remove_hit_npcs(t)

@@ -64,11 +64,16 @@ class WeatherPublisher:
         self._period_s = 1.0 / status_rate_hz
         self._sent: dict[str, float] | None = None
         self._sent_t = -math.inf
+        self._override: dict[str, float] = {}  # set by scenario triggers, over the timeline
         self.latest: Weather | None = None
+
+    def override(self, values: dict[str, float]) -> None:
+        """These values hold from now on, whatever the timeline says (a trigger's action)."""
+        self._override.update(values)
 
     def tick(self, t: float, scenario_s: float, next_seq: Callable[[], int]) -> Weather | None:
         """The message to publish at session time `t`, or None when nothing is due."""
-        values = self._timeline.values_at(scenario_s)
+        values = {**self._timeline.values_at(scenario_s), **self._override}
         due = t - self._sent_t >= self._period_s - 1e-9
         if not due and self._sent is not None and not _changed(self._sent, values):
             return None

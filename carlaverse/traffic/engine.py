@@ -19,6 +19,7 @@ from typing import Protocol
 import numpy as np
 
 from carlaverse.messages import ACTOR_KINDS, NPC_DTYPE
+from carlaverse.traffic.scenario import ScriptedVehicle
 
 KIND_CODE = {kind: code for code, kind in enumerate(ACTOR_KINDS)}
 
@@ -106,6 +107,22 @@ class TrafficEngine(Protocol):
     def remove_npc(self, npc_id: str) -> None: ...
 
     def light_readings(self) -> list[LightReading]: ...
+
+    # Scenario triggers (ValueError naming what is wrong when an action cannot be done):
+
+    def spawn_npc(self, vehicle: ScriptedVehicle) -> None:
+        """Add a scripted vehicle that departs now."""
+        ...
+
+    def release_npc(self, npc_id: str) -> None:
+        """Let a vehicle waiting at its stop drive on."""
+        ...
+
+    def command_speed(self, npc_id: str, speed_mps: float | None) -> None:
+        """Drive a vehicle at exactly this speed, ignoring traffic rules (None: hand back)."""
+        ...
+
+    def set_light_state(self, light_id: str, state: str) -> None: ...
 
     def light_programs(self) -> dict[str, list[LightPhase]]:
         """The running program of every traffic light."""

@@ -27,6 +27,7 @@ import msgspec
 from carlaverse.config import StrictStruct, convert, parse_yaml, read_text, resolve_path
 from carlaverse.messages import ACTOR_KINDS
 from carlaverse.traffic.soundscape import AudioSpec, check_siren_vehicles
+from carlaverse.traffic.trigger_spec import TriggerSpec, check_triggers
 
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
 Positive = Annotated[float, msgspec.Meta(gt=0)]
@@ -319,9 +320,11 @@ class ScenarioSpec(StrictStruct, kw_only=True):
     collisions: CollisionSpec = CollisionSpec()
     grades: Grades = Grades()
     audio: AudioSpec = AudioSpec()
+    triggers: list[TriggerSpec] = []  # scripted encounters (trigger_spec.py)
 
     def __post_init__(self) -> None:
         check_siren_vehicles(self.audio, [v.id for v in self.traffic.scripted_vehicles])
+        check_triggers(self.triggers)
 
     @property
     def step_length_s(self) -> float:

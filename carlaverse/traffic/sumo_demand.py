@@ -81,6 +81,7 @@ class DemandKeeper:
         self._scripted = {v.id for v in traffic.scripted_vehicles} | {
             p.id for p in traffic.scripted_pedestrians
         }
+        self._triggered: list[ScriptedVehicle] = []  # added later by scenario triggers
         self._vehicle_edges = _edges_allowing(ls, "passenger")
         self._bike_edges = _edges_allowing(ls, "bicycle")
         self._walk_edges = _edges_allowing(ls, "pedestrian")
@@ -94,6 +95,14 @@ class DemandKeeper:
             self._add_scripted_vehicle(vehicle)
         for person in self._traffic.scripted_pedestrians:
             self._add_scripted_pedestrian(person)
+
+    def add_now(self, vehicle: ScriptedVehicle) -> None:
+        """A scripted vehicle that departs now (a trigger's spawn); not counted as traffic."""
+        if vehicle.id in self._scripted or vehicle.id in self._ls.vehicle.getIDList():
+            raise ValueError(f"an NPC with id {vehicle.id!r} exists already")
+        self._scripted.add(vehicle.id)
+        self._triggered.append(vehicle)
+        self._add_scripted_vehicle(vehicle)
 
     def top_up(self, carried_vehicles: int, carried_persons: int) -> None:
         """Add random NPCs until the counts are met (egos carried in SUMO do not count)."""
@@ -110,7 +119,8 @@ class DemandKeeper:
 
     def _scripted_alive(self) -> int:
         ids = self._ls.vehicle.getIDList()
-        return sum(1 for v in self._traffic.scripted_vehicles if v.id in ids)
+        scripted = [*self._traffic.scripted_vehicles, *self._triggered]
+        return sum(1 for v in scripted if v.id in ids)
 
     def _scripted_walking(self) -> int:
         ids = self._ls.person.getIDList()

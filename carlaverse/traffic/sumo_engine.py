@@ -16,8 +16,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import ClassVar
 
+import msgspec
+
 from carlaverse.traffic.engine import EgoPlacement, LightPhase, LightReading, NpcFrame
-from carlaverse.traffic.scenario import Traffic
+from carlaverse.traffic.scenario import ScriptedVehicle, Traffic
 from carlaverse.traffic.sumo_demand import DemandKeeper, define_types
 from carlaverse.traffic.sumo_egos import EgoCarrier
 from carlaverse.traffic.sumo_reader import NpcReader
@@ -26,6 +28,8 @@ from carlaverse.traffic.sumo_tools import import_libsumo
 log = logging.getLogger(__name__)
 
 OVERRIDE_PROGRAM = "carlaverse"
+SUMO_DEFAULT_SPEED_MODE = 31  # every check on (SUMO's default)
+SPEED_MODE_COMMANDED = 32  # every check off, and disregard right of way inside junctions
 
 
 class EngineBusyError(RuntimeError):
@@ -140,6 +144,52 @@ class SumoEngine:
                 ls.person.remove(npc_id)
         except ls.TraCIException as exc:
             log.debug("NPC %s to remove is gone: %s", npc_id, exc)
+
+    # ------------------------------------------------------------------ scenario triggers
+
+    def spawn_npc(self, vehicle: ScriptedVehicle) -> None:
+        try:
+            self._demand.add_now(msgspec.structs.replace(vehicle, depart_s=self.time_s))
+        except self._ls.TraCIException as exc:
+            raise ValueError(f"cannot spawn {vehicle.id} on {vehicle.edges}: {exc}") from exc
+
+    def release_npc(self, npc_id: str) -> None:
+        vehicle = self._ls.vehicle
+        try:
+            if vehicle.isStopped(npc_id):
+                vehicle.resume(npc_id)
+            elif vehicle.getStops(npc_id):  # still on its way to the stop: cancel it
+                vehicle.replaceStop(npc_id, 0, "")
+            else:
+                raise ValueError(f"cannot release {npc_id}: it is not held at a stop")
+        except self._ls.TraCIException as exc:
+            raise ValueError(f"cannot release {npc_id}: {exc}") from exc
+
+    def command_speed(self, npc_id: str, speed_mps: float | None) -> None:
+        ls = self._ls
+        try:
+            if speed_mps is None:  # back to SUMO's own driving
+                ls.vehicle.setSpeed(npc_id, -1)
+                ls.vehicle.setSpeedMode(npc_id, SUMO_DEFAULT_SPEED_MODE)
+                return
+            # Exactly this speed next step: no safe-speed, acceleration, right-of-way or red
+            # light checks (the caller limits acceleration), and no yielding inside junctions.
+            ls.vehicle.setSpeedMode(npc_id, SPEED_MODE_COMMANDED)
+            ls.vehicle.setLaneChangeMode(npc_id, 0)
+            ls.vehicle.setSpeed(npc_id, speed_mps)
+        except ls.TraCIException as exc:
+            raise ValueError(f"cannot command {npc_id}: {exc}") from exc
+
+    def set_light_state(self, light_id: str, state: str) -> None:
+        tl = self._ls.trafficlight
+        if light_id not in tl.getIDList():
+            raise ValueError(f"no traffic light {light_id!r}; the network has {tl.getIDList()}")
+        links = len(tl.getRedYellowGreenState(light_id))
+        if len(state) != links:
+            raise ValueError(
+                f"light {light_id!r} controls {links} links, state {state!r} has {len(state)}"
+            )
+        tl.setRedYellowGreenState(light_id, state)
 
     # ------------------------------------------------------------------ traffic lights
 
