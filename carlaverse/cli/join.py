@@ -18,6 +18,7 @@ from carlaverse.cli.common import (
     say,
     stop_on_signals,
 )
+from carlaverse.cli.join_hmi import add_hmi_arguments, node_hmi
 from carlaverse.cli.join_view import add_view_arguments, node_view
 from carlaverse.config import ConfigError, load_config
 from carlaverse.fabric.node_client import JoinRefused, NodeSettings
@@ -69,6 +70,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_fabric_args(parser)
     add_output_args(parser)
     add_view_arguments(parser)
+    add_hmi_arguments(parser)
 
 
 def _prepare(args: argparse.Namespace) -> tuple[type, Any, NodeSettings, FabricSettings]:
@@ -106,12 +108,15 @@ def run(args: argparse.Namespace) -> int:
     try:
         node = kind_cls(config)
         node_settings = getattr(node, "node_settings", node_settings)
-        with node_view(args, node, node_settings, fabric) as view:  # --view: its own process
+        with (
+            node_view(args, node, node_settings, fabric) as view,  # --view: its own process
+            node_hmi(args, args.kind, node, say("join")) as hmi,  # --hmi: a thread of its own
+        ):
             summary = run_node(
                 node, node_settings, fabric, config, args.duration, stop,
                 join_timeout_s=args.join_timeout, on_wait=say("join"),
             )  # fmt: skip
-        summary.extra.update(view.extra)
+        summary.extra.update(view.extra | hmi.extra)
     except JoinRefused as exc:
         return fail("join", f"the authority refused {node_id!r}: {exc}", EXIT_REFUSED)
     except (FabricUnreachable, JoinTimeout) as exc:

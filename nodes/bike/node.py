@@ -17,6 +17,7 @@ from typing import Any
 
 import msgspec
 from carlaverse_nodes.bike.config import BikeNodeConfig, node_settings, resolve_table
+from carlaverse_nodes.bike.hmi_bridge import BikeHmiBridge
 from carlaverse_nodes.bike.loop_process import BikeLoopSpec, run_bike_loop
 from carlaverse_nodes.bike.road_grade import RoadGrade
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
@@ -54,6 +55,7 @@ class BikeNode:
         self._loop_summary: dict[str, Any] = {}
         self._grades: RoadGrade | None = None  # the scenario's, once fetched
         self._grades_join = 0  # the join whose scenario was asked for
+        self._hmi: BikeHmiBridge | None = None
 
     @classmethod
     def with_backend(cls, config: BikeNodeConfig, backend: str) -> BikeNodeConfig:
@@ -84,6 +86,11 @@ class BikeNode:
         )  # fmt: skip
         self._process.start()
 
+    def hmi_bridge(self) -> BikeHmiBridge:
+        """The web HMI's view of this bike (carlaverse join bike --hmi PORT)."""
+        self._hmi = BikeHmiBridge(self.node_settings)
+        return self._hmi
+
     def own_pose_block(self) -> OwnPoseBlock:
         """Where a view reads this bike's pose without network delay (the loop's state)."""
         n = self.node_settings
@@ -111,6 +118,8 @@ class BikeNode:
         self._control.write_fields(
             clock_offset=client.clock.offset, wind_speed_mps=wind[0], wind_from_deg=wind[1]
         )
+        if self._hmi is not None:
+            self._hmi.clock_offset = client.clock.offset
         self._place_at_spawn(client)
         self._follow_grade(client)
         while client.impulses:

@@ -11,6 +11,9 @@ functions and shapes them, as the paper's control module does:
       buttons:
         indicator_left: [button4, "hat:dpad:left"]
 
+Every action also answers to the channel `touch:<action>`: the web HMI's touchscreen taps
+arrive as those buttons (carlaverse_nodes.drive.touch), so they take the same path as a key.
+
 Per axis: pick the channel, optionally one half of a bipolar axis, invert, apply a dead zone
 (rescaled so full travel still reaches 1), then the curve expression (compiled once by the
 restricted evaluator, carlaverse.expr), then clamp. Buttons become rising edges (`pressed`)
@@ -33,13 +36,15 @@ log = logging.getLogger(__name__)
 
 ACTIONS = (
     "indicator_left", "indicator_right", "hazard", "indicator_reset", "lane_change_assist",
-    "lights_next", "lights_prev", "lights_cycle", "fog", "high_beam", "flash", "interior",
+    "lights_next", "lights_prev", "lights_cycle", "low_beam", "fog", "high_beam", "flash",
+    "interior",
     "gear_up", "gear_down", "gear_reverse", "gear_neutral", "gear_drive",
     "gear_1", "gear_2", "gear_3", "gear_4", "gear_5", "gear_6", "gear_7", "gear_8",
     "horn",
 )  # fmt: skip
 H_SHIFTER_ACTIONS = tuple(f"gear_{n}" for n in range(1, 9))
 HAT_DIRECTIONS = {"up": (1, 1), "down": (1, -1), "left": (0, -1), "right": (0, 1)}
+TOUCH_PREFIX = "touch:"  # the web HMI's buttons: touch:<action>
 
 
 class AxisMapping(StrictStruct):
@@ -158,8 +163,10 @@ class Controls:
         # Per action: its plain button channels (a set, for a C-speed disjointness test)
         # and its hat directions as (hat, axis index, sign).
         self._buttons: list[tuple[str, frozenset[str], tuple[tuple[str, int, int], ...]]] = []
-        for action, sources in config.buttons.items():
+        for action in ACTIONS:
+            sources = config.buttons.get(action, [])
             listed = [sources] if isinstance(sources, str) else sources
+            listed = [*listed, TOUCH_PREFIX + action]
             plain = frozenset(s for s in listed if not s.startswith("hat:"))
             hats = tuple(_hat_source(s) for s in listed if s.startswith("hat:"))
             self._buttons.append((action, plain, hats))

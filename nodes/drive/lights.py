@@ -3,7 +3,8 @@ reverse lights from the vehicle's state (paper, "Control and ADAS Interfaces").
 
 The head-light switch is a rotary state machine OFF → PARKING → LOW_BEAM → FOG (fog lamps
 need the low beam, as on most European cars); `lights_next`/`lights_prev` turn it one notch,
-`lights_cycle` steps round for a single button, `fog` toggles fog on top of the low beam.
+`lights_cycle` steps round for a single button, `fog` toggles fog on top of the low beam,
+`low_beam` switches straight to the low beam or off again (a touchscreen's one button).
 High beam is latched by `high_beam` and only lights with the low beam on; `flash` lights it
 while held, whatever the switch. The output is the LIGHT_* bitmask of carlaverse.messages.
 """
@@ -54,9 +55,13 @@ HEADLIGHT_TRANSITIONS = MappingProxyType(
         (H.PARKING, "fog"): H.PARKING,
         (H.LOW_BEAM, "fog"): H.FOG,
         (H.FOG, "fog"): H.LOW_BEAM,
+        (H.OFF, "low_beam"): H.LOW_BEAM,
+        (H.PARKING, "low_beam"): H.LOW_BEAM,
+        (H.LOW_BEAM, "low_beam"): H.OFF,
+        (H.FOG, "low_beam"): H.OFF,
     }
 )
-SWITCH_ACTIONS = ("lights_next", "lights_prev", "lights_cycle", "fog")
+SWITCH_ACTIONS = ("lights_next", "lights_prev", "lights_cycle", "fog", "low_beam")
 
 MODE_BITS = MappingProxyType(
     {

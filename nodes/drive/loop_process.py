@@ -21,6 +21,7 @@ from typing import Any
 
 from carlaverse_nodes.drive.config import DriveNodeConfig, input_configs
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
+from carlaverse_nodes.drive.touch import TouchButtons, TouchPress
 from carlaverse_nodes.drive.vehicle_loop import DriveLoop, LoopOutput
 
 from carlaverse.hal import FfbCommand, MotionFrame, open_ffb, open_input, open_motion
@@ -86,6 +87,7 @@ class _Runner:
         self.pacer = Pacer(config.loop.rate_hz)
         self.spawn_seq = 0
         self.pending: list[Impulse] = []
+        self.touch = TouchButtons()  # the web HMI's taps
         self.ffb_sent = self.motion_sent = self.impulses = self.ticks = 0
         self.distance_m = 0.0
 
@@ -132,7 +134,8 @@ class _Runner:
         return out
 
     def _poll_inputs(self) -> MergedInput:
-        if len(self.inputs) == 1:
+        touched = self.touch.buttons()
+        if len(self.inputs) == 1 and touched is None:
             s = self.inputs[0].poll()
             return MergedInput(s.axes, s.buttons)  # type: ignore[arg-type]
         axes: dict[str, float] = {}
@@ -141,6 +144,7 @@ class _Runner:
             s = device.poll()
             axes.update(s.axes)
             buttons.update(s.buttons)
+        buttons.update(touched or {})
         return MergedInput(axes, buttons)
 
     def _drain_events(self) -> None:
@@ -153,6 +157,8 @@ class _Runner:
                 self.pending.append(event)
             elif isinstance(event, Override):
                 self.loop.submit_override(event)
+            elif isinstance(event, TouchPress):
+                self.touch.tap(event.action)
 
     def _read_control(self) -> None:
         c = self.control.read()
@@ -183,6 +189,11 @@ class _Runner:
         r["indicator"] = INDICATORS.index(out.indicator) if out.indicator in INDICATORS else 0
         r["blink_on"], r["lca_active"] = out.blink_on, out.lca_active
         r["adas_active"] = bool(out.adas.sources)
+        r["cruise_active"], r["cruise_speed_mps"] = (
+            out.adas.cruise_active,
+            out.adas.cruise_speed_mps,
+        )
+        r["brake_override"] = out.adas.driver_brake_override
         r["ticks"], r["period_error_us"] = self.ticks, self.pacer.last_error_s * 1e6
         r["max_period_error_us"] = self.pacer.max_error_s * 1e6
         r["ffb_sent"], r["motion_sent"], r["impulses_applied"] = (

@@ -14,6 +14,7 @@ from typing import Any
 
 import msgspec
 from carlaverse_nodes.drive.config import DriveNodeConfig, node_settings, resolve_vehicle
+from carlaverse_nodes.drive.hmi_bridge import DriveHmiBridge
 from carlaverse_nodes.drive.loop_process import LoopSpec, run_loop
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 
@@ -49,6 +50,7 @@ class DriveNode:
         self._joins_seen = 0
         self._loop_summary: dict[str, Any] = {}
         self._forwarded = 0
+        self._hmi: DriveHmiBridge | None = None
 
     @classmethod
     def with_backend(cls, config: DriveNodeConfig, backend: str) -> DriveNodeConfig:
@@ -89,6 +91,11 @@ class DriveNode:
         n = self.node_settings
         name = block_name(n.session, n.node_id, "state")
         return OwnPoseBlock(name, STATE, n.actor_kind, n.extent)
+
+    def hmi_bridge(self) -> DriveHmiBridge:
+        """The web HMI's view of this car (carlaverse join drive --hmi PORT)."""
+        self._hmi = DriveHmiBridge(self.node_settings, self.vehicle)
+        return self._hmi
 
     def pose_source(self) -> PoseSource | None:
         def source(t: float) -> Pose | None:
@@ -131,7 +138,11 @@ class DriveNode:
         while client.overrides:
             self._events.put(client.overrides.popleft())
             self._forwarded += 1
-        self._publish_state(client, self._state.read())
+        state = self._state.read()
+        if self._hmi is not None:
+            self._hmi.clock_offset = client.clock.offset
+            self._forwarded += self._hmi.forward(self._events, now, float(state["speed_mps"]))
+        self._publish_state(client, state)
         if not self._process.is_alive():
             raise RuntimeError(f"the control loop process died (exit {self._process.exitcode})")
 

@@ -24,6 +24,7 @@ STATE = np.dtype(
         ("throttle", "<f8"), ("brake", "<f8"),
         ("gear", "<i4"), ("lights", "<u4"), ("indicator", "u1"), ("blink_on", "u1"),
         ("lca_active", "u1"), ("adas_active", "u1"),
+        ("cruise_active", "u1"), ("cruise_speed_mps", "<f8"), ("brake_override", "u1"),
         ("ticks", "<u8"), ("period_error_us", "<f8"), ("max_period_error_us", "<f8"),
         ("ffb_sent", "<u8"), ("motion_sent", "<u8"), ("impulses_applied", "<u8"),
         ("running", "u1"),

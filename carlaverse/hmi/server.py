@@ -1,0 +1,265 @@
+"""The web HMI server: pages over HTTP, telemetry and commands over one WebSocket per page.
+
+It runs Starlette on uvicorn in a thread of its own with its own asyncio loop, beside the
+node's fabric loop, and never blocks it: telemetry is read from the bridge at the frame rate
+(the control loop's latest-value slot), commands go back through the bridge's queue. Each
+page gets the newest frame only: a slow page skips frames rather than queueing them, while
+info, messages, pongs and rejections are always delivered in order.
+
+    server = HmiServer(bridge, load_hmi_config("hmi/drive.yaml"), port=8080).start()
+    server.show_message("Take the next exit", seconds=5)
+    ...
+    server.close()
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import socket
+import threading
+import time
+from collections import deque
+from typing import Any
+
+import uvicorn
+from starlette.applications import Starlette
+from starlette.requests import Request
+from starlette.responses import JSONResponse, Response
+from starlette.routing import Route, WebSocketRoute
+from starlette.websockets import WebSocket, WebSocketDisconnect
+
+from carlaverse.hmi.bridge import HmiBridge
+from carlaverse.hmi.config import LoadedHmiConfig
+from carlaverse.hmi.site import Site
+from carlaverse.hmi.wire import (
+    ENCODER,
+    Info,
+    InputCheck,
+    Message,
+    Ping,
+    Pong,
+    Rejected,
+    Telemetry,
+)
+
+log = logging.getLogger(__name__)
+
+START_TIMEOUT_S = 10.0
+MAX_MESSAGE_S = 3600.0  # [s] longest a pushed message stays up
+
+
+class HmiError(ValueError):
+    """The HMI cannot serve (address in use, bad bind address)."""
+
+
+class _Page:
+    """One connected page: the newest frame for it, and frames that must all arrive."""
+
+    def __init__(self, socket_: WebSocket) -> None:
+        self.socket = socket_
+        self.frame: bytes | None = None
+        self.ordered: deque[bytes] = deque(maxlen=256)
+        self.wake = asyncio.Event()
+
+    def offer(self, frame: bytes) -> None:
+        self.frame = frame
+        self.wake.set()
+
+    def post(self, frame: bytes) -> None:
+        self.ordered.append(frame)
+        self.wake.set()
+
+
+class HmiServer:
+    """Serves the node's HMI pages on bind:port until `close()`."""
+
+    def __init__(
+        self, bridge: HmiBridge, loaded: LoadedHmiConfig, bind: str = "127.0.0.1", port: int = 0
+    ) -> None:
+        self.bridge = bridge
+        self.settings = loaded.config.hmi
+        self.site = Site(loaded)
+        self.bind, self.port = bind, port
+        self.inputs = InputCheck(bridge.actions, bridge.cruise)
+        self._pages: set[_Page] = set()
+        self._messages: list[tuple[Message, float]] = []  # with expiry, monotonic [s]
+        self._message_ids = 0
+        self.frames_sent = 0  # telemetry frames handed to pages (one per page per frame)
+        self.frames_made = 0
+        self._loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._started = threading.Event()
+        self._server: uvicorn.Server | None = None
+
+    # ------------------------------------------------------------ the caller's side
+
+    @property
+    def url(self) -> str:
+        host = f"[{self.bind}]" if ":" in self.bind else self.bind
+        return f"http://{host}:{self.port}/"
+
+    def start(self) -> HmiServer:
+        """Bind (raising HmiError in one line) and serve in a thread; returns when ready."""
+        listener = _listen(self.bind, self.port)
+        self.port = int(listener.getsockname()[1])
+        app = Starlette(routes=[
+            Route("/api/status", self._status),
+            WebSocketRoute("/ws", self._websocket),
+            *self.site.routes(),
+        ])  # fmt: skip
+        config = uvicorn.Config(
+            app, log_level="warning", access_log=False, lifespan="off", ws="websockets-sansio",
+            ws_max_size=64 * 1024, timeout_graceful_shutdown=2,
+        )  # fmt: skip
+        self._server = uvicorn.Server(config)
+        self._thread = threading.Thread(
+            target=self._run, args=(listener,), name="hmi-server", daemon=True
+        )
+        self._thread.start()
+        if not self._started.wait(START_TIMEOUT_S):
+            raise HmiError(f"the HMI did not start within {START_TIMEOUT_S:.0f} s")
+        return self
+
+    def show_message(self, text: str, seconds: float = 5.0) -> None:
+        """Show `text` on every page for `seconds` (also on pages that connect meanwhile)."""
+        seconds = min(max(float(seconds), 0.1), MAX_MESSAGE_S)
+        if self._loop is not None:
+            self._loop.call_soon_threadsafe(self._push_message, str(text), seconds)
+
+    def stats(self) -> dict[str, Any]:
+        return {
+            "url": self.url,
+            "pages_connected": len(self._pages),
+            "frames_made": self.frames_made,
+            "frames_sent": self.frames_sent,
+            "inputs_accepted": self.inputs.accepted,
+            "inputs_rejected": dict(self.inputs.rejected),
+        }
+
+    def close(self) -> None:
+        if self._server is not None:
+            self._server.should_exit = True
+        if self._thread is not None:
+            self._thread.join(timeout=10)
+            self._thread = None
+
+    # ------------------------------------------------------------ the server's thread
+
+    def _run(self, listener: socket.socket) -> None:
+        asyncio.run(self._serve(listener))
+
+    async def _serve(self, listener: socket.socket) -> None:
+        assert self._server is not None
+        self._loop = asyncio.get_running_loop()
+        ticker = asyncio.create_task(self._tick())
+        self._started.set()
+        try:
+            await self._server.serve(sockets=[listener])
+        finally:
+            ticker.cancel()
+            listener.close()
+
+    async def _tick(self) -> None:
+        """Read the bridge at the frame rate and offer the frame to every page."""
+        period = 1.0 / self.settings.rate_hz
+        next_t = time.monotonic()
+        while True:
+            next_t += period
+            await asyncio.sleep(max(0.0, next_t - time.monotonic()))
+            if next_t < time.monotonic() - period:
+                next_t = time.monotonic()  # fell behind (a loaded host): skip, never burst
+            self._expire_messages()
+            sample = self.bridge.telemetry() if self._pages else None
+            if sample is None:
+                continue
+            self.frames_made += 1
+            frame = ENCODER.encode(Telemetry(self.frames_made, sample[0], sample[1]))
+            for page in self._pages:
+                page.offer(frame)
+
+    def _push_message(self, text: str, seconds: float) -> None:
+        self._message_ids += 1
+        message = Message(self._message_ids, text, seconds)
+        self._messages.append((message, time.monotonic() + seconds))
+        frame = ENCODER.encode(message)
+        for page in self._pages:
+            page.post(frame)
+
+    def _expire_messages(self) -> None:
+        now = time.monotonic()
+        self._messages = [(m, until) for m, until in self._messages if until > now]
+
+    def _info(self) -> bytes:
+        b = self.bridge
+        return ENCODER.encode(Info(
+            b.kind, b.node_id, self.settings.units, self.settings.rate_hz, sorted(b.actions),
+            b.cruise, b.static_info(),
+        ))  # fmt: skip
+
+    async def _status(self, request: Request) -> Response:
+        return JSONResponse(self.stats())
+
+    async def _websocket(self, socket_: WebSocket) -> None:
+        await socket_.accept()
+        page = _Page(socket_)
+        page.post(self._info())
+        now = time.monotonic()
+        for message, until in self._messages:  # still showing: with the time left
+            left = Message(message.id, message.text, round(until - now, 3))
+            page.post(ENCODER.encode(left))
+        self._pages.add(page)
+        writer = asyncio.create_task(self._write(page))
+        try:
+            await self._read(page)
+        finally:
+            self._pages.discard(page)
+            writer.cancel()
+
+    async def _read(self, page: _Page) -> None:
+        while True:
+            event = await page.socket.receive()
+            if event["type"] == "websocket.disconnect":
+                return
+            item, reason = self.inputs.check(event.get("text"))
+            if item is None:
+                page.post(ENCODER.encode(Rejected(reason)))
+            elif isinstance(item, Ping):
+                page.post(ENCODER.encode(Pong(item.page_ms, time.monotonic())))
+            else:
+                self.bridge.submit(item)
+
+    async def _write(self, page: _Page) -> None:
+        try:
+            while True:
+                await page.wake.wait()
+                page.wake.clear()
+                while page.ordered:
+                    await page.socket.send_text(page.ordered.popleft().decode())
+                frame, page.frame = page.frame, None
+                if frame is not None:
+                    await page.socket.send_text(frame.decode())
+                    self.frames_sent += 1
+        except (WebSocketDisconnect, RuntimeError, OSError):
+            return  # the page went away; its reader ends the connection
+
+
+def _listen(bind: str, port: int) -> socket.socket:
+    """A listening TCP socket on bind:port, or HmiError naming the address and the fix."""
+    try:
+        infos = socket.getaddrinfo(bind, port, type=socket.SOCK_STREAM)
+    except socket.gaierror as exc:
+        raise HmiError(f"--hmi-bind {bind!r}: not an address here ({exc.strerror})") from exc
+    family, _, _, _, address = infos[0]
+    listener = socket.socket(family, socket.SOCK_STREAM)
+    listener.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+    try:
+        listener.bind(address)
+    except OSError as exc:
+        listener.close()
+        raise HmiError(
+            f"--hmi {port}: cannot listen on {bind}:{port} ({exc.strerror}); pick another port"
+        ) from exc
+    listener.listen(16)
+    listener.setblocking(False)
+    return listener
