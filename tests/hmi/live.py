@@ -1,0 +1,40 @@
+"""A live session for HMI tests: router, authority and one node with `--hmi 0`, in processes."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+from tests.support import Cluster, Proc, wait_until
+
+HMI_URL = re.compile(r"HMI at (http://127\.0\.0\.1:\d+/)")
+
+
+def hmi_url(proc: Proc) -> str | None:
+    """The base URL the node printed, once it has."""
+    found = HMI_URL.search("".join(proc.stderr))
+    if found is None and not proc.alive():
+        raise AssertionError(f"{proc.name} exited: {proc.output()[-2000:]}")
+    return found.group(1) if found else None
+
+
+@contextmanager
+def node_with_hmi(
+    tmp: Path, kind: str, node_id: str, *extra: str
+) -> Iterator[tuple[Cluster, Proc, str]]:
+    """A session with a `kind` node on the sim backend serving its HMI; yields its base URL."""
+    cluster = Cluster(tmp)
+    try:
+        cluster.router()
+        cluster.authority()
+        node = cluster.start(
+            "join", kind, "--id", node_id, "--session", "t", "--connect", cluster.endpoint,
+            "--backend", "sim", "--duration", "120", "--hmi", "0", "--json", *extra,
+            name=node_id,
+        )  # fmt: skip
+        url = wait_until(lambda: hmi_url(node), 30, f"{node_id}'s HMI URL")
+        yield cluster, node, url
+    finally:
+        cluster.close()

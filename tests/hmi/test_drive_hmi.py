@@ -1,0 +1,135 @@
+"""The drive node's HMI end to end: a real node process, a real router and authority, the
+pages in Chromium, and this test watching the fabric as another participant would."""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import psutil
+import pytest
+from playwright.sync_api import Browser, Page
+
+from carlaverse import messages as m
+from carlaverse.keys import Keys
+from tests.browser import save_screenshot
+from tests.hmi.live import node_with_hmi
+from tests.support import Cluster, Proc, wait_until
+
+pytestmark = pytest.mark.browser
+
+# A pose and a frame shown at the same moment may be up to this old on a loaded host, and
+# the scripted driver changes speed by at most ~3 m/s² × 0.6 s ≈ 6.5 km/h over it; the
+# page rounds to 1 km/h. So the shown speed must lie within the range of the poses of the
+# last WINDOW_S, widened by the rounding.
+WINDOW_S = 0.6  # [s]
+ROUNDING_KMH = 1.0
+
+
+class Fabric:
+    """What another participant sees of the car: its poses and ego states, as they arrive."""
+
+    def __init__(self, cluster: Cluster, node_id: str) -> None:
+        session = cluster.observer().session
+        keys = Keys("t")
+        self._lock = threading.Lock()
+        self.speeds: list[tuple[float, float]] = []  # (arrival, monotonic [s]; speed [km/h])
+        self.states: list[m.EgoState] = []
+        self._subs = [
+            session.declare_subscriber(keys.pose(node_id), self._on_pose),
+            session.declare_subscriber(keys.state(node_id), self._on_state),
+        ]
+
+    def _on_pose(self, sample) -> None:  # type: ignore[no-untyped-def]
+        pose = m.POSE.decode(sample.payload.to_bytes())
+        with self._lock:
+            self.speeds.append((time.monotonic(), math.hypot(pose.vx, pose.vy) * 3.6))
+
+    def _on_state(self, sample) -> None:  # type: ignore[no-untyped-def]
+        with self._lock:
+            self.states.append(m.EGO_STATE.decode(sample.payload.to_bytes()))
+
+    def speeds_since(self, t: float) -> list[float]:
+        with self._lock:
+            return [kmh for arrived, kmh in self.speeds if arrived >= t]
+
+    def last_state(self) -> m.EgoState | None:
+        with self._lock:
+            return self.states[-1] if self.states else None
+
+
+@pytest.fixture(scope="module")
+def drive(
+    chromium: Browser, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[tuple[Cluster, Proc, str]]:
+    """The car, started after the browser so the first page sees it pull away."""
+    with node_with_hmi(tmp_path_factory.mktemp("drive-hmi"), "drive", "car") as running:
+        yield running
+
+
+def test_the_dashboard_follows_the_scripted_drive(
+    drive: tuple[Cluster, Proc, str], page: Page, screenshot_dir: Path
+) -> None:
+    cluster, _, url = drive
+    fabric = Fabric(cluster, "car")
+    page.goto(url + "dashboard")
+    page.wait_for_function("window.hmi && hmi.frames > 0", timeout=30000)
+    shown: list[float] = []
+    deadline = time.monotonic() + 30
+    while time.monotonic() < deadline and (len(shown) < 12 or max(shown) - min(shown) < 15):
+        poses_from = time.monotonic() - WINDOW_S
+        kmh = float(page.locator('[data-readout="speed"]').text_content() or "nan")
+        recent = fabric.speeds_since(poses_from)
+        if recent:
+            low, high = min(recent) - ROUNDING_KMH, max(recent) + ROUNDING_KMH
+            assert low <= kmh <= high, f"shown {kmh} km/h, the car's poses {low:.1f}..{high:.1f}"
+            shown.append(kmh)
+        page.wait_for_timeout(250)
+    assert max(shown) - min(shown) >= 15, f"the speed shown hardly changed: {shown}"
+    state = wait_until(fabric.last_state, 10, "the car's ego state")
+    gear = page.locator('[data-readout="gear"]')
+    what = f"the gear shown ({gear.text_content()}) to match the ego state's ({state.gear})"
+    wait_until(lambda: gear.text_content() == _gear_name(fabric.last_state()), 5, what)
+    save_screenshot(page, screenshot_dir, "hmi-drive-dashboard")
+    assert page.errors == []
+
+
+def test_tapping_low_beam_turns_the_lights_on_the_fabric(
+    drive: tuple[Cluster, Proc, str], page: Page, screenshot_dir: Path
+) -> None:
+    cluster, _, url = drive
+    fabric = Fabric(cluster, "car")
+    page.goto(url + "touch")
+    button = page.locator('button[data-action="low_beam"]')
+    page.wait_for_function("window.hmi && hmi.frames > 0 && hmi.info", timeout=30000)
+    assert not page.evaluate("hmi.last.lights") & m.LIGHT_LOW_BEAM
+    button.click()
+
+    def low_beam_on_fabric() -> bool:
+        state = fabric.last_state()
+        return state is not None and bool(state.lights & m.LIGHT_LOW_BEAM)
+
+    wait_until(low_beam_on_fabric, 10, "EgoState.lights with the low beam on the fabric")
+    page.wait_for_function(
+        "document.querySelector('[data-action=low_beam]').classList.contains('on')"
+    )
+    save_screenshot(page, screenshot_dir, "hmi-drive-touch")
+    button.click()  # and off again
+    wait_until(lambda: not low_beam_on_fabric(), 10, "the low beam off on the fabric")
+    assert page.errors == []
+
+
+def test_the_hmi_listens_on_loopback_only(drive: tuple[Cluster, Proc, str]) -> None:
+    _, node, url = drive
+    port = int(url.rsplit(":", 1)[1].strip("/"))
+    listening = [c.laddr for c in psutil.Process(node.proc.pid).net_connections("tcp")
+                 if c.status == psutil.CONN_LISTEN and c.laddr.port == port]  # fmt: skip
+    assert [a.ip for a in listening] == ["127.0.0.1"]
+
+
+def _gear_name(state: m.EgoState | None) -> str:
+    assert state is not None
+    return "R" if state.gear < 0 else "N" if state.gear == 0 else f"D{state.gear}"
