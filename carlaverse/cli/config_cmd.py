@@ -13,7 +13,7 @@ from carlaverse.config import ConfigError, convert, parse_yaml, read_text, resol
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 
 # File kinds that are not node kinds, each told apart by its top-level fields.
-FILE_KINDS = ("scenario", "vehicle", "roster", "router", "rig", "trainer-table", "zenohd")
+FILE_KINDS = ("scenario", "vehicle", "roster", "router", "rig", "trainer-table", "hmi", "zenohd")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -21,8 +21,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "Validate files against their schema. The schema is chosen with --kind, else from the "
         "file: a node config by its `node.kind`, a scenario by `map:`, a vehicle by `body:` and "
         "`spec:`, a roster by `sites:` and `nodes:`, a router config by a lone `fabric:`, a "
-        "camera rig by `camera:`, a trainer resistance table by `resistance_percent:`, a "
-        "zenohd config by its .json5 suffix."
+        "camera rig by `camera:`, a trainer resistance table by `resistance_percent:`, an HMI "
+        "config by `layouts:`, a zenohd config by its .json5 suffix."
     )
     sub = parser.add_subparsers(dest="action", required=True)
     validate = sub.add_parser("validate", help="validate files; exit 1 if any is invalid")
@@ -44,7 +44,7 @@ def detect_kind(path: Path, data: Any) -> str:
         return str(node["kind"])
     for kind, fields in (("scenario", {"map"}), ("vehicle", {"body", "spec"}),
                          ("roster", {"sites", "nodes"}), ("router", {"fabric"}),
-                         ("rig", {"camera"}),
+                         ("rig", {"camera"}), ("hmi", {"layouts"}),
                          ("trainer-table", {"resistance_percent"})):  # fmt: skip
         if fields <= data.keys() and (kind != "router" or data.keys() == {"fabric"}):
             return kind
@@ -116,6 +116,12 @@ def _check_trainer_table(path: Path, data: Any, kind: str) -> None:
     load_table(path)  # also strictly increasing axes and the table's shape
 
 
+def _check_hmi(path: Path, data: Any, kind: str) -> None:
+    from carlaverse.hmi.config import load_hmi_config
+
+    load_hmi_config(str(path))  # also its pages_dir
+
+
 def _check_zenohd(path: Path, data: Any, kind: str) -> None:
     import zenoh
 
@@ -153,6 +159,7 @@ CHECKS: dict[str, Callable[[Path, Any, str], None]] = {
     "router": _check_router,
     "rig": _check_rig,
     "trainer-table": _check_trainer_table,
+    "hmi": _check_hmi,
     "zenohd": _check_zenohd,
 }
 

@@ -27,6 +27,8 @@ EXPECTED = {
     "router/zenohd-site.json5": "zenohd",
     "configs/bike-sim.yaml": "bike node",
     "configs/bike-trainer-table.yaml": "trainer-table",
+    "configs/hmi/drive.yaml": "hmi",
+    "configs/hmi/bike.yaml": "hmi",
     "configs/rigs/rig-cave.yaml": "rig",
     "configs/rigs/rig-desktop.yaml": "rig",
     "configs/rigs/rig-three-displays.yaml": "rig",

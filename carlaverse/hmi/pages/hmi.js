@@ -7,7 +7,8 @@
 //
 // window.hmi exposes the live state for pages of your own and for tests: `last` (newest
 // values), `info`, `frames`, `arrivals` (performance.now() of recent frames, ms),
-// `latencies` (node state → this page, ms), `rejected` (reasons the node gave), and
+// `latencies` (node state → this page, ms), `rejected` (reasons the node gave), `messages`
+// (texts pushed so far), and
 // `press(action)`, `cruise(command)`, `send(object)`, `onTelemetry(fn)`.
 //
 // Latency: the node stamps each frame with its host's monotonic clock at the loop tick that
@@ -42,6 +43,7 @@ export class Hmi {
     this.arrivals = [];
     this.latencies = [];
     this.rejected = [];
+    this.messages = []; // texts pushed so far
     this.offsetS = null; // node monotonic − page clock [s]
     this.bestRttMs = Infinity;
     this.widgets = [];
@@ -89,7 +91,7 @@ export class Hmi {
     if (frame.type === "telemetry") this.telemetry(frame);
     else if (frame.type === "info") this.setInfo(frame);
     else if (frame.type === "pong") this.pong(frame);
-    else if (frame.type === "message") this.banner.show(frame);
+    else if (frame.type === "message") this.showMessage(frame);
     else if (frame.type === "rejected") this.rejected.push(frame.reason);
   }
 
@@ -101,6 +103,11 @@ export class Hmi {
     this.last = frame.values;
     for (const widget of this.widgets) widget.update(frame.values);
     for (const listener of this.listeners) listener(frame.values, frame);
+  }
+
+  showMessage(message) {
+    keep(this.messages, message.text);
+    this.banner.show(message);
   }
 
   setInfo(info) {
