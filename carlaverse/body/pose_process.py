@@ -14,6 +14,7 @@ frame when it is polled.
 
 from __future__ import annotations
 
+import logging
 import multiprocessing as mp
 import time
 from dataclasses import dataclass
@@ -27,6 +28,8 @@ from carlaverse.body.errors import BodyPoseError
 from carlaverse.body.model import require
 from carlaverse.body.sources import BodyConfig, Clock, angles_bytes, visible_joints
 from carlaverse.hal.errors import HalError
+
+log = logging.getLogger(__name__)
 
 CLOSE_TIMEOUT_S = 5.0  # [s] for the child to finish its frame and exit
 
@@ -55,6 +58,7 @@ class CameraBodySource:
         self._child_conn = child
         self._seq = 0
         self.frames = 0  # results received, with or without a person
+        self.stopped = ""  # why the pose process ended, once it has
         self.newest: PoseResult | None = None
 
     def start(self) -> CameraBodySource:
@@ -76,16 +80,18 @@ class CameraBodySource:
     def _receive(self) -> Any:
         try:
             return self._conn.recv()
-        except EOFError:
+        except (EOFError, OSError):
             return "the pose process ended without a word (see its log)"
 
     def poll(self) -> m.Skeleton | None:
         """A Skeleton of the newest frame with a person since the last poll, or None."""
         found = None
-        while self._conn.poll():
+        while not self.stopped and self._conn.poll():
             result = self._receive()
             if not isinstance(result, PoseResult):
-                break  # the child ended; `alive()` says so
+                self.stopped = str(result)  # the child's last word, and it ends
+                log.warning("body pose stopped: %s", self.stopped)
+                break
             self.frames += 1
             if result.joints:
                 found = self.newest = result
@@ -121,6 +127,8 @@ def run_pose(config_json: bytes, conn: Any, stop: Any) -> None:
         _loop(config, camera, landmarker, conn, stop)
     except (BrokenPipeError, EOFError):
         pass  # the node went away: nothing left to tell
+    except HalError as exc:  # the camera failed mid-run (unplugged, end of a video file)
+        conn.send(str(exc))
     finally:
         camera.close()
         if landmarker is not None:

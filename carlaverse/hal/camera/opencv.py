@@ -3,7 +3,7 @@
 A grabber thread reads frames as the camera delivers them and keeps only the newest, so a
 reader that is slower than the camera never works on stale, buffered frames; `read()` waits
 for a frame newer than the last one it returned. A camera that cannot be opened, or sends
-nothing within `first_frame_timeout_s`, is a `DeviceError` in one line.
+nothing within `frame_timeout_s`, is a `DeviceError` in one line.
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ class OpenCvCameraOptions(StrictStruct):
     width: Pixels = 640  # [px] requested; the camera may pick its nearest mode
     height: Pixels = 480  # [px]
     fps: Annotated[float, msgspec.Meta(gt=0, le=240)] = 30.0  # [1/s] requested
-    first_frame_timeout_s: Annotated[float, msgspec.Meta(gt=0)] = 5.0  # [s]
+    frame_timeout_s: Annotated[float, msgspec.Meta(gt=0)] = 5.0  # [s]
 
 
 def _describe(device: int | str) -> str:
@@ -81,16 +81,21 @@ class OpenCvCamera(Camera):
             self._fresh.notify_all()
 
     def _read(self, now: float) -> CameraFrame:
-        deadline = now + self.options.first_frame_timeout_s
+        deadline = now + self.options.frame_timeout_s
         with self._fresh:
             while self._newest is self._returned and not self._stop.is_set():
                 if not self._fresh.wait(max(0.0, deadline - self.clock())):
                     break
             if self._newest is self._returned:
-                raise DeviceError(f"{_describe(self.options.device)} sent no new frame within "
-                                  f"{self.options.first_frame_timeout_s:g} s")  # fmt: skip
+                raise DeviceError(self._why_no_frame())
             self._returned = self._newest
             return self._newest
+
+    def _why_no_frame(self) -> str:
+        source = _describe(self.options.device)
+        if self._stop.is_set():
+            return f"{source} ended (unplugged, or the end of the file)"
+        return f"{source} sent no new frame within {self.options.frame_timeout_s:g} s"
 
     def _close(self) -> None:
         self._stop.set()
