@@ -175,6 +175,29 @@ def _node_argv(
     return argv
 
 
+def authority_argv(args: argparse.Namespace, endpoint: str) -> list[str]:
+    """The demo authority's `carlaverse` arguments (the launcher's demo runs the same)."""
+    return ["authority", "--session", args.session, "--connect", endpoint,
+            "--scenario", args.scenario, "--json"]  # fmt: skip
+
+
+def node_plan(
+    kinds: list[str], endpoint: str, args: argparse.Namespace, directory: Path
+) -> list[tuple[str, list[str]]]:
+    """(node id, `carlaverse` arguments) of each demo node; scripted paths go to `directory`."""
+    scripted = [i for i, k in enumerate(kinds) if k == "scripted"]
+    plan = []
+    for i, kind in enumerate(kinds):
+        node_id = f"{kind}-{i + 1}"
+        config = (
+            _scripted_config(scripted.index(i), len(scripted), directory)
+            if kind == "scripted"
+            else None
+        )
+        plan.append((node_id, _node_argv(kind, node_id, config, endpoint, args)))
+    return plan
+
+
 def check_nodes(kinds: list[str], node_configs: list[str]) -> str:
     """Why the requested nodes cannot start ("" if they can): unknown kind, bad config."""
     if not kinds:
@@ -243,25 +266,10 @@ def _run_session(
                 ["view", "--session", args.session, "--connect", endpoint, "--save", args.rrd],
             )
         )
-    authority_argv = [
-        "authority",
-        "--session",
-        args.session,
-        "--connect",
-        endpoint,
-        "--scenario",
-        args.scenario,
-        "--json",
-    ]
-    children.append(_spawn("authority", "authority", authority_argv))
-    scripted = [i for i, k in enumerate(kinds) if k == "scripted"]
+    children.append(_spawn("authority", "authority", authority_argv(args, endpoint)))
     ids = []
-    for i, kind in enumerate(kinds):
-        node_id = f"{kind}-{i + 1}"
-        config = (
-            _scripted_config(scripted.index(i), len(scripted), tmp) if kind == "scripted" else None
-        )
-        children.append(_spawn(node_id, "node", _node_argv(kind, node_id, config, endpoint, args)))
+    for node_id, argv in node_plan(kinds, endpoint, args, tmp):
+        children.append(_spawn(node_id, "node", argv))
         ids.append(node_id)
     watched = _watch(args, endpoint, ids, children, stop)
     nodes = _collect_nodes(children, args.duration + 60.0, stop)

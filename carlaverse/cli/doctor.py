@@ -15,11 +15,10 @@ import argparse
 import os
 import sys
 import time
-from collections.abc import Callable
 
 from carlaverse.config import ConfigError
 from carlaverse.hal import open_ffb, open_input, open_motion
-from carlaverse.hal.diagnostics import SweepAmplitudes, ffb_test_sequence, motion_sweep, ticks
+from carlaverse.hal.diagnostics import SweepAmplitudes, ffb_test_sequence, motion_sweep, paced
 from carlaverse.hal.errors import HalError
 from carlaverse.hal.input import InputState
 
@@ -62,7 +61,7 @@ def run_ffb(args: argparse.Namespace) -> None:
     with open_ffb({"backend": "udp", "options": host_port(args.ffb)}) as ffb:
         for label, command in ffb_test_sequence(args.strength):
             print(f"ffb: {label}", flush=True)
-            paced(args, lambda _u, c=command: ffb.send(c))
+            paced(args.step_s, args.rate, lambda _u, c=command: ffb.send(c))
         print(f"ffb: sent {ffb.sender.sent} packets to {args.ffb}; did the wheel follow?")
 
 
@@ -70,18 +69,8 @@ def run_motion(args: argparse.Namespace) -> None:
     with open_motion({"backend": "udp", "options": host_port(args.motion)}) as motion:
         for label, frame_at in motion_sweep(SweepAmplitudes()):
             print(f"motion: {label}", flush=True)
-            paced(args, lambda u, f=frame_at: motion.send(f(u)))
+            paced(args.step_s, args.rate, lambda u, f=frame_at: motion.send(f(u)))
         print(f"motion: sent {motion.sender.sent} frames to {args.motion}; did the rig move?")
-
-
-def paced(args: argparse.Namespace, send: Callable[[float], None]) -> None:
-    """Call `send(phase)` at `args.rate` for one step."""
-    period = 1.0 / args.rate
-    next_t = time.monotonic()
-    for phase in ticks(args.step_s, args.rate):
-        send(phase)
-        next_t += period
-        time.sleep(max(0.0, next_t - time.monotonic()))
 
 
 def list_joysticks(args: argparse.Namespace) -> None:

@@ -87,13 +87,14 @@ def _observe(
     while not stop.is_set() and time.monotonic() < deadline:
         now = client.update()
         if not args.json and time.monotonic() >= next_print:
-            _print_table(_summaries(client, now))
+            _print_table(summaries(client, now))
             next_print += args.interval
         stop.wait(0.05)
-    return _summaries(client, client.update())
+    return summaries(client, client.update())
 
 
-def _summaries(client: NodeClient, now: float) -> dict[str, StreamSummary]:
+def summaries(client: NodeClient, now: float) -> dict[str, StreamSummary]:
+    """Per node, what this observer measured of its poses (the launcher shows the same)."""
     return {node: stats.summary(now) for node, stats in sorted(client.world.stats.items())}
 
 

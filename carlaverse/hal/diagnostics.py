@@ -8,6 +8,7 @@ servers' watchdogs fed for the whole test.
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable, Iterator
 from typing import Annotated
 
@@ -66,3 +67,13 @@ def ticks(duration_s: float, rate_hz: float) -> Iterator[float]:
     count = max(1, round(duration_s * rate_hz))
     for i in range(count):
         yield i / count
+
+
+def paced(step_s: float, rate_hz: float, send: Callable[[float], None]) -> None:
+    """Call `send(phase)` at `rate_hz` for one step of `step_s` seconds, on a steady grid."""
+    period = 1.0 / rate_hz
+    next_t = time.monotonic()
+    for phase in ticks(step_s, rate_hz):
+        send(phase)
+        next_t += period
+        time.sleep(max(0.0, next_t - time.monotonic()))

@@ -1,0 +1,127 @@
+"""Who is in a session, from which site, and how well their poses arrive.
+
+The launcher watches a session as an observer, exactly as `carlaverse stats` does (the same
+`NodeClient`, the same per-node `summaries`), in a thread of its own; the page reads `rows()`.
+Kind and site come from the authority's snapshot, asked again every few seconds so nodes that
+join later, from any site, show with theirs.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+
+import msgspec
+
+from carlaverse import messages as m
+from carlaverse.cli.stats import summaries
+from carlaverse.fabric.clock import MonotonicClock
+from carlaverse.fabric.node_client import NodeClient, NodeSettings
+from carlaverse.fabric.session import FabricError, FabricSettings, open_session
+
+log = logging.getLogger(__name__)
+
+UPDATE_PERIOD_S = 0.5  # [s] how often the table is recomputed
+ROSTER_PERIOD_S = 3.0  # [s] how often kinds and sites are asked of the authority
+
+
+class PresenceRow(msgspec.Struct, frozen=True):
+    """One node as the launcher lists it; NaN where nothing was measured yet."""
+
+    node_id: str
+    kind: str = ""
+    site: str = ""
+    rate_hz: float = math.nan
+    latency_p50_ms: float = math.nan
+    latency_p99_ms: float = math.nan
+    loss: float = math.nan
+    last_seen_s: float = math.nan
+
+
+class SessionWatch:
+    """An observer of one session on `endpoint`, run in a daemon thread until `close()`."""
+
+    def __init__(self, endpoint: str, session: str, observer_id: str = "launcher") -> None:
+        self.endpoint = endpoint
+        self.session_name = session
+        self.settings = NodeSettings(
+            node_id=observer_id, session=session, kind="observer", actor_kind=""
+        )
+        self.error = ""
+        self._rows: list[PresenceRow] = []
+        self._roster: dict[str, m.EgoInfo] = {}
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="launcher-watch", daemon=True)
+
+    def start(self) -> SessionWatch:
+        self._thread.start()
+        return self
+
+    def rows(self) -> list[PresenceRow]:
+        with self._lock:
+            return list(self._rows)
+
+    def close(self) -> None:
+        self._stop.set()
+        self._thread.join(timeout=10.0)
+
+    def _run(self) -> None:
+        try:
+            session = open_session(FabricSettings(connect=[self.endpoint]))
+        except FabricError as exc:
+            self.error = str(exc)
+            return
+        client = NodeClient(session, self.settings, MonotonicClock()).start()
+        try:
+            self._observe(client)
+        finally:
+            client.close()
+            session.close()
+
+    def _observe(self, client: NodeClient) -> None:
+        next_roster = time.monotonic()
+        while not self._stop.is_set():
+            now = client.update()
+            if time.monotonic() >= next_roster and client.joined.is_set():
+                self._ask_roster(client)
+                next_roster = time.monotonic() + ROSTER_PERIOD_S
+            rows = presence_rows(client.world.present, summaries(client, now), self._roster)
+            with self._lock:
+                self._rows = rows
+            self._stop.wait(UPDATE_PERIOD_S)
+
+    def _ask_roster(self, client: NodeClient) -> None:
+        raw = client.query("snapshot", timeout_s=1.0)
+        if raw is None:
+            return
+        try:
+            snapshot = m.SNAPSHOT.decode(raw)
+        except m.MessageError as exc:  # counted by nobody else: say it, keep the old roster
+            log.warning("unreadable snapshot from the authority: %s", exc)
+            return
+        self._roster = {ego.node_id: ego for ego in snapshot.egos}
+
+
+def presence_rows(
+    present: set[str], stats: dict[str, object], roster: dict[str, m.EgoInfo]
+) -> list[PresenceRow]:
+    """One row per node that is present or has published poses, sorted by site then id."""
+    rows = []
+    for node_id in sorted(set(present) | set(stats) | set(roster)):
+        info = roster.get(node_id)
+        summary = stats.get(node_id)
+        measured = msgspec.structs.asdict(summary) if summary is not None else {}
+        measured.pop("samples", None)
+        measured.pop("jitter_ms", None)
+        rows.append(
+            PresenceRow(
+                node_id,
+                kind=info.kind if info else "",
+                site=info.site if info else "",
+                **measured,
+            )
+        )
+    return sorted(rows, key=lambda r: (r.site, r.node_id))
