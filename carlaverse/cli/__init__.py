@@ -18,6 +18,7 @@ from carlaverse import __version__
 # name -> (module, one-line help). The module is imported lazily.
 COMMANDS: dict[str, tuple[str, str]] = {
     "demo": ("carlaverse.cli.demo", "run a local demo session: router, authority, scripted nodes"),
+    "launcher": ("carlaverse.cli.launcher", "web app: run a lab's session, configs, hardware"),
     "router": ("carlaverse.cli.router", "host a Zenoh router for a site"),
     "authority": ("carlaverse.cli.authority", "run the session authority (membership, world)"),
     "join": ("carlaverse.cli.join", "join a session as a node (observer, scripted, drive, ...)"),

@@ -101,6 +101,15 @@ class ConfigDraft:
             node = child
         node[last] = value
 
+    def unset(self, path: str) -> None:
+        """Remove the field at `path`, so the schema's default applies again."""
+        *parents, last = path.split(".")
+        node: Any = self.data
+        for key in parents:
+            node = node.get(key) if isinstance(node, dict) else None
+        if isinstance(node, dict):
+            node.pop(last, None)
+
     def yaml_text(self) -> str:
         return yaml.safe_dump(copy.deepcopy(self.data), sort_keys=False)
 

@@ -32,7 +32,11 @@ SIM_JOYSTICK: dict[str, Any] = {
         "loop": True,
         "profile": [
             {"t": 0.0, "axes": {"steer": -1.0, "throttle": 0.0, "brake": 1.0}},
-            {"t": 1.0, "axes": {"steer": 1.0, "throttle": 1.0, "brake": 0.0}, "buttons": {"a": True}},
+            {
+                "t": 1.0,
+                "axes": {"steer": 1.0, "throttle": 1.0, "brake": 0.0},
+                "buttons": {"a": True},
+            },
             {"t": 2.0, "axes": {"steer": -1.0, "throttle": 0.0, "brake": 1.0}},
         ],
     },
@@ -89,16 +93,16 @@ def list_joysticks() -> list[str]:
     try:
         from carlaverse.hal.input.pygame_joystick import describe_joysticks
     except ImportError as exc:
-        raise HalError(f"listing joysticks needs pygame: pip install 'carlaverse[input]' ({exc})")
+        raise HalError(
+            f"listing joysticks needs pygame: pip install 'carlaverse[input]' ({exc})"
+        ) from exc
     return describe_joysticks()
 
 
 def trainer_scan(block: Block, report: Report) -> list[str]:
     """Trainers found: Bluetooth FTMS adverts for `ftms`, else the device the block opens."""
-    if block.get("backend") == "ftms":
-        found = _ble_scan(BLE_SCAN_S)
-    else:
-        found = [_probe_trainer(block)]
+    ble = block.get("backend") == "ftms"
+    found = _ble_scan(BLE_SCAN_S) if ble else [_probe_trainer(block)]
     for line in found:
         report(f"trainer: {line}")
     if not found:
@@ -117,8 +121,8 @@ def _probe_trainer(block: Block) -> str:
         raise HalError(f"trainer {block.get('backend')!r}: no data within {TRAINER_WAIT_S:g} s")
     speed = "-" if state.speed_mps is None else f"{state.speed_mps:.1f} m/s"
     return (
-        f"{block.get('backend')}: {state.power_w:.0f} W, {state.cadence_rpm:.0f} rpm, "
-        f"speed {speed}"
+        f"{block.get('backend')} answers; first sample {state.power_w:.0f} W, "
+        f"{state.cadence_rpm:.0f} rpm, speed {speed}"
     )
 
 
@@ -127,7 +131,9 @@ def _ble_scan(timeout_s: float) -> list[str]:
         from bleak import BleakScanner
         from bleak.exc import BleakError
     except ImportError as exc:
-        raise HalError(f"a Bluetooth scan needs bleak: pip install 'carlaverse[bike]' ({exc})")
+        raise HalError(
+            f"a Bluetooth scan needs bleak: pip install 'carlaverse[bike]' ({exc})"
+        ) from exc
     from carlaverse.hal.trainer.ftms_codec import FTMS_SERVICE
 
     try:

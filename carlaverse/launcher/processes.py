@@ -69,8 +69,9 @@ class Child:
 class Supervisor:
     """Starts `python -m carlaverse …` children and stops them with everything they started."""
 
-    def __init__(self, python: str = sys.executable, grace_s: float = STOP_GRACE_S) -> None:
-        self.python = python
+    def __init__(self, command: list[str] | None = None, grace_s: float = STOP_GRACE_S) -> None:
+        # what runs `carlaverse`: this interpreter, so a venv's launcher starts the venv's nodes
+        self.command = command or [sys.executable, "-m", "carlaverse"]
         self.grace_s = grace_s
         self.children: dict[str, Child] = {}
         self._lock = threading.Lock()
@@ -85,7 +86,7 @@ class Supervisor:
                 raise LaunchError(f"{name!r} is already running; stop it first")
             env = dict(os.environ, PYTHONUNBUFFERED="1")
             proc = subprocess.Popen(
-                [self.python, "-m", "carlaverse", *argv],
+                [*self.command, *argv],
                 stdin=subprocess.DEVNULL,
                 stdout=subprocess.PIPE,
                 stderr=subprocess.STDOUT,

@@ -1,0 +1,83 @@
+"""`carlaverse launcher`: a local web app to run a lab's session from a browser."""
+
+from __future__ import annotations
+
+import argparse
+import ipaddress
+import os
+import sys
+from pathlib import Path
+
+from carlaverse.cli.common import fail
+from carlaverse.cli.demo import free_port
+from carlaverse.keys import KeySpaceError
+
+DEFAULT_PORT = 8470
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.description = (
+        "Serve the launcher, a web app for this machine: start and stop a router, an "
+        "authority and nodes and read their logs live; see who is in the session, from which "
+        "site, with latency and loss (as `carlaverse stats`); edit node configs in a tree "
+        "generated from their schemas, checked by the nodes' own strict decoder and saved only "
+        "when valid; test hardware (FFB pulses, joystick axes and buttons, motion neutral, "
+        "trainer scan; simulated devices when none is plugged in); start the demo in one click. "
+        "Stopping the launcher (Ctrl-C, SIGTERM) stops every process it started."
+    )
+    parser.add_argument(
+        "--port", type=int, default=DEFAULT_PORT, help=f"HTTP port (default {DEFAULT_PORT})"
+    )
+    parser.add_argument(
+        "--bind",
+        default="127.0.0.1",
+        metavar="ADDR",
+        help="address to serve on (default 127.0.0.1: this machine only; the page starts "
+        "processes, so expose it on purpose or tunnel with ssh -L)",
+    )
+    parser.add_argument("--no-browser", action="store_true", help="do not open a browser")
+    parser.add_argument("--session", default="lab", help="session the lab runs (default lab)")
+    parser.add_argument(
+        "--router",
+        metavar="EP",
+        help="endpoint the lab's router listens on and every child connects to "
+        "(default tcp/127.0.0.1:<a free port>)",
+    )
+    parser.add_argument(
+        "--config-dir",
+        type=Path,
+        default=Path.cwd(),
+        metavar="DIR",
+        help="where edited configs are saved by default (default: the working directory)",
+    )
+
+
+def run(args: argparse.Namespace) -> int:
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # joysticks without a display
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    try:
+        from carlaverse.launcher.app import serve
+        from carlaverse.launcher.lab import Lab
+    except ModuleNotFoundError as exc:
+        return fail("launcher", f"needs {exc.name}: pip install 'carlaverse[launcher]'")
+    if not _loopback(args.bind):
+        print(f"carlaverse launcher: serving on {args.bind}, reachable from the network; "
+              "anyone who reaches it can start processes here", file=sys.stderr)  # fmt: skip
+    try:
+        lab = Lab(args.session, args.router or f"tcp/127.0.0.1:{free_port()}")
+    except KeySpaceError as exc:
+        return fail("launcher", str(exc))
+    url = f"http://{args.bind}:{args.port}/"
+    try:
+        serve(lab, args.config_dir, args.bind, args.port, not args.no_browser,
+              on_ready=lambda: print(f"launcher at {url}", flush=True))  # fmt: skip
+    finally:
+        lab.close()  # also when the server failed to start: nothing is left behind
+    return 0
+
+
+def _loopback(address: str) -> bool:
+    try:
+        return ipaddress.ip_address(address).is_loopback
+    except ValueError:
+        return address == "localhost"

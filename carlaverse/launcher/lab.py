@@ -1,0 +1,117 @@
+"""What one launcher runs on this machine: a router, an authority, nodes, a demo, one session.
+
+Every child connects to the lab's router endpoint (loopback, a free port by default) and joins
+the lab's session; the session is watched as an observer once a router runs. The demo is the
+one `carlaverse demo` runs — its authority and node arguments come from `cli.demo` — but each
+of its processes is a child here, listed, logged and stoppable on its own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+from carlaverse.cli import demo
+from carlaverse.keys import check_token
+from carlaverse.launcher.presence import PresenceRow, SessionWatch
+from carlaverse.launcher.processes import Child, LaunchError, Supervisor
+from carlaverse.node_runtime import UnknownNodeKind, load_node_kind, node_kinds
+
+HEADLESS_KINDS = ("scripted", "observer")  # kinds that need no devices, sim or real
+
+
+class Lab:
+    """The launcher's children and the session they share; `close()` stops them all."""
+
+    def __init__(self, session: str, endpoint: str, supervisor: Supervisor | None = None) -> None:
+        check_token(session, "session name")
+        self.session = session
+        self.endpoint = endpoint
+        self.supervisor = supervisor or Supervisor()
+        self.watch: SessionWatch | None = None
+        self._scratch = tempfile.TemporaryDirectory(prefix="carlaverse-launcher-")
+
+    @property
+    def node_kinds(self) -> list[str]:
+        return sorted(node_kinds())
+
+    def start_router(self) -> Child:
+        child = self.supervisor.start("router", "router", ["router", "--listen", self.endpoint])
+        self._watch()
+        return child
+
+    def start_authority(self, scenario: str = "town") -> Child:
+        args = argparse.Namespace(session=self.session, scenario=scenario)
+        return self.supervisor.start(
+            "authority", "authority", demo.authority_argv(args, self.endpoint)
+        )
+
+    def start_node(self, kind: str, node_id: str, config: str = "") -> Child:
+        """`carlaverse join KIND --id NODE_ID`; a kind with devices and no config runs on sim."""
+        try:
+            load_node_kind(kind)
+        except UnknownNodeKind as exc:
+            raise LaunchError(str(exc)) from exc
+        check_token(node_id, "node id")
+        argv = ["join", kind, "--id", node_id, "--session", self.session]
+        argv += ["--connect", self.endpoint]
+        if config:
+            argv += ["--config", config]
+        elif kind not in HEADLESS_KINDS:
+            argv += ["--backend", "sim"]
+        return self.supervisor.start(node_id, "node", argv)
+
+    def start_demo(self, kinds: list[str], duration_s: float, scenario: str = "town") -> list[str]:
+        """What `carlaverse demo --nodes KINDS` starts, as children here; the node ids."""
+        problem = demo.check_nodes(kinds, [])
+        if problem:
+            raise LaunchError(problem)
+        args = _demo_args(self.session, kinds, duration_s, scenario)
+        if not self._running("router"):
+            self.start_router()
+        if not self._running("authority"):
+            self.start_authority(scenario)
+        plan = demo.node_plan(kinds, self.endpoint, args, Path(self._scratch.name))
+        for node_id, argv in plan:
+            self.supervisor.start(node_id, "node", argv)
+        return [node_id for node_id, _argv in plan]
+
+    def stop(self, name: str) -> None:
+        self.supervisor.stop(name)
+
+    def stop_all(self) -> None:
+        self.supervisor.stop_all()
+
+    def presence(self) -> list[PresenceRow]:
+        if self.watch is None:
+            return []
+        return [row for row in self.watch.rows() if row.node_id != self.watch.settings.node_id]
+
+    def close(self) -> None:
+        """Stop every child and the watch; nothing the launcher started is left running."""
+        self.supervisor.stop_all()
+        if self.watch is not None:
+            self.watch.close()
+            self.watch = None
+        self._scratch.cleanup()
+
+    def _running(self, name: str) -> bool:
+        child = self.supervisor.get(name)
+        return child is not None and child.running
+
+    def _watch(self) -> None:
+        if self.watch is None:
+            self.watch = SessionWatch(self.endpoint, self.session).start()
+
+
+def _demo_args(
+    session: str, kinds: list[str], duration_s: float, scenario: str
+) -> argparse.Namespace:
+    """`carlaverse demo`'s own arguments, defaults included, for these choices."""
+    parser = argparse.ArgumentParser()
+    demo.add_arguments(parser)
+    return parser.parse_args(
+        ["--session", session, "--nodes", ",".join(kinds), "--duration", str(duration_s),
+         "--scenario", scenario]
+    )  # fmt: skip

@@ -1,0 +1,24 @@
+"""`carlaverse launcher` on the command line: its help, and one line for what is wrong."""
+
+from __future__ import annotations
+
+import pytest
+
+from carlaverse.cli import main
+
+
+def test_help_explains_what_the_launcher_does(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as exit_info:
+        main(["launcher", "--help"])
+    assert exit_info.value.code == 0
+    text = " ".join(capsys.readouterr().out.split())
+    for words in ("--port", "--bind", "--no-browser", "127.0.0.1", "strict decoder",
+                  "stops every process it started", "trainer scan"):  # fmt: skip
+        assert words in text
+
+
+def test_a_bad_session_name_is_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["launcher", "--no-browser", "--session", "a/b"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("carlaverse launcher: ") and "session name" in err
+    assert len(err.splitlines()) == 1
