@@ -24,8 +24,16 @@ from typing import Annotated, Literal
 
 import msgspec
 
-from carlaverse.config import StrictStruct, convert, parse_yaml, read_text, resolve_path
+from carlaverse.config import (
+    ConfigError,
+    StrictStruct,
+    convert,
+    parse_yaml,
+    read_text,
+    resolve_path,
+)
 from carlaverse.messages import ACTOR_KINDS
+from carlaverse.traffic.openscenario import import_triggers
 from carlaverse.traffic.soundscape import AudioSpec, check_siren_vehicles
 from carlaverse.traffic.trigger_spec import TriggerSpec, check_triggers
 
@@ -321,6 +329,7 @@ class ScenarioSpec(StrictStruct, kw_only=True):
     grades: Grades = Grades()
     audio: AudioSpec = AudioSpec()
     triggers: list[TriggerSpec] = []  # scripted encounters (trigger_spec.py)
+    openscenario: str | None = None  # an .xosc whose events become more triggers
 
     def __post_init__(self) -> None:
         check_siren_vehicles(self.audio, [v.id for v in self.traffic.scripted_vehicles])
@@ -353,4 +362,11 @@ def load_scenario(name_or_path: str | Path) -> Scenario:
     path = resolve_path(name_or_path)
     text = read_text(path)
     spec = convert(parse_yaml(text, str(path)), ScenarioSpec, str(path))
+    if spec.openscenario:
+        imported = import_triggers(resolve_path(spec.openscenario, path.parent))
+        spec = msgspec.structs.replace(spec, triggers=[*spec.triggers, *imported])
+        try:
+            check_triggers(spec.triggers)
+        except ValueError as exc:
+            raise ConfigError(str(path), str(exc)) from exc
     return Scenario(spec, path, text)
