@@ -77,9 +77,9 @@ def _resolve(name: str) -> Path:
 
 
 def _check_scenario(path: Path, data: Any, kind: str) -> None:
-    from carlaverse.traffic.scenario import ScenarioSpec
+    from carlaverse.traffic.scenario import load_scenario
 
-    convert(data, ScenarioSpec, str(path))
+    load_scenario(path)  # also the OpenSCENARIO file it names
 
 
 def _check_vehicle(path: Path, data: Any, kind: str) -> None:
