@@ -2,9 +2,9 @@
 
 An area is heard from its point nearest the listener (the listener's own position when it is
 inside), with `extent_m` the area's radius so a renderer can spread it; rain and wind surround
-the listener. Polygons are kept as one array of edges, so finding the nearest point of every
-area in earshot is a few numpy passes per listener; areas whose bounding circle is out of
-earshot are skipped first.
+the listener. Polygons are kept as one array of edges; areas whose bounding circle is out of a
+listener's earshot are dropped first, then the nearest point of every remaining (listener,
+area) pair is found in a few numpy passes over all their edges at once.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from carlaverse.authority import sound_models as sm
-from carlaverse.authority.sound_sources import KIND_INDEX, PointSources
+from carlaverse.authority.sound_sources import KIND_INDEX, SoundSources
 from carlaverse.messages import MapArea, Weather
 from carlaverse.traffic.soundscape import ConstructionZone
 
@@ -39,51 +39,57 @@ class AreaLevels:
 
 
 class MapAreaSources:
-    """Leaves and water from the map's vegetation and water polygons."""
+    """Leaves and water from the map's vegetation and water polygons, edges as one array."""
 
     def __init__(self, areas: Sequence[MapArea]) -> None:
         heard = [a for a in areas if a.kind in AREA_KINDS and len(a.polygon) >= 3]
+        polygons = [np.asarray(a.polygon, dtype=np.float64) for a in heard]
         self.ids = [f"{a.id}.{AREA_KINDS[a.kind]}" for a in heard]
         self.kind = np.array([KIND_INDEX[AREA_KINDS[a.kind]] for a in heard], dtype=np.intp)
-        starts = [np.asarray(a.polygon, dtype=np.float64) for a in heard]
-        self._a = np.concatenate(starts) if starts else np.zeros((0, 2))
-        self._b = np.concatenate([np.roll(p, -1, axis=0) for p in starts]) if starts else self._a
-        self._poly = np.repeat(np.arange(len(heard)), [len(p) for p in starts]).astype(np.intp)
-        self.centre = np.array([p.mean(axis=0) for p in starts]).reshape(-1, 2)
-        self.bound_m = np.array(
-            [np.hypot(*(p - c).T).max() for p, c in zip(starts, self.centre, strict=True)]
-        )  # [m] bounding circle about the vertex mean
-        self.extent_m = np.sqrt(np.array([_area(p) for p in starts]) / math.pi).reshape(-1)
+        self._a = np.concatenate(polygons) if polygons else np.zeros((0, 2))  # edge starts
+        self._b = (
+            np.concatenate([np.roll(q, -1, axis=0) for q in polygons]) if polygons else self._a
+        )
+        self._count = np.array([len(q) for q in polygons], dtype=np.intp)  # edges per polygon
+        self._first = np.cumsum(self._count) - self._count  # its first edge
+        self.centre = np.array([q.mean(axis=0) for q in polygons]).reshape(-1, 2)
+        # [m] bounding circle about the vertex mean, and the radius of a disc of equal area
+        self.bound_m = np.array([np.hypot(*(q - q.mean(axis=0)).T).max() for q in polygons])
+        self.extent_m = np.sqrt(np.array([_area(q) for q in polygons]) / math.pi).reshape(-1)
 
     def __len__(self) -> int:
         return len(self.ids)
 
-    def nearest(self, p: np.ndarray, reach_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(area indices, (k, 2) nearest points) of the areas within `reach_m` [m] of p."""
-        near = np.hypot(*(self.centre - p).T) - self.bound_m <= reach_m
-        if not near.any():
-            return np.zeros(0, dtype=np.intp), np.zeros((0, 2))
-        sel = near[self._poly]
-        a, b, poly = self._a[sel], self._b[sel], self._poly[sel]
+    def nearest(
+        self, ears: np.ndarray, reach_m: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(listener, area, nearest point (k, 2)) for every listener and area within `reach_m`
+        [m] of it; the point is the listener's own where it stands inside the area."""
+        gap = np.hypot(*(ears[:, None, :] - self.centre[None, :, :]).transpose(2, 0, 1))
+        listener, area = np.nonzero(gap - self.bound_m <= reach_m)
+        if not len(area):
+            return listener, area, np.zeros((0, 2))
+        counts = self._count[area]
+        group = np.repeat(np.arange(len(area)), counts)  # pair of each (pair, edge) row
+        starts = np.cumsum(counts) - counts
+        edge = self._first[area][group] + np.arange(counts.sum()) - starts[group]
+        p, a, b = ears[listener][group], self._a[edge], self._b[edge]
         ab = b - a
-        f = np.clip(np.einsum("ij,ij->i", p - a, ab) / np.maximum((ab * ab).sum(1), 1e-12), 0, 1)
-        foot = a + f[:, None] * ab
-        d2 = ((foot - p) ** 2).sum(axis=1)
-        order = np.lexsort((d2, poly))  # by polygon, nearest edge first
-        idx, first = np.unique(poly[order], return_index=True)
-        points = foot[order[first]]
-        inside = _crossings(p, a, b, poly, len(self)) % 2 == 1
-        points[inside[idx]] = p
-        return idx, points
+        f = np.einsum("ij,ij->i", p - a, ab) / np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-12)
+        foot = a + np.clip(f, 0.0, 1.0)[:, None] * ab
+        d2 = np.einsum("ij,ij->i", foot - p, foot - p)
+        closest = np.lexsort((d2, group))[starts]  # groups are contiguous: sorted by d2 within
+        inside = np.add.reduceat(_crosses(p, a, b), starts) % 2 == 1
+        points = np.where(inside[:, None], ears[listener], foot[closest])
+        return listener, area, points
 
 
-def _crossings(p: np.ndarray, a: np.ndarray, b: np.ndarray, poly: np.ndarray, n: int) -> np.ndarray:
-    """Per polygon, how many edges a ray from p towards +x crosses (odd = inside)."""
-    straddle = (a[:, 1] > p[1]) != (b[:, 1] > p[1])
+def _crosses(p: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Per row, whether the edge a→b crosses the ray from p towards +x (odd count = inside)."""
+    straddle = (a[:, 1] > p[:, 1]) != (b[:, 1] > p[:, 1])
     dy = np.where(straddle, b[:, 1] - a[:, 1], 1.0)
-    x_at = a[:, 0] + (p[1] - a[:, 1]) * (b[:, 0] - a[:, 0]) / dy
-    hit = straddle & (p[0] < x_at)
-    return np.bincount(poly, weights=hit, minlength=n).astype(np.intp)
+    x_at = a[:, 0] + (p[:, 1] - a[:, 1]) * (b[:, 0] - a[:, 0]) / dy
+    return (straddle & (p[:, 0] < x_at)).astype(np.intp)
 
 
 def _area(polygon: np.ndarray) -> float:
@@ -98,97 +104,85 @@ def reach_m(level_db: float | np.ndarray, threshold_db: float) -> np.ndarray:
 
 
 class ListenerAreas:
-    """All listener-dependent sources of a session: built once, asked per listener."""
+    """All listener-dependent sources of a session: built once, asked every audio instant."""
 
     def __init__(self, areas: Sequence[MapArea], zones: Sequence[ConstructionZone]) -> None:
         self._map = MapAreaSources(areas)
-        self._zones = list(zones)
-        self._zone_xyz = np.array([(z.x, z.y, z.z) for z in zones], dtype=np.float64)
+        self._zone_ids = [f"construction.{z.name}" for z in zones]
+        self._zone_xyz = np.array([(z.x, z.y, z.z) for z in zones], dtype=np.float64).reshape(-1, 3)
         self._zone_radius = np.array([z.radius_m for z in zones], dtype=np.float64)
+        self._zone_level = np.array([z.level_db for z in zones], dtype=np.float64)
+        self._zone_intensity = np.array([z.intensity for z in zones], dtype=np.float64)
 
-    def sources(self, p: np.ndarray, weather: Weather | None, threshold_db: float) -> PointSources:
-        """Every area source around the listener at p (3,) [m] that could reach it."""
+    def sources(
+        self, ears: np.ndarray, weather: Weather | None, threshold_db: float
+    ) -> SoundSources:
+        """One row per listener (ears: (L, 3) [m]) and area source that could reach it."""
         parts = [
-            self._map_sources(p, AreaLevels.of(weather), threshold_db),
-            self._zone_sources(p),
-            _weather_sources(p, weather),
+            self._map_sources(ears, AreaLevels.of(weather), threshold_db),
+            self._zone_sources(ears),
+            *_weather_sources(ears, weather),
         ]
-        return PointSources.concat(parts)
+        return SoundSources.concat(parts)
 
-    def _map_sources(self, p: np.ndarray, levels: AreaLevels, threshold_db: float) -> PointSources:
-        if not len(self._map):
-            return _none()
+    def _map_sources(
+        self, ears: np.ndarray, levels: AreaLevels, threshold_db: float
+    ) -> SoundSources:
         leaves = self._map.kind == KIND_INDEX["leaves"]
-        level_of = np.where(leaves, levels.leaves[0], levels.water[0])
-        idx, points = self._map.nearest(p[:2], reach_m(level_of, threshold_db))
-        n = len(idx)
-        drive = np.zeros((n, 2))
-        drive[:, 0] = np.where(leaves[idx], levels.leaves[1], levels.water[1])
-        return _sources(
-            [self._map.ids[i] for i in idx],
-            self._map.kind[idx],
-            np.column_stack([points, np.full(n, p[2])]),
-            level_of[idx],
-            self._map.extent_m[idx],
+        level = np.where(leaves, levels.leaves[0], levels.water[0])
+        intensity = np.where(leaves, levels.leaves[1], levels.water[1])
+        listener, area, points = self._map.nearest(ears[:, :2], reach_m(level, threshold_db))
+        pos = np.column_stack([points, ears[listener, 2]])
+        drive = np.column_stack([intensity[area], np.zeros(len(area))])
+        ids = [self._map.ids[i] for i in area.tolist()]
+        return SoundSources.build(
+            ids,
+            self._map.kind[area],
+            pos,
+            level[area],
             drive,
+            listener=listener,
+            extent_m=self._map.extent_m[area],
         )
 
-    def _zone_sources(self, p: np.ndarray) -> PointSources:
-        zones = self._zones
-        if not zones:
-            return _none()
-        offset = p - self._zone_xyz
-        d = np.maximum(np.linalg.norm(offset, axis=1), 1e-9)
-        pull = np.minimum(self._zone_radius / d, 1.0)  # to the rim, or stay if inside
-        ids = [f"construction.{z.name}" for z in zones]
-        kind = np.full(len(zones), KIND_INDEX["construction"])
-        level = np.array([z.level_db for z in zones])
-        drive = np.column_stack([[z.intensity for z in zones], np.zeros(len(zones))])
-        points = self._zone_xyz + offset * pull[:, None]
-        return _sources(ids, kind, points, level, self._zone_radius, drive)
+    def _zone_sources(self, ears: np.ndarray) -> SoundSources:
+        """A zone is heard from its rim (from where the listener stands, inside it)."""
+        n_ears, n_zones = len(ears), len(self._zone_ids)
+        offset = ears[:, None, :] - self._zone_xyz[None, :, :]  # (L, Z, 3)
+        d = np.maximum(np.linalg.norm(offset, axis=2), 1e-9)
+        pull = np.minimum(self._zone_radius / d, 1.0)[:, :, None]
+        drive = np.column_stack([np.tile(self._zone_intensity, n_ears), np.zeros(n_ears * n_zones)])
+        return SoundSources.build(
+            self._zone_ids * n_ears,
+            KIND_INDEX["construction"],
+            self._zone_xyz + offset * pull,
+            np.tile(self._zone_level, n_ears),
+            drive,
+            listener=np.repeat(np.arange(n_ears), n_zones),
+            extent_m=np.tile(self._zone_radius, n_ears),
+        )
 
 
-def _weather_sources(p: np.ndarray, weather: Weather | None) -> PointSources:
-    """Rain and wind at the listener, when there is any."""
+def _weather_sources(ears: np.ndarray, weather: Weather | None) -> list[SoundSources]:
+    """Rain and wind around every listener, when there is any."""
     if weather is None:
-        return _none()
+        return []
     found: list[tuple[str, float, float]] = []  # (kind, level [dB SPL], intensity)
     if weather.precipitation >= sm.RAIN_MIN:
         found.append(("rain", sm.rain_level_db(weather.precipitation), weather.precipitation))
     if weather.wind_speed_mps >= sm.WIND_MIN_MPS:
         wind = weather.wind_speed_mps
         found.append(("wind", sm.wind_level_db(wind), sm.wind_intensity(wind)))
-    n = len(found)
-    return _sources(
-        [f"weather.{k}" for k, _, _ in found],
-        np.array([KIND_INDEX[k] for k, _, _ in found], dtype=np.intp),
-        np.tile(p, (n, 1)),
-        np.array([lv for _, lv, _ in found]),
-        np.full(n, WEATHER_EXTENT_M),
-        np.column_stack([[i for _, _, i in found], np.zeros(n)]),
-    )
-
-
-def _sources(
-    ids: list[str],
-    kind: np.ndarray,
-    pos: np.ndarray,
-    level: np.ndarray,
-    extent: np.ndarray,
-    drive: np.ndarray,
-) -> PointSources:
-    n = len(ids)
-    return PointSources(
-        ids,
-        np.full(n, "", dtype=str),
-        np.asarray(kind, dtype=np.intp),
-        pos.reshape(n, 3),
-        np.zeros((n, 3)),
-        np.asarray(level, dtype=np.float64),
-        drive.reshape(n, 2),
-        np.asarray(extent, dtype=np.float64),
-    )
-
-
-def _none() -> PointSources:
-    return _sources([], np.zeros(0), np.zeros((0, 3)), np.zeros(0), np.zeros(0), np.zeros((0, 2)))
+    n = len(ears)
+    return [
+        SoundSources.build(
+            [f"weather.{kind}"] * n,
+            KIND_INDEX[kind],
+            ears,
+            level,
+            np.column_stack([np.full(n, intensity), np.zeros(n)]),
+            listener=np.arange(n),
+            extent_m=WEATHER_EXTENT_M,
+        )
+        for kind, level, intensity in found
+    ]

@@ -3,56 +3,81 @@
 The estimate is free-field spreading from a point, L = L₁ − 20·log10(d / 1 m) (d at least
 1 m), ignoring air absorption and ground, which only lower it further: a source this estimate
 drops could not have been heard. Above the threshold the loudest `cap` are kept, loudest
-first. Sources on actors are judged for every listener in one (listeners × sources) matrix;
-the few listener-dependent area sources are added per listener.
+first. Sources every listener may hear go through one (listeners × sources) matrix, of which
+each row keeps its loudest `cap`; rows made for one listener (areas, weather) are judged for
+that listener alone; then both are ranked together per listener. No step loops over
+listeners in Python: the authority's tick stays cheap with many nodes.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
-from carlaverse.authority.sound_sources import PointSources
+from carlaverse.authority.sound_sources import SoundSources
 from carlaverse.messages import AUDIO_KINDS, AudioEmitter
 
 MIN_DISTANCE_M = 1.0  # [m] levels are given at 1 m; nearer counts as 1 m
 
 
-def levels_at(listeners: np.ndarray, sources: PointSources) -> np.ndarray:
-    """(listeners, sources) estimated level [dB SPL] of each source at each listener (L, 3)."""
-    d = np.linalg.norm(listeners[:, None, :] - sources.pos[None, :, :], axis=2)  # [m]
-    return sources.level_db[None, :] - 20.0 * np.log10(np.maximum(d, MIN_DISTANCE_M))
+@dataclass(frozen=True, slots=True)
+class Heard:
+    """The chosen rows, grouped by listener, loudest first within each group."""
+
+    sources: SoundSources
+    bounds: np.ndarray  # (listeners + 1,): listener l's rows are bounds[l]:bounds[l + 1]
+
+    def of(self, listener: int) -> slice:
+        return slice(int(self.bounds[listener]), int(self.bounds[listener + 1]))
 
 
-def loudest(levels: np.ndarray, threshold_db: float, cap: int) -> np.ndarray:
-    """Indices of at most `cap` levels at or above the threshold, loudest first."""
-    heard = np.flatnonzero(levels >= threshold_db)
-    if len(heard) > cap:
-        heard = heard[np.argpartition(-levels[heard], cap - 1)[:cap]]
-    return heard[np.argsort(-levels[heard], kind="stable")]
+def audible(
+    ears: np.ndarray, shared: SoundSources, own: SoundSources, threshold_db: float, cap: int
+) -> Heard:
+    """What each listener (row i of `ears`: the actor with `owner` index i) hears, of the
+    `shared` sources every listener may hear and the `own` rows made for one listener each.
+
+    A listener never hears the sources riding on its own actor: its node renders those."""
+    who_a, row_a, level_a = _loudest_shared(ears, shared, threshold_db, cap)
+    mine = own.listener
+    d2 = ((own.pos - ears[mine]) ** 2).sum(axis=1)  # [m²]
+    level_b = own.level_db - 10.0 * np.log10(np.maximum(d2, MIN_DISTANCE_M**2))
+    loud = np.flatnonzero(level_b >= threshold_db)
+    who = np.concatenate([who_a, mine[loud]])
+    row = np.concatenate([row_a, len(shared) + loud])
+    order = np.lexsort((-np.concatenate([level_a, level_b[loud]]), who))  # by listener, loudest
+    who, row = who[order], row[order]
+    first = np.searchsorted(who, np.arange(len(ears)))
+    keep = np.arange(len(who)) - first[who] < cap
+    bounds = np.searchsorted(who[keep], np.arange(len(ears) + 1))
+    return Heard(SoundSources.concat([shared, own]).take(row[keep]), bounds)
 
 
-def audible_on_actors(
-    listeners: np.ndarray,
-    listener_ids: list[str],
-    sources: PointSources,
-    threshold_db: float,
-    cap: int,
-) -> list[tuple[np.ndarray, np.ndarray]]:
-    """Per listener, (source indices, their levels there) of what it hears, loudest first;
-    a listener never hears the sources on its own actor."""
-    if not len(sources):
-        return [(np.zeros(0, dtype=np.intp), np.zeros(0)) for _ in listener_ids]
-    levels = levels_at(listeners, sources)
-    own = sources.owner[None, :] == np.array(listener_ids, dtype=str)[:, None]
-    levels[own] = -np.inf
-    out = []
-    for row in levels:
-        index = loudest(row, threshold_db, cap)
-        out.append((index, row[index]))
-    return out
+def _loudest_shared(
+    ears: np.ndarray, sources: SoundSources, threshold_db: float, cap: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(listener, source row, level) of each listener's loudest `cap` at or above threshold.
+
+    Ranked by d² · 10^(−L₁/10), which orders like the level but needs no logarithm over the
+    whole matrix: only the chosen few get their level in decibels."""
+    n = len(sources)
+    if n == 0 or len(ears) == 0:
+        return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp), np.zeros(0)
+    d2 = sum((ears[:, None, k] - sources.pos[None, :, k]) ** 2 for k in range(3))  # [m²]
+    quietness = np.maximum(d2, MIN_DISTANCE_M**2) * np.power(10.0, -sources.level_db / 10.0)
+    on_a_listener = (sources.owner >= 0) & (sources.owner < len(ears))
+    quietness[sources.owner[on_a_listener], np.flatnonzero(on_a_listener)] = np.inf
+    if cap < n:
+        top = np.argpartition(quietness, cap - 1, axis=1)[:, :cap]
+    else:
+        top = np.tile(np.arange(n), (len(ears), 1))
+    top_levels = -10.0 * np.log10(np.take_along_axis(quietness, top, axis=1))
+    loud = top_levels >= threshold_db
+    return np.nonzero(loud)[0], top[loud], top_levels[loud]
 
 
-def emitters(sources: PointSources) -> list[AudioEmitter]:
+def emitters(sources: SoundSources) -> list[AudioEmitter]:
     """The sources as wire emitters, in their order."""
     columns = zip(
         sources.ids,

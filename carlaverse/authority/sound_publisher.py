@@ -19,13 +19,8 @@ import numpy as np
 from carlaverse.authority.actors import EgoNow
 from carlaverse.authority.domain import Outbox
 from carlaverse.authority.sound_areas import ListenerAreas
-from carlaverse.authority.sound_audibility import (
-    audible_on_actors,
-    emitters,
-    levels_at,
-    loudest,
-)
-from carlaverse.authority.sound_sources import ActorSounds, PointSources, actor_columns
+from carlaverse.authority.sound_audibility import audible, emitters
+from carlaverse.authority.sound_sources import ActorSounds, actor_columns
 from carlaverse.messages import AudioScene, MapArea, Weather
 from carlaverse.traffic.engine import NpcFrame
 from carlaverse.traffic.soundscape import AudioSpec
@@ -80,21 +75,13 @@ class SoundPublisher:
         """One scene per ego: what it hears at `t`, loudest first, at most `max_emitters`."""
         spec = self._spec
         wetness = weather.wetness if weather is not None else 0.0
+        # Egos come first among the actors, so an ego's index is its sources' owner index.
         on_actors = self._actors.sources(t, actor_columns(egos, frame), wetness)
-        ears = np.array([(e.x, e.y, e.z) for e in egos], dtype=np.float64)
-        ids = [e.node_id for e in egos]
-        heard = audible_on_actors(ears, ids, on_actors, spec.threshold_db, spec.max_emitters)
-        out = []
-        for ear, node_id, (index, _) in zip(ears, ids, heard, strict=True):
-            around = self._areas.sources(ear, weather, spec.threshold_db)
-            chosen = self._pick(ear, on_actors.take(index), around)
-            seq = next_seq() if next_seq is not None else 0
-            out.append(AudioScene(seq, t, node_id, emitters(chosen)))
-        return out
-
-    def _pick(self, ear: np.ndarray, actors: PointSources, around: PointSources) -> PointSources:
-        both = PointSources.concat([actors, around])
-        if not len(both):
-            return both
-        levels = levels_at(ear[None, :], both)[0]
-        return both.take(loudest(levels, self._spec.threshold_db, self._spec.max_emitters))
+        ears = np.array([(e.x, e.y, e.z) for e in egos], dtype=np.float64).reshape(-1, 3)
+        around = self._areas.sources(ears, weather, spec.threshold_db)
+        heard = audible(ears, on_actors, around, spec.threshold_db, spec.max_emitters)
+        chosen = emitters(heard.sources)
+        return [
+            AudioScene(next_seq() if next_seq else 0, t, e.node_id, chosen[heard.of(i)])
+            for i, e in enumerate(egos)
+        ]

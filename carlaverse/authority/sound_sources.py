@@ -51,12 +51,21 @@ def actor_columns(egos: Sequence[EgoNow], frame: NpcFrame) -> ActorColumns:
     )
 
 
+EVERY_LISTENER = -1  # `SoundSources.listener` of a source every listener may hear
+
+
 @dataclass(frozen=True, slots=True)
-class PointSources:
-    """Sources at fixed places for every listener, one entry per source."""
+class SoundSources:
+    """Sound sources as columns, one row per source.
+
+    A source on an actor is one row for every listener. A source heard from a place that
+    depends on the listener (an area's nearest point, rain around it) is one row per listener
+    it concerns, `listener` naming that listener's index.
+    """
 
     ids: list[str]
-    owner: np.ndarray  # actor id each source rides on, "" for none (str array)
+    owner: np.ndarray  # index of the actor it rides on (egos first), -1 for none
+    listener: np.ndarray  # index of the one listener this row is for, or EVERY_LISTENER
     kind: np.ndarray  # index into messages.AUDIO_KINDS
     pos: np.ndarray  # (n, 3) [m]
     vel: np.ndarray  # (n, 3) [m/s]
@@ -67,11 +76,46 @@ class PointSources:
     def __len__(self) -> int:
         return len(self.ids)
 
-    def take(self, index: np.ndarray) -> PointSources:
-        """The sources at `index`, in that order."""
-        return PointSources(
+    @classmethod
+    def build(
+        cls,
+        ids: list[str],
+        kind: np.ndarray | int,
+        pos: np.ndarray,
+        level_db: np.ndarray | float,
+        drive: np.ndarray,
+        *,
+        owner: np.ndarray | int = -1,
+        listener: np.ndarray | int = EVERY_LISTENER,
+        vel: np.ndarray | None = None,
+        extent_m: np.ndarray | float = 0.0,
+    ) -> SoundSources:
+        """Columns from arrays or one value for all rows."""
+        n = len(ids)
+
+        def column(value: np.ndarray | float, dtype: type) -> np.ndarray:
+            if isinstance(value, np.ndarray):
+                return value.astype(dtype, copy=False)
+            return np.full(n, value, dtype=dtype)
+
+        return cls(
+            ids,
+            column(owner, np.intp),
+            column(listener, np.intp),
+            column(kind, np.intp),
+            np.asarray(pos, dtype=np.float64).reshape(n, 3),
+            np.zeros((n, 3)) if vel is None else np.asarray(vel, dtype=np.float64).reshape(n, 3),
+            column(level_db, np.float64),
+            np.asarray(drive, dtype=np.float64).reshape(n, 2),
+            column(extent_m, np.float64),
+        )
+
+    def take(self, index: np.ndarray) -> SoundSources:
+        """The rows at `index`, in that order."""
+        return SoundSources(
             [self.ids[i] for i in index.tolist()],
             self.owner[index],
+            self.listener[index],
             self.kind[index],
             self.pos[index],
             self.vel[index],
@@ -81,39 +125,27 @@ class PointSources:
         )
 
     @classmethod
-    def concat(cls, parts: Sequence[PointSources]) -> PointSources:
-        return cls(
-            ids=[i for p in parts for i in p.ids],
-            owner=np.concatenate([p.owner for p in parts]),
-            kind=np.concatenate([p.kind for p in parts]),
-            pos=np.concatenate([p.pos for p in parts]),
-            vel=np.concatenate([p.vel for p in parts]),
-            level_db=np.concatenate([p.level_db for p in parts]),
-            drive=np.concatenate([p.drive for p in parts]),
-            extent_m=np.concatenate([p.extent_m for p in parts]),
-        )
+    def concat(cls, parts: Sequence[SoundSources]) -> SoundSources:
+        columns = [np.concatenate([getattr(p, f) for p in parts]) for f in _ARRAYS]
+        return cls([i for p in parts for i in p.ids], *columns)
+
+
+_ARRAYS = ("owner", "listener", "kind", "pos", "vel", "level_db", "drive", "extent_m")
 
 
 def _on_actors(
-    actors: ActorColumns,
-    pick: np.ndarray,
-    kind: str,
-    suffix: str,
-    level: np.ndarray,
-    drive: np.ndarray,
-) -> PointSources:
+    actors: ActorColumns, pick: np.ndarray, kind: str, level: np.ndarray, drive: np.ndarray
+) -> SoundSources:
     """Sources of one `kind` on the actors selected by the boolean mask `pick`."""
     where = np.flatnonzero(pick)
-    owners = [actors.ids[i] for i in where]
-    return PointSources(
-        ids=[f"{o}.{suffix}" for o in owners],
-        owner=np.array(owners, dtype=str),
-        kind=np.full(len(where), KIND_INDEX[kind], dtype=np.intp),
-        pos=actors.pos[where],
+    return SoundSources.build(
+        [f"{actors.ids[i]}.{kind}" for i in where.tolist()],
+        KIND_INDEX[kind],
+        actors.pos[where],
+        level[where],
+        drive[where],
+        owner=where,
         vel=actors.vel[where],
-        level_db=level[where],
-        drive=drive[where],
-        extent_m=np.zeros(len(where)),
     )
 
 
@@ -126,7 +158,7 @@ class ActorSounds:
         self._last_speed: dict[str, float] = {}
         self._last_t: float | None = None
 
-    def sources(self, t: float, actors: ActorColumns, wetness: float) -> PointSources:
+    def sources(self, t: float, actors: ActorColumns, wetness: float) -> SoundSources:
         speed = actors.speed
         accel = self._acceleration(t, actors.ids, speed)
         engine = self._engines.run(actors.kind, speed, accel)
@@ -134,20 +166,14 @@ class ActorSounds:
         tyre_level = self._tyres.level_db(actors.kind, speed, wetness)
         tyre_drive = np.stack([speed, np.full(len(speed), wetness)], axis=1)
         engine_drive = np.stack([engine.rpm, engine.load], axis=1)
+        has_engine = self._engines.has_engine[actors.kind]
         parts = [
-            _on_actors(
-                actors,
-                self._engines.has_engine[actors.kind],
-                "engine",
-                "engine",
-                engine.level_db,
-                engine_drive,
-            ),
-            _on_actors(actors, rolling, "tyres", "tyres", tyre_level, tyre_drive),
+            _on_actors(actors, has_engine, "engine", engine.level_db, engine_drive),
+            _on_actors(actors, rolling, "tyres", tyre_level, tyre_drive),
         ]
         if self._sirens:
             parts.append(self._siren_sources(actors))
-        return PointSources.concat(parts)
+        return SoundSources.concat(parts)
 
     def _acceleration(self, t: float, ids: list[str], speed: np.ndarray) -> np.ndarray:
         """[m/s²] along the path since the last call; 0 for actors new since then."""
@@ -161,10 +187,10 @@ class ActorSounds:
         self._last_t = t
         return (speed - before) / dt if dt > 0 else np.zeros(len(ids))
 
-    def _siren_sources(self, actors: ActorColumns) -> PointSources:
+    def _siren_sources(self, actors: ActorColumns) -> SoundSources:
         pick = np.array([i in self._sirens for i in actors.ids], dtype=bool)
         specs = [self._sirens[actors.ids[i]] for i in np.flatnonzero(pick)]
         level, drive = np.zeros(len(pick)), np.zeros((len(pick), 2))
         level[pick] = [s.level_db for s in specs]
         drive[pick, 0] = [SIREN_PATTERNS.index(s.pattern) for s in specs]
-        return _on_actors(actors, pick, "siren", "siren", level, drive)
+        return _on_actors(actors, pick, "siren", level, drive)

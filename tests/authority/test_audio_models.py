@@ -9,10 +9,10 @@ import pytest
 
 from carlaverse.authority.actors import EgoNow
 from carlaverse.authority.sound_areas import ListenerAreas, MapAreaSources
-from carlaverse.authority.sound_audibility import audible_on_actors, loudest
+from carlaverse.authority.sound_audibility import audible
 from carlaverse.authority.sound_models import EngineBank, TyreBank
 from carlaverse.authority.sound_publisher import SoundPublisher
-from carlaverse.authority.sound_sources import ActorSounds, actor_columns
+from carlaverse.authority.sound_sources import KIND_INDEX, ActorSounds, SoundSources, actor_columns
 from carlaverse.messages import AUDIO_SCENE, NPC_DTYPE, MapArea, Weather
 from carlaverse.traffic.engine import NpcFrame, kind_code
 from carlaverse.traffic.soundscape import AudioSpec, ConstructionZone, SirenSpec
@@ -74,7 +74,7 @@ def test_engines_ride_on_vehicles_tyres_only_when_rolling_and_bicycles_have_no_e
                                         "v2.engine", "v2.siren", "b1.tyres"])  # fmt: skip
     by_id = dict(zip(found.ids, found.drive.tolist(), strict=True))
     assert by_id["v1.tyres"] == [10.0, 0.5] and by_id["v2.siren"] == [1.0, 0.0]  # yelp = 1
-    assert found.owner[found.ids.index("me.engine")] == "me"
+    assert found.owner[found.ids.index("me.engine")] == 0  # the first actor: the first ego
 
 
 def test_acceleration_is_the_change_of_speed_per_actor_between_calls() -> None:
@@ -91,22 +91,48 @@ def test_acceleration_is_the_change_of_speed_per_actor_between_calls() -> None:
     assert load["v9.engine"] == pytest.approx(cruise(12.0))  # new: no acceleration known
 
 
-def test_loudest_keeps_the_cap_above_the_threshold_loudest_first() -> None:
-    levels = np.array([50.0, 70.0, 20.0, 65.0, 80.0, 40.0])
-    assert loudest(levels, 30.0, 3).tolist() == [4, 1, 3]
-    assert loudest(levels, 60.0, 10).tolist() == [4, 1, 3]
-    assert loudest(levels, 90.0, 10).tolist() == []
+def point_sources(levels: list[float], xs: list[float]) -> SoundSources:
+    """Engines of the given levels at 1 m, along the x axis."""
+    pos = np.column_stack([xs, np.zeros(len(xs)), np.zeros(len(xs))])
+    ids = [f"s{i}" for i in range(len(xs))]
+    return SoundSources.build(ids, 0, pos, np.array(levels), np.zeros((len(xs), 2)))
+
+
+def test_audible_keeps_the_cap_above_the_threshold_loudest_first() -> None:
+    # At 10 m every level drops 20 dB: 30, 50, 0, 45, 60, 20 dB at the ear.
+    shared = point_sources([50.0, 70.0, 20.0, 65.0, 80.0, 40.0], [10.0] * 6)
+    none = SoundSources.build([], 0, np.zeros((0, 3)), np.zeros(0), np.zeros((0, 2)))
+    ears = np.zeros((1, 3))
+    heard = audible(ears, shared, none, threshold_db=10.0, cap=3)
+    assert heard.sources.ids == ["s4", "s1", "s3"] and heard.bounds.tolist() == [0, 3]
+    assert audible(ears, shared, none, 40.0, 10).sources.ids == ["s4", "s1", "s3"]
+    assert audible(ears, shared, none, 70.0, 10).sources.ids == []
+
+
+def test_a_listeners_own_rows_compete_with_the_shared_ones() -> None:
+    shared = point_sources([70.0, 60.0], [10.0, 10.0])  # 50 and 40 dB at the first ear
+    rain_db = np.array([45.0, 55.0])  # around each of the two listeners
+    own = SoundSources.build(["rain"] * 2, KIND_INDEX["rain"], np.zeros((2, 3)), rain_db,
+                             np.zeros((2, 2)), listener=np.array([0, 1]))  # fmt: skip
+    ears = np.array([[0.0, 0.0, 0.0], [5000.0, 0.0, 0.0]])
+    heard = audible(ears, shared, own, threshold_db=30.0, cap=2)
+    assert heard.sources.ids[heard.of(0)] == ["s0", "rain"]  # 50 > 45 > 40 dB: capped at 2
+    assert heard.sources.ids[heard.of(1)] == []  # its rain is at 5 km, the engines too
 
 
 def test_a_listener_hears_by_inverse_distance_and_never_its_own_actor() -> None:
     npcs = frame([("v1", "car", 10, 0, 0, 0), ("v2", "car", 1000, 0, 0, 0)])
-    found = ActorSounds([]).sources(0.0, actor_columns([ego("me", 0, 0)], npcs), 0.0)
+    egos = [ego("me", 0, 0), ego("other", 990, 0)]
+    found = ActorSounds([]).sources(0.0, actor_columns(egos, npcs), 0.0)
     ears = np.array([[0.0, 0.0, 0.0], [990.0, 0.0, 0.0]])
-    heard = audible_on_actors(ears, ["me", "other"], found, threshold_db=40.0, cap=8)
-    (near, near_db), (far, _) = heard
-    assert [found.ids[i] for i in near] == ["v1.engine"]  # 68 dB − 20 dB at 10 m; own engine out
-    assert near_db.tolist() == pytest.approx([48.0])
-    assert [found.ids[i] for i in far] == ["v2.engine"]  # 68 − 20·log10(10) again, at 10 m
+    none = SoundSources.build([], 0, np.zeros((0, 3)), np.zeros(0), np.zeros((0, 2)))
+    heard = audible(ears, found, none, threshold_db=40.0, cap=8)
+    # 68 dB idle − 20 dB at 10 m; each hears the other NPC's engine, neither its own engine
+    assert heard.sources.ids[heard.of(0)] == ["v1.engine"]
+    assert heard.sources.ids[heard.of(1)] == ["v2.engine"]
+    just_above = audible(ears[:1], found, none, threshold_db=47.9, cap=8).sources.ids
+    just_below = audible(ears[:1], found, none, threshold_db=48.1, cap=8).sources.ids
+    assert just_above == ["v1.engine"] and just_below == []  # 48 dB at the ear
 
 
 SQUARE = [(0.0, 0.0), (20.0, 0.0), (20.0, 20.0), (0.0, 20.0)]
@@ -119,21 +145,20 @@ def test_an_area_is_heard_from_its_nearest_point_or_all_around_inside_it() -> No
     assert areas.ids == ["park.leaves"] and areas.extent_m[0] == pytest.approx(
         20 / math.sqrt(math.pi)
     )
-    idx, points = areas.nearest(np.array([30.0, 10.0]), np.array([50.0]))
-    assert idx.tolist() == [0] and points.tolist() == [[20.0, 10.0]]
-    idx, points = areas.nearest(np.array([5.0, 7.0]), np.array([50.0]))
-    assert points.tolist() == [[5.0, 7.0]]  # inside: it surrounds the listener
-    idx, _ = areas.nearest(np.array([300.0, 10.0]), np.array([50.0]))
-    assert idx.tolist() == []
+    ears = np.array([[30.0, 10.0], [5.0, 7.0], [300.0, 10.0]])
+    listener, area, points = areas.nearest(ears, np.array([50.0]))
+    assert listener.tolist() == [0, 1] and area.tolist() == [0, 0]  # the third is out of reach
+    assert points.tolist() == [[20.0, 10.0], [5.0, 7.0]]  # inside: it surrounds the listener
 
 
 def test_construction_sits_on_its_rim_and_rain_and_wind_follow_the_weather() -> None:
     zone = ConstructionZone(name="dig", x=100.0, y=0.0, radius_m=10.0)
     around = ListenerAreas([], [zone])
-    dry = around.sources(np.array([0.0, 0.0, 0.0]), Weather(1, 0.0), 30.0)
-    assert dry.ids == ["construction.dig"] and dry.pos.tolist() == [[90.0, 0.0, 0.0]]
+    dry = around.sources(np.array([[0.0, 0.0, 0.0], [102.0, 3.0, 0.0]]), Weather(1, 0.0), 30.0)
+    assert dry.ids == ["construction.dig"] * 2 and dry.listener.tolist() == [0, 1]
+    assert dry.pos.tolist() == [[90.0, 0.0, 0.0], [102.0, 3.0, 0.0]]  # on the rim, or inside
     wet = Weather(2, 0.0, precipitation=0.5, wind_speed_mps=9.0)
-    found = around.sources(np.array([0.0, 0.0, 1.0]), wet, 30.0)
+    found = around.sources(np.array([[0.0, 0.0, 1.0]]), wet, 30.0)
     rain = found.ids.index("weather.rain")
     assert found.level_db[rain] == pytest.approx(60.0) and found.drive[rain, 0] == 0.5
     assert found.pos[rain].tolist() == [0.0, 0.0, 1.0] and found.extent_m[rain] > 0
