@@ -333,7 +333,9 @@ Level = Annotated[float, msgspec.Meta(ge=-AUDIO_LEVEL_LIMIT_DB, le=AUDIO_LEVEL_L
 NonNegative = Annotated[float, msgspec.Meta(ge=0.0, le=FLOAT_LIMIT)]
 
 
-class AudioEmitter(msgspec.Struct, frozen=True, array_like=True):
+# gc=False: hundreds are made per audio instant and they hold no references (no cycles), so
+# keeping them out of the cycle collector spares the authority's tick its collection pauses.
+class AudioEmitter(msgspec.Struct, frozen=True, array_like=True, gc=False):
     """One sound source for one listener; `drive_a`/`drive_b` mean what AUDIO_DRIVE_MEANING says."""
 
     id: str  # stable per source across scenes, e.g. "veh12.engine"

@@ -78,15 +78,10 @@ def _loudest_shared(
 
 
 def emitters(sources: SoundSources) -> list[AudioEmitter]:
-    """The sources as wire emitters, in their order."""
-    columns = zip(
-        sources.ids,
-        [AUDIO_KINDS[k] for k in sources.kind.tolist()],
-        sources.pos.tolist(),
-        sources.vel.tolist(),
-        sources.level_db.tolist(),
-        sources.extent_m.tolist(),
-        sources.drive.tolist(),
-        strict=True,
-    )
-    return [AudioEmitter(i, k, *p, *v, lv, ext, *d) for i, k, p, v, lv, ext, d in columns]
+    """The sources as wire emitters, in their order (flat columns: few objects to collect)."""
+    kinds = [AUDIO_KINDS[k] for k in sources.kind.tolist()]
+    floats = [*sources.pos.T, *sources.vel.T, sources.level_db, sources.extent_m, *sources.drive.T]
+    columns = [column.tolist() for column in floats]
+    return [
+        AudioEmitter(i, k, *row) for i, k, *row in zip(sources.ids, kinds, *columns, strict=True)
+    ]
