@@ -1,0 +1,179 @@
+"""Procedural sound sources, one generator per emitter kind, each rendering a batch of
+emitters of its kind per block (E × block samples, RMS ≈ 1; the renderer applies level_db).
+
+Nothing is sampled from recordings: engines are harmonics of their firing frequency, sirens
+swept or alternating tones, the rest shaped noise (`noise.NoiseBands`) with its own motion.
+Drive values (`drive_a`, `drive_b`) mean what messages.AUDIO_DRIVE_MEANING says; each
+arrives as the block's start and end value and is ramped per sample, so nothing zips.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from carlaverse.audio import voicing as v
+from carlaverse.audio.noise import BAND_CENTRES_HZ, Gusts, NoiseBands
+from carlaverse.audio.wavetables import Wavetables
+
+TWO_PI = 2.0 * np.pi
+NOISE_BANDS = len(BAND_CENTRES_HZ)
+# What a generator returns: its tonal part (E × block, or None) and its noise band gains
+# (E × bands) at the block's start and end.
+Generated = tuple[np.ndarray | None, np.ndarray, np.ndarray]
+
+
+@dataclass(frozen=True)
+class Drive:
+    """Per emitter of one batch: drive values at the block's start and end."""
+
+    a0: np.ndarray
+    a1: np.ndarray
+    b0: np.ndarray
+    b1: np.ndarray
+
+    def part(self, sel: np.ndarray) -> Drive:
+        return Drive(self.a0[sel], self.a1[sel], self.b0[sel], self.b1[sel])
+
+
+class SourceBank:
+    """The state of every emitter's generator (phases, noise offsets, gusts, blow timers)."""
+
+    def __init__(self, capacity: int, sample_rate_hz: int, block: int, seed: int) -> None:
+        self.rng = np.random.default_rng(seed)
+        self.rate = float(sample_rate_hz)
+        self.block = block
+        self.noise = NoiseBands(sample_rate_hz, self.rng)
+        self.tables = Wavetables(self.rate)
+        self.phase = np.zeros(capacity)  # [rad] tone phase, wrapped at 4π (half orders)
+        self.clock_s = np.zeros(capacity)  # [s] since the emitter appeared: siren patterns
+        self.offset = np.zeros(capacity, dtype=np.int64)  # into the noise tables
+        self.since_blow = np.zeros(capacity, dtype=np.int64)  # [samples] construction
+        self.cylinders = np.full(capacity, float(v.ENGINE_CYLINDERS))
+        self.gusts = Gusts(capacity, self.rng)
+        self._generators = {
+            "engine": self._engine, "tyres": self._tyres, "siren": self._siren,
+            "construction": self._construction,
+        }  # fmt: skip; every other kind is ambience
+
+    def reset(self, slots: np.ndarray) -> None:
+        """Fresh state for emitters that just appeared."""
+        n = len(slots)
+        self.phase[slots] = self.rng.uniform(0.0, 2 * TWO_PI, n)
+        self.clock_s[slots] = self.rng.uniform(0.0, v.WAIL_PERIOD_S, n)
+        self.offset[slots] = self.rng.integers(0, self.noise.samples, n)
+        self.since_blow[slots] = self.tables.blow_samples
+        self.cylinders[slots] = v.ENGINE_CYLINDERS
+        self.gusts.reset(slots)
+
+    def render(self, slots: np.ndarray, kinds: np.ndarray, drive: Drive) -> np.ndarray:
+        """(E × block) float32, one row per slot in `slots`; `kinds` index voicing.KINDS.
+
+        Each generator returns its tonal part (or None) and its noise band gains at the
+        block's start and end; the noise of all emitters is then read in one go."""
+        n = len(slots)
+        tone = np.zeros((n, self.block), dtype=np.float32)
+        gains0, gains1 = np.zeros((n, NOISE_BANDS)), np.zeros((n, NOISE_BANDS))
+        for code in np.unique(kinds):
+            sel = np.flatnonzero(kinds == code)
+            kind = v.KINDS[code]
+            generate = self._generators.get(kind, self._ambience)
+            part, gains0[sel], gains1[sel] = generate(slots[sel], drive.part(sel), kind)
+            if part is not None:
+                tone[sel] = part
+        out = tone + self.noise.read(self.offset[slots], gains0, gains1, self.block)
+        self.offset[slots] = (self.offset[slots] + self.block) % self.noise.samples
+        self.clock_s[slots] += self.block / self.rate
+        return out
+
+    # ------------------------------------------------------------------ tones
+
+    def _tone_phase(self, slots: np.ndarray, hz0: np.ndarray, hz1: np.ndarray) -> np.ndarray:
+        """Running phase (E × block) [rad, 0..4π] of a frequency ramped from hz0 to hz1 (E,)
+        over the block: the sum of the ramp in closed form, no cumulative sum."""
+        n = np.arange(1, self.block + 1, dtype=np.float64)
+        cycles = np.outer(hz0, n) + np.outer(hz1 - hz0, n * (n + 1) / (2 * self.block))
+        phase = self.phase[slots, None] + (TWO_PI / self.rate) * cycles
+        self.phase[slots] = np.mod(phase[:, -1], 2 * TWO_PI)
+        return np.mod(phase, 2 * TWO_PI).astype(np.float32)
+
+    def _engine(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
+        """Harmonics of the firing frequency (rpm/60 · cylinders/2), brighter under load,
+        with intake and exhaust hiss."""
+        per_rpm = self.cylinders[slots] / 120.0  # firing frequency per rpm [Hz]
+        phase = self._tone_phase(slots, d.a0 * per_rpm, d.a1 * per_rpm)
+        load = np.clip(0.5 * (d.b0 + d.b1), 0.0, 1.0)
+        share = v.ENGINE_NOISE_SHARE * (0.2 + load)
+        norm = 1.0 / np.sqrt(1.0 + share**2)
+        hiss = self.noise.unit_power(v.ENGINE_NOISE) * (share * norm)[:, None]
+        return self.tables.engine(phase, load) * norm[:, None].astype(np.float32), hiss, hiss
+
+    def _siren(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
+        """wail / yelp: a triangle sweep; hi-lo: two alternating tones (each glides into the
+        other over one block, as a real two-tone horn does)."""
+        t0 = self.clock_s[slots]
+        pattern = np.rint(d.a1).astype(int)
+        hz0 = _siren_hz(t0, pattern)
+        hz1 = _siren_hz(t0 + self.block / self.rate, pattern)
+        silent = np.zeros((len(slots), NOISE_BANDS))
+        return self.tables.siren(self._tone_phase(slots, hz0, hz1)), silent, silent
+
+    # ------------------------------------------------------------------ noise
+
+    def _tyres(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
+        """Road roar rising in pitch with speed; wetness adds spray hiss."""
+        return None, self._tyre_bands(d.a0, d.b0), self._tyre_bands(d.a1, d.b1)
+
+    def _tyre_bands(self, speed_mps: np.ndarray, wetness: np.ndarray) -> np.ndarray:
+        low, high = v.TYRE_SHIFT_MPS
+        shift = np.clip((speed_mps - low) / (high - low), 0.0, 1.0)[:, None]
+        dry = (1.0 - shift) * v.TYRE_DRY + shift * np.roll(v.TYRE_DRY, 1)
+        return self.noise.unit_power(dry + 1.5 * np.clip(wetness, 0.0, 1.0)[:, None] * v.TYRE_WET)
+
+    def _ambience(self, slots: np.ndarray, d: Drive, kind: str) -> Generated:
+        """Leaves, water, rain, wind: shaped noise swelling in gusts; intensity deepens them."""
+        bands, tau_s, depth0, depth1 = v.AMBIENCE[kind]
+        g0, g1 = self.gusts.step(slots, self.block / self.rate, tau_s, depth0 + depth1 * d.a1)
+        gains = self.noise.unit_power(bands)
+        return None, gains * g0[:, None], gains * g1[:, None]
+
+    def _construction(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
+        """Hammer blows at random intervals (more with intensity) over a machine rumble."""
+        since = self._blows(slots, v.BLOWS_HZ[0] + (v.BLOWS_HZ[1] - v.BLOWS_HZ[0]) * d.a1)
+        hit_bands = np.tile(self.noise.unit_power(v.CONSTRUCTION_HIT), (len(slots), 1))
+        # The hit noise reads other bands' offsets (shifted by half the table): it must not
+        # be the rumble's noise again.
+        offsets = (self.offset[slots] + self.noise.samples // 2) % self.noise.samples
+        hit = self.noise.read(offsets, hit_bands, hit_bands, self.block)
+        blows = 1.5 * self.tables.hit_envelope[since] * hit + 0.5 * self.tables.clank[since]
+        rumble = 0.3 * self.noise.unit_power(v.CONSTRUCTION_RUMBLE)
+        return blows, rumble, rumble
+
+    def _blows(self, slots: np.ndarray, rate_hz: np.ndarray) -> np.ndarray:
+        """Samples since the last blow (E × block), capped at the blow table's end; at most
+        one new blow per block."""
+        blow = self.rng.random(len(slots)) < rate_hz * self.block / self.rate
+        at = np.where(blow, self.rng.integers(0, self.block, len(slots)), self.block)
+        n = np.arange(self.block)[None, :]
+        since = np.where(n >= at[:, None], n - at[:, None], self.since_blow[slots, None] + n)
+        since = np.minimum(since, self.tables.blow_samples)
+        self.since_blow[slots] = np.minimum(since[:, -1] + 1, self.tables.blow_samples)
+        return since
+
+
+def _siren_hz(t: np.ndarray, pattern: np.ndarray) -> np.ndarray:
+    """[Hz] of each siren at time `t` [s] for its pattern (index into SIREN_PATTERNS)."""
+    period = np.where(pattern == 1, v.YELP_PERIOD_S, v.WAIL_PERIOD_S)
+    return np.where(pattern == 2, _hi_lo(t), _sweep(t, period))
+
+
+def _sweep(t: np.ndarray, period_s: np.ndarray) -> np.ndarray:
+    """Triangle sweep over WAIL_HZ: up for half the period, down for the other half."""
+    tri = 1.0 - np.abs(2.0 * np.mod(t / period_s, 1.0) - 1.0)
+    return v.WAIL_HZ[0] + (v.WAIL_HZ[1] - v.WAIL_HZ[0]) * tri
+
+
+def _hi_lo(t: np.ndarray) -> np.ndarray:
+    high = np.mod(t / v.HI_LO_PERIOD_S, 1.0) < 0.5
+    return np.where(high, v.HI_LO_HZ[1], v.HI_LO_HZ[0])
