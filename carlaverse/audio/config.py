@@ -1,7 +1,7 @@
 """The `audio:` config of a listening node, or of an offline render (configs/audio/*.yaml).
 
-    carlaverse join drive --audio headphones          # configs/audio/headphones.yaml
-    carlaverse audio render lab.mcap --listener car-1 --out car-1.wav --config ring8
+carlaverse join drive --audio headphones          # configs/audio/headphones.yaml
+carlaverse audio render lab.mcap --listener car-1 --out car-1.wav --config ring8
 """
 
 from __future__ import annotations

@@ -127,13 +127,22 @@ def _angles(positions: np.ndarray, cartesian: bool) -> tuple[np.ndarray, np.ndar
 
 def _conform(irs: np.ndarray, rate: float, target_hz: int) -> np.ndarray:
     """Resample to `target_hz`, cut to TAPS with a fade, as float32 (D, 2, TAPS)."""
-    from scipy.signal import resample_poly
-
     if not math.isclose(rate, target_hz):
-        ratio = Fraction(target_hz / rate).limit_denominator(1000)
-        irs = resample_poly(irs, ratio.numerator, ratio.denominator, axis=-1)
+        irs = _resample(irs, Fraction(target_hz / rate).limit_denominator(1000))
     out = np.zeros((*irs.shape[:2], TAPS))
     n = min(TAPS, irs.shape[-1])
     out[..., :n] = irs[..., :n]
     out[..., TAPS - FADE_TAPS :] *= np.hanning(2 * FADE_TAPS)[FADE_TAPS:]
     return out.astype(np.float32)
+
+
+def _resample(irs: np.ndarray, ratio: Fraction) -> np.ndarray:
+    """Band-limited resampling by `ratio` through the spectrum: the responses are zero-padded
+    to a length the ratio maps onto whole samples (at least twice theirs, so the circular
+    transform does not wrap), and the spectrum is cut or extended to the new length."""
+    n = irs.shape[-1]
+    padded = ratio.denominator * math.ceil(2 * n / ratio.denominator)
+    resized = padded * ratio.numerator // ratio.denominator
+    spectrum = np.fft.rfft(irs, padded, axis=-1)
+    out = np.fft.irfft(spectrum, resized, axis=-1) * (resized / padded)
+    return out[..., : math.ceil(n * ratio)]

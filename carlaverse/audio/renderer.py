@@ -16,6 +16,7 @@ Per block (all emitters at once, as numpy arrays):
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -27,11 +28,11 @@ from carlaverse.audio.air import (
     unit_delays,
 )
 from carlaverse.audio.config import AudioConfig
-from carlaverse.audio.hrtf import TAPS
+from carlaverse.audio.hrtf import TAPS, HrirSet
 from carlaverse.audio.limiter import Limiter
 from carlaverse.audio.listener import ListenerPose
 from carlaverse.audio.propagation import MIN_DISTANCE_M, DelayLines, travel_time_s
-from carlaverse.audio.scene import FADING, EmitterSlots
+from carlaverse.audio.scene import FADING, SCENE, EmitterLike, EmitterSlots
 from carlaverse.audio.sources import Drive, SourceBank
 
 POLE_TAIL = 256  # [samples] FFT history kept for the absorption pole's decay (≤ 0.97^256)
@@ -79,6 +80,15 @@ class Renderer:
         n = np.arange(self.block) + 1.0
         self._fade_in = (0.5 - 0.5 * np.cos(np.pi * n / self.block)).astype(np.float32)
         self._glide = min(1.0, self.block / self.rate / config.glide_s)
+
+    def hear(self, emitters: Iterable[EmitterLike], t: float, owner: str = SCENE) -> None:
+        """Take an AudioScene's emitters (or this node's own, owner LOCAL) valid at render
+        time `t`; the owner's emitters missing from it fade out."""
+        self.slots.apply(emitters, t, owner)
+
+    def place(self, listener: ListenerPose) -> None:
+        """Where the ears are from now on (dead-reckoned with its velocity until replaced)."""
+        self.listener = listener
 
     def render_block(self) -> np.ndarray:
         """The next block (block × channels, float32, within ±1)."""
@@ -163,3 +173,17 @@ def _assign(state: object, slots: np.ndarray, new: object) -> None:
         return
     for name in state.__dataclass_fields__:  # type: ignore[attr-defined]
         getattr(state, name)[slots] = getattr(new, name)
+
+
+def build_renderer(config: AudioConfig, hrirs: HrirSet | None = None) -> Renderer:
+    """A renderer for the config's layout: HRTF (binaural) or VBAP over its speakers;
+    `hrirs` saves loading the config's set again (it takes most of a second)."""
+    if config.layout == "binaural":
+        from carlaverse.audio.binaural import Binaural
+        from carlaverse.audio.hrtf import load_hrirs
+
+        hrirs = hrirs or load_hrirs(config.hrtf, config.sample_rate_hz)
+        return Renderer(config, Binaural(hrirs, fft_size(config.block_size)))
+    from carlaverse.audio.panning import Panned
+
+    return Renderer(config, Panned(config.layout))

@@ -52,8 +52,15 @@ class SourceBank:
         self.since_blow = np.zeros(capacity, dtype=np.int64)  # [samples] construction
         self.cylinders = np.full(capacity, float(v.ENGINE_CYLINDERS))
         self.gusts = Gusts(capacity, self.rng)
+        # Band gains of fixed spectra, scaled once to RMS 1.
+        self._bands = {name: self.noise.unit_power(bands)[0] for name, bands in (
+            ("engine", v.ENGINE_NOISE), ("hit", v.CONSTRUCTION_HIT),
+            ("rumble", v.CONSTRUCTION_RUMBLE),
+            *((kind, shape[0]) for kind, shape in v.AMBIENCE.items()))}  # fmt: skip
         self._generators = {
-            "engine": self._engine, "tyres": self._tyres, "siren": self._siren,
+            "engine": self._engine,
+            "tyres": self._tyres,
+            "siren": self._siren,
             "construction": self._construction,
         }  # fmt: skip; every other kind is ambience
 
@@ -92,11 +99,18 @@ class SourceBank:
     def _tone_phase(self, slots: np.ndarray, hz0: np.ndarray, hz1: np.ndarray) -> np.ndarray:
         """Running phase (E × block) [rad, 0..4π] of a frequency ramped from hz0 to hz1 (E,)
         over the block: the sum of the ramp in closed form, no cumulative sum."""
-        n = np.arange(1, self.block + 1, dtype=np.float64)
-        cycles = np.outer(hz0, n) + np.outer(hz1 - hz0, n * (n + 1) / (2 * self.block))
-        phase = self.phase[slots, None] + (TWO_PI / self.rate) * cycles
-        self.phase[slots] = np.mod(phase[:, -1], 2 * TWO_PI)
-        return np.mod(phase, 2 * TWO_PI).astype(np.float32)
+        n = np.arange(1, self.block + 1, dtype=np.float32)
+        step = np.float32(TWO_PI / self.rate)
+        rise = (n * (n + 1) / (2 * self.block)).astype(np.float32)
+        start = ((hz0 * step).astype(np.float32), ((hz1 - hz0) * step).astype(np.float32))
+        phase = np.outer(start[0], n) + np.outer(start[1], rise)
+        phase += self.phase[slots, None].astype(np.float32)
+        # The block's end in double precision: the phase carried on never drifts.
+        end = self.phase[slots] + TWO_PI / self.rate * (
+            hz0 * self.block + (hz1 - hz0) * (self.block + 1) / 2
+        )
+        self.phase[slots] = np.mod(end, 2 * TWO_PI)
+        return np.mod(phase, np.float32(2 * TWO_PI))
 
     def _engine(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
         """Harmonics of the firing frequency (rpm/60 · cylinders/2), brighter under load,
@@ -106,7 +120,7 @@ class SourceBank:
         load = np.clip(0.5 * (d.b0 + d.b1), 0.0, 1.0)
         share = v.ENGINE_NOISE_SHARE * (0.2 + load)
         norm = 1.0 / np.sqrt(1.0 + share**2)
-        hiss = self.noise.unit_power(v.ENGINE_NOISE) * (share * norm)[:, None]
+        hiss = self._bands["engine"] * (share * norm)[:, None]
         return self.tables.engine(phase, load) * norm[:, None].astype(np.float32), hiss, hiss
 
     def _siren(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
@@ -123,7 +137,9 @@ class SourceBank:
 
     def _tyres(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
         """Road roar rising in pitch with speed; wetness adds spray hiss."""
-        return None, self._tyre_bands(d.a0, d.b0), self._tyre_bands(d.a1, d.b1)
+        n = len(slots)
+        both = self._tyre_bands(np.concatenate([d.a0, d.a1]), np.concatenate([d.b0, d.b1]))
+        return None, both[:n], both[n:]
 
     def _tyre_bands(self, speed_mps: np.ndarray, wetness: np.ndarray) -> np.ndarray:
         low, high = v.TYRE_SHIFT_MPS
@@ -133,21 +149,21 @@ class SourceBank:
 
     def _ambience(self, slots: np.ndarray, d: Drive, kind: str) -> Generated:
         """Leaves, water, rain, wind: shaped noise swelling in gusts; intensity deepens them."""
-        bands, tau_s, depth0, depth1 = v.AMBIENCE[kind]
+        _bands, tau_s, depth0, depth1 = v.AMBIENCE[kind]
         g0, g1 = self.gusts.step(slots, self.block / self.rate, tau_s, depth0 + depth1 * d.a1)
-        gains = self.noise.unit_power(bands)
+        gains = self._bands[kind]
         return None, gains * g0[:, None], gains * g1[:, None]
 
     def _construction(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
         """Hammer blows at random intervals (more with intensity) over a machine rumble."""
         since = self._blows(slots, v.BLOWS_HZ[0] + (v.BLOWS_HZ[1] - v.BLOWS_HZ[0]) * d.a1)
-        hit_bands = np.tile(self.noise.unit_power(v.CONSTRUCTION_HIT), (len(slots), 1))
+        hit_bands = np.tile(self._bands["hit"], (len(slots), 1))
         # The hit noise reads other bands' offsets (shifted by half the table): it must not
         # be the rumble's noise again.
         offsets = (self.offset[slots] + self.noise.samples // 2) % self.noise.samples
         hit = self.noise.read(offsets, hit_bands, hit_bands, self.block)
         blows = 1.5 * self.tables.hit_envelope[since] * hit + 0.5 * self.tables.clank[since]
-        rumble = 0.3 * self.noise.unit_power(v.CONSTRUCTION_RUMBLE)
+        rumble = np.tile(0.3 * self._bands["rumble"], (len(slots), 1))
         return blows, rumble, rumble
 
     def _blows(self, slots: np.ndarray, rate_hz: np.ndarray) -> np.ndarray:
@@ -164,8 +180,8 @@ class SourceBank:
 
 def _siren_hz(t: np.ndarray, pattern: np.ndarray) -> np.ndarray:
     """[Hz] of each siren at time `t` [s] for its pattern (index into SIREN_PATTERNS)."""
-    period = np.where(pattern == 1, v.YELP_PERIOD_S, v.WAIL_PERIOD_S)
-    return np.where(pattern == 2, _hi_lo(t), _sweep(t, period))
+    period = np.where(pattern == v.YELP, v.YELP_PERIOD_S, v.WAIL_PERIOD_S)
+    return np.where(pattern == v.HI_LO, _hi_lo(t), _sweep(t, period))
 
 
 def _sweep(t: np.ndarray, period_s: np.ndarray) -> np.ndarray:

@@ -7,8 +7,10 @@ from __future__ import annotations
 
 import numpy as np
 
-KINDS = ("engine", "tyres", "siren", "construction", "leaves", "water", "rain", "wind")
-SIREN_PATTERNS = ("wail", "yelp", "hi-lo")
+from carlaverse.messages import AUDIO_KINDS, SIREN_PATTERNS
+
+KINDS = AUDIO_KINDS  # a kind's code in the renderer is its index here
+WAIL, YELP, HI_LO = (SIREN_PATTERNS.index(p) for p in ("wail", "yelp", "hi-lo"))
 
 ENGINE_CYLINDERS = 4  # a remote car's engine; four-stroke: it fires cylinders/2 per turn
 # Orders of the firing frequency and their amplitudes at no load; load brightens the sound.

@@ -36,6 +36,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "carlaverse.cli.analyze",
         "trajectories and safety measures (TTC, PET) of a recording",
     ),
+    "audio": ("carlaverse.cli.audio", "render a recording's spatial audio for one listener (WAV)"),
     "certs": ("carlaverse.cli.certs", "generate a test CA and certificates for a lab"),
     "roster": ("carlaverse.cli.roster", "session roster tools: generate router ACLs"),
     "swarm": ("carlaverse.cli.swarm", "N synthetic egos in one process: load for the fabric"),

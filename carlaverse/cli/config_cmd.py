@@ -13,7 +13,9 @@ from carlaverse.config import ConfigError, convert, parse_yaml, read_text, resol
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 
 # File kinds that are not node kinds, each told apart by its top-level fields.
-FILE_KINDS = ("scenario", "vehicle", "roster", "router", "rig", "trainer-table", "hmi", "zenohd")
+FILE_KINDS = (
+    "scenario", "vehicle", "roster", "router", "rig", "trainer-table", "hmi", "zenohd", "audio",
+)  # fmt: skip
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -22,7 +24,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "file: a node config by its `node.kind`, a scenario by `map:`, a vehicle by `body:` and "
         "`spec:`, a roster by `sites:` and `nodes:`, a router config by a lone `fabric:`, a "
         "camera rig by `camera:`, a trainer resistance table by `resistance_percent:`, an HMI "
-        "config by `layouts:`, a zenohd config by its .json5 suffix."
+        "config by `layouts:`, an audio config by `layout:`, a zenohd config by its .json5 suffix."
     )
     sub = parser.add_subparsers(dest="action", required=True)
     validate = sub.add_parser("validate", help="validate files; exit 1 if any is invalid")
@@ -45,7 +47,8 @@ def detect_kind(path: Path, data: Any) -> str:
     for kind, fields in (("scenario", {"map"}), ("vehicle", {"body", "spec"}),
                          ("roster", {"sites", "nodes"}), ("router", {"fabric"}),
                          ("rig", {"camera"}), ("hmi", {"layouts"}),
-                         ("trainer-table", {"resistance_percent"})):  # fmt: skip
+                         ("trainer-table", {"resistance_percent"}),
+                         ("audio", {"layout"})):  # fmt: skip
         if fields <= data.keys() and (kind != "router" or data.keys() == {"fabric"}):
             return kind
     raise ConfigError(str(path), "cannot tell the schema: pass --kind or set node.kind in the file")
@@ -133,6 +136,12 @@ def _check_zenohd(path: Path, data: Any, kind: str) -> None:
         raise ConfigError(str(path), zenoh_reason(exc)) from exc
 
 
+def _check_audio(path: Path, data: Any, kind: str) -> None:
+    from carlaverse.audio.config import AudioConfig
+
+    convert(data, AudioConfig, str(path))
+
+
 def _check_node(path: Path, data: Any, kind: str) -> None:
     try:
         schema = load_node_kind(kind).config_type
@@ -161,6 +170,7 @@ CHECKS: dict[str, Callable[[Path, Any, str], None]] = {
     "trainer-table": _check_trainer_table,
     "hmi": _check_hmi,
     "zenohd": _check_zenohd,
+    "audio": _check_audio,
 }
 
 

@@ -37,6 +37,10 @@ EXPECTED = {
     "configs/walk-vr.yaml": "walk node",
     "configs/rigs/rig-walk-desktop.yaml": "rig",
     "configs/rigs/rig-walk-vr.yaml": "rig",
+    "configs/audio/headphones.yaml": "audio",
+    "configs/audio/headless.yaml": "audio",
+    "configs/audio/speakers-5.1.yaml": "audio",
+    "configs/audio/ring8.yaml": "audio",
 }
 
 

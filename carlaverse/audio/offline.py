@@ -1,0 +1,113 @@
+"""Render a recording's audio for one listener into a WAV file.
+
+    summary = render_recording("lab.mcap", "car-1", "car-1.wav", AudioConfig(layout="5.1"))
+
+The listener's scenes (`audio/<id>`) and ego poses (`ego/<id>/pose`) are read from the
+recording; the renderer runs on session time from the first scene to the last (plus the
+time the farthest sound needs to arrive), taking each scene at its own time and the ears
+where the poses put them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from carlaverse import messages as m
+from carlaverse.audio.config import AudioConfig
+from carlaverse.audio.renderer import build_renderer
+from carlaverse.audio.track import PoseTrack
+from carlaverse.audio.wav import WavWriter
+from carlaverse.keys import KeySpaceError, parse
+from carlaverse.recording.reading import iter_samples
+
+TAIL_S = 0.1  # [s] rendered after the emitters of the last scene have faded out
+
+
+class NothingToRender(ValueError):
+    """The recording holds no audio (or no pose) for the asked listener; says what it has."""
+
+
+@dataclass
+class RecordedAudio:
+    """What a recording holds for one listener."""
+
+    scenes: list[m.AudioScene] = field(default_factory=list)
+    poses: list[m.Pose] = field(default_factory=list)
+    listeners: set[str] = field(default_factory=set)  # every id with audio in the file
+    bad_scenes: int = 0
+
+
+@dataclass
+class RenderSummary:
+    listener: str
+    out: str
+    layout: str
+    channels: int
+    seconds: float
+    scenes: int
+    emitters_max: int
+    clipped_samples: int
+    limited_blocks: int
+    dropped: dict[str, int]
+
+
+def read_audio(path: str | Path, listener: str) -> RecordedAudio:
+    """The listener's scenes and poses, in recorded order."""
+    found = RecordedAudio()
+    for sample in iter_samples(path):
+        try:
+            key = parse(sample.key)
+        except KeySpaceError:
+            continue
+        if key.area == "audio":
+            found.listeners.add(key.node_id)
+        if key.node_id != listener or sample.kind != "put":
+            continue
+        try:
+            if key.area == "audio":
+                found.scenes.append(m.AUDIO_SCENE.decode(sample.payload))
+            elif key.area == "ego" and key.channel == "pose":
+                found.poses.append(m.decode_pose(sample.payload))
+        except m.MessageError:
+            found.bad_scenes += key.area == "audio"
+    return found
+
+
+def render_recording(path: str | Path, listener: str, out: str | Path, config: AudioConfig,
+                     progress: Callable[[float], None] | None = None) -> RenderSummary:  # fmt: skip
+    """Render `listener`'s audio of the recording at `path` into the WAV `out`."""
+    recorded = read_audio(path, listener)
+    track = _check(recorded, listener, path)
+    scenes = sorted(recorded.scenes, key=lambda s: s.t)
+    renderer = build_renderer(config)
+    start, end = scenes[0].t, scenes[-1].t + config.stale_after_s + TAIL_S
+    renderer.t = start
+    next_scene = 0
+    with WavWriter(out, renderer.channels, config.sample_rate_hz) as wav:
+        while renderer.t < end:
+            while next_scene < len(scenes) and scenes[next_scene].t <= renderer.t:
+                renderer.hear(scenes[next_scene].emitters, scenes[next_scene].t)
+                next_scene += 1
+            renderer.place(track.listener(renderer.t, config.listener.head_offset_m))
+            wav.write(renderer.render_block())
+            if progress is not None and renderer.blocks % 200 == 0:
+                progress((renderer.t - start) / (end - start))
+    seconds = round(wav.frames / config.sample_rate_hz, 3)
+    return RenderSummary(
+        listener, str(out), config.layout, renderer.channels, seconds, len(scenes),
+        max(len(s.emitters) for s in scenes), wav.clipped, renderer.limiter.blocks_limited,
+        dict(renderer.slots.dropped),
+    )  # fmt: skip
+
+
+def _check(recorded: RecordedAudio, listener: str, path: str | Path) -> PoseTrack:
+    if not recorded.scenes:
+        have = ", ".join(sorted(recorded.listeners)) or "none"
+        raise NothingToRender(f"{path} has no audio/{listener} scenes (listeners with audio: "
+                              f"{have})")  # fmt: skip
+    if not recorded.poses:
+        raise NothingToRender(f"{path} has no ego/{listener}/pose: the listener's ears need "
+                              "its pose")  # fmt: skip
+    return PoseTrack(recorded.poses)

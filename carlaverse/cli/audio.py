@@ -1,0 +1,76 @@
+"""`carlaverse audio render FILE.mcap --listener ID --out F.wav`: a recording's spatial audio
+for one listener, offline, as 16-bit multi-channel WAV.
+
+    carlaverse audio render lab.mcap --listener car-1 --out car-1.wav                # headphones
+    carlaverse audio render lab.mcap --listener car-1 --out car-1.wav --layout 5.1
+    carlaverse audio render lab.mcap --listener car-1 --out c.wav --config ring8-lab.yaml
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+import msgspec
+
+from carlaverse.cli.common import fail, print_json
+
+PROGRESS_EVERY_S = 2.0  # [s] of wall time between progress lines on long renders
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("action", choices=["render"],
+                        help="render: a recording's audio for one listener")  # fmt: skip
+    render = parser
+    render.add_argument("recording", type=Path, help="a carlaverse recording (FILE.mcap)")
+    render.add_argument("--listener", required=True, metavar="ID", help="node id whose ears")
+    render.add_argument("--out", type=Path, required=True, help="the WAV file to write")
+    render.add_argument("--layout", help="binaural (HRTF), stereo, quad, 5.1 or ringN "
+                        "(default: the config's, else binaural)")  # fmt: skip
+    render.add_argument("--config", help="audio config YAML (path or shipped name, e.g. "
+                        "audio/headphones)")  # fmt: skip
+    render.add_argument("--json", action="store_true", help="print a summary object at exit")
+
+
+def run(args: argparse.Namespace) -> int:
+    from carlaverse.audio.config import AudioConfig
+    from carlaverse.audio.hrtf import HrtfError
+    from carlaverse.audio.offline import NothingToRender, render_recording
+    from carlaverse.config import ConfigError, load_config
+    from carlaverse.recording.sink import RecordingError
+
+    try:
+        config = load_config(args.config, AudioConfig) if args.config else AudioConfig()
+        if args.layout:
+            config = msgspec.convert({**msgspec.to_builtins(config), "layout": args.layout},
+                                     AudioConfig)  # fmt: skip
+        if not args.recording.is_file():
+            return fail("audio", f"{args.recording}: no such recording")
+        summary = render_recording(args.recording, args.listener, args.out, config,
+                                   _progress())  # fmt: skip
+    except msgspec.ValidationError as exc:
+        return fail("audio", f"--layout {args.layout!r}: {exc}; use binaural, stereo, quad, "
+                    "5.1 or ringN")  # fmt: skip
+    except (ConfigError, NothingToRender, HrtfError, RecordingError, OSError) as exc:
+        return fail("audio", str(exc))
+    if args.json:
+        print_json(summary)
+    else:
+        print(f"{summary.out}: {summary.seconds:.1f} s, {summary.channels} channels "
+              f"({summary.layout}) for {summary.listener} from {summary.scenes} scenes",
+              file=sys.stderr)  # fmt: skip
+    return 0
+
+
+def _progress() -> Callable[[float], None]:
+    last = [time.monotonic()]
+
+    def report(fraction: float) -> None:
+        if time.monotonic() - last[0] >= PROGRESS_EVERY_S:
+            last[0] = time.monotonic()
+            print(f"carlaverse audio: {fraction:5.1%} rendered", file=sys.stderr, flush=True)
+
+    return report
