@@ -10,19 +10,23 @@ where the poses put them.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
+import numpy as np
+
 from carlaverse import messages as m
 from carlaverse.audio.config import AudioConfig
-from carlaverse.audio.renderer import build_renderer
+from carlaverse.audio.listener import ListenerPose
+from carlaverse.audio.renderer import Renderer, build_renderer
 from carlaverse.audio.track import PoseTrack
 from carlaverse.audio.wav import WavWriter
 from carlaverse.keys import KeySpaceError, parse
 from carlaverse.recording.reading import iter_samples
 
 TAIL_S = 0.1  # [s] rendered after the emitters of the last scene have faded out
+PROGRESS_BLOCKS = 200  # blocks between progress reports (about 2 s of audio)
 
 
 class NothingToRender(ValueError):
@@ -82,24 +86,39 @@ def render_recording(path: str | Path, listener: str, out: str | Path, config: A
     track = _check(recorded, listener, path)
     scenes = sorted(recorded.scenes, key=lambda s: s.t)
     renderer = build_renderer(config)
-    start, end = scenes[0].t, scenes[-1].t + config.stale_after_s + TAIL_S
-    renderer.t = start
-    next_scene = 0
+    end = scenes[-1].t + config.stale_after_s + TAIL_S
+    head = config.listener.head_offset_m
     with WavWriter(out, renderer.channels, config.sample_rate_hz) as wav:
-        while renderer.t < end:
-            while next_scene < len(scenes) and scenes[next_scene].t <= renderer.t:
-                renderer.hear(scenes[next_scene].emitters, scenes[next_scene].t)
-                next_scene += 1
-            renderer.place(track.listener(renderer.t, config.listener.head_offset_m))
-            wav.write(renderer.render_block())
-            if progress is not None and renderer.blocks % 200 == 0:
-                progress((renderer.t - start) / (end - start))
+        play_scenes(renderer, scenes, end, wav.write, lambda t: track.listener(t, head), progress)
     seconds = round(wav.frames / config.sample_rate_hz, 3)
     return RenderSummary(
         listener, str(out), config.layout, renderer.channels, seconds, len(scenes),
         max(len(s.emitters) for s in scenes), wav.clipped, renderer.limiter.blocks_limited,
         dict(renderer.slots.dropped),
     )  # fmt: skip
+
+
+def play_scenes(
+    renderer: Renderer,
+    scenes: Sequence[m.AudioScene],
+    end: float,
+    write: Callable[[np.ndarray], None],
+    listener_at: Callable[[float], ListenerPose] | None = None,
+    progress: Callable[[float], None] | None = None,
+) -> None:
+    """Render from the first scene's time to `end` [s], each scene taken at its own time
+    and the ears placed by `listener_at(t)` every block; blocks go to `write`."""
+    start = renderer.t = scenes[0].t
+    next_scene = 0
+    while renderer.t < end:
+        while next_scene < len(scenes) and scenes[next_scene].t <= renderer.t:
+            renderer.hear(scenes[next_scene].emitters, scenes[next_scene].t)
+            next_scene += 1
+        if listener_at is not None:
+            renderer.place(listener_at(renderer.t))
+        write(renderer.render_block())
+        if progress is not None and renderer.blocks % PROGRESS_BLOCKS == 0:
+            progress((renderer.t - start) / (end - start))
 
 
 def _check(recorded: RecordedAudio, listener: str, path: str | Path) -> PoseTrack:

@@ -16,6 +16,7 @@ from carlaverse import messages as m
 from carlaverse.audio.config import AudioConfig
 from carlaverse.audio.hrtf import HrirSet, load_hrirs
 from carlaverse.audio.listener import ego_listener
+from carlaverse.audio.offline import play_scenes
 from carlaverse.audio.renderer import build_renderer
 from carlaverse.audio.wav import WavWriter, read_wav
 from carlaverse.keys import Keys
@@ -68,14 +69,8 @@ def render_wav(path: Path, scene_list: Sequence[m.AudioScene], layout: str = "bi
     renderer = build_renderer(cfg, kemar() if layout == "binaural" else None)
     listener = ego_listener(0.0, 0.0, 0.0, (0.0, 0.0), 0.0, AT_ORIGIN)
     renderer.place(listener)
-    end = scene_list[-1].t + 1.0 / SCENE_HZ
-    i = 0
     with WavWriter(path, renderer.channels, cfg.sample_rate_hz) as wav:
-        while renderer.t < end:
-            while i < len(scene_list) and scene_list[i].t <= renderer.t:
-                renderer.hear(scene_list[i].emitters, scene_list[i].t)
-                i += 1
-            wav.write(renderer.render_block())
+        play_scenes(renderer, scene_list, scene_list[-1].t + 1.0 / SCENE_HZ, wav.write)
     return read_wav(path)
 
 
