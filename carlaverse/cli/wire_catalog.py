@@ -48,7 +48,7 @@ _KEY_FACTS: tuple[tuple[str, str, str], ...] = (
     ("world/weather", "authority", "reliable, congestion BLOCK; on change and at `status_rate_hz`"),
     ("world/events", "authority", "reliable, congestion BLOCK, priority interactive-high"),
     ("impulse/<id>", "authority", "reliable, congestion BLOCK, priority interactive-high"),
-    ("audio/<id>", "authority; only node <id> may read it",
+    ("audio/<id>", "authority; read by node <id>, observers and recorders only",
      "best effort, congestion DROP; scenario `audio.rate_hz` (20 Hz)"),
 )  # fmt: skip
 
