@@ -135,6 +135,18 @@ def test_a_listener_hears_by_inverse_distance_and_never_its_own_actor() -> None:
     assert just_above == ["v1.engine"] and just_below == []  # 48 dB at the ear
 
 
+def test_humans_hear_each_others_car_and_bicycle_but_not_their_own() -> None:
+    egos = [ego("driver", 0, 0, vx=10), ego("rider", 5, 0, vx=5, kind="bicycle"),
+            ego("walker", 0, 5, kind="pedestrian")]  # fmt: skip
+    scenes = SoundPublisher(AudioSpec(), []).scenes(0.0, egos, frame([]), None)
+    heard = {s.listener: sorted(e.id for e in s.emitters) for s in scenes}
+    assert heard == {
+        "driver": ["rider.tyres"],
+        "rider": ["driver.engine", "driver.tyres"],
+        "walker": ["driver.engine", "driver.tyres", "rider.tyres"],
+    }
+
+
 SQUARE = [(0.0, 0.0), (20.0, 0.0), (20.0, 20.0), (0.0, 20.0)]
 
 
