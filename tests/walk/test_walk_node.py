@@ -6,6 +6,12 @@ import json
 import math
 import subprocess
 import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from PIL import Image
 
 from carlaverse import messages as m
 from tests.support import Cluster, wait_until
@@ -24,12 +30,23 @@ def test_demo_with_a_walker_and_a_scripted_car_headless() -> None:
     assert summary["nodes"]["walk-1"]["poses_sent"] > 100  # 50 Hz for most of 6 s
 
 
-def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster) -> None:
+SMALL_XR_RIG = """
+output: offscreen
+camera: {mode: xr, eye_resolution: {width: 160, height: 160}}
+"""
+
+
+def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster, tmp_path: Path) -> None:
+    """...with its first-person view (both eyes, the head from shared memory) alongside."""
+    pytest.importorskip("panda3d", reason="the view needs the render extra")
+    rig = tmp_path / "rig.yaml"
+    rig.write_text(SMALL_XR_RIG)
     cluster.router()
     cluster.authority()
     walker = cluster.start(
         "join", "walk", "--id", "walker", "--session", "t", "--connect", cluster.endpoint,
-        "--backend", "sim", "--duration", "60", "--json", name="walker",
+        "--backend", "sim", "--duration", "60", "--json", "--view", "--offscreen",
+        "--view-out", str(tmp_path / "view"), "--render-config", str(rig), name="walker",
     )  # fmt: skip
     obs = cluster.observer()
 
@@ -57,8 +74,49 @@ def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster) -> None:
     wait_until(jogging, 20, "the walker jogging (> 2.5 m/s) once `run` is held")
     assert walker.stop() == 0
     report = walker.json()["extra"]
+    view = report["view"]
+    assert view["error"] == "" and view["frames"] >= 20, view
+    frames = sorted((tmp_path / "view").glob("frame-*.png"))
+    late = [np.asarray(Image.open(f)) for f in frames[-3:]]
+    assert len(late) == 3 and late[0].shape == (160, 320, 3)  # two eyes side by side
+    assert not np.array_equal(late[0], late[-1])  # walking and looking around
     loop = report["loop"]
     assert loop["headset"] == "SimHeadset"
     assert loop["ticks"] > 90 * 5  # 90 Hz for the ≥ 8 s it took to jog
     assert loop["distance_m"] > 8.0
     assert report["skeletons_sent"] == 0  # `body: none`
+
+
+def test_the_skeleton_source_feeds_ego_skeleton(cluster: Cluster, tmp_path: Path) -> None:
+    """`body:` names a source; the node publishes what it polls on `ego/<id>/skeleton`."""
+    config = tmp_path / "walk.yaml"
+    body = {"source": "tests.walk.body_fixture:make", "options": {"rate_hz": 30.0}}
+    config.write_text(yaml.safe_dump({"body": body}))
+    cluster.router()
+    cluster.authority()
+    walker = cluster.start(
+        "join", "walk", "--id", "walker", "--session", "t", "--connect", cluster.endpoint,
+        "--config", str(config), "--backend", "sim", "--duration", "60", "--json", name="walker",
+    )  # fmt: skip
+    obs = cluster.observer()
+    received: list[tuple[float, m.Skeleton]] = []
+    sub = obs.session.declare_subscriber(
+        obs.keys.ego("walker", "skeleton"),
+        lambda s: received.append((obs.now(), m.SKELETON.decode(s.payload.to_bytes()))),
+    )
+    wait_until(lambda: len(received) >= 30, 30, "30 skeletons from the walker")
+    sub.undeclare()
+    assert walker.stop() == 0
+    seqs = [s.seq for _, s in received]
+    assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
+    for rx_t, skeleton in received:
+        assert skeleton.joints == ["neck", "left_elbow"]
+        assert 0.0 <= rx_t - skeleton.t < 0.5  # stamped on session time at capture
+    sent = walker.json()["extra"]["skeletons_sent"]
+    assert sent >= len(received)
+    # Each one a camera frame of its own (capture times 1/30 s apart or a multiple, when a
+    # stalled step let a frame be overtaken), and most frames get through: the node's 50 Hz
+    # step polls faster than the 30 Hz source.
+    gaps = np.diff([s.t for _, s in received]) * 30.0
+    assert np.allclose(gaps, np.round(gaps), atol=0.05) and gaps.min() >= 0.95
+    assert np.median(gaps) == pytest.approx(1.0, abs=0.05)
