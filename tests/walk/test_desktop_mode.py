@@ -13,18 +13,9 @@ from carlaverse_nodes.walk.walk_control import WalkControl
 from carlaverse.config import load_config
 from carlaverse.hal import open_input, open_xr
 from tests.hal.helpers import ManualClock
+from tests.hal.test_input import pygame_dummy  # noqa: F401  (the SDL dummy-video fixture)
 
 DT = 1.0 / 90.0  # [s] the loop's period
-
-
-@pytest.fixture
-def pygame_dummy(monkeypatch: pytest.MonkeyPatch):
-    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
-    pygame = pytest.importorskip("pygame")
-    pygame.display.init()
-    pygame.event.clear()
-    yield pygame
-    pygame.display.quit()
 
 
 def run(control: WalkControl, clock: ManualClock, seconds: float):
@@ -35,7 +26,7 @@ def run(control: WalkControl, clock: ManualClock, seconds: float):
     return out
 
 
-def test_wasd_and_mouse_look_walk_where_the_head_looks(pygame_dummy) -> None:
+def test_wasd_and_mouse_look_walk_where_the_head_looks(pygame_dummy) -> None:  # noqa: F811
     pg = pygame_dummy
     config = load_config("walk-desktop", WalkNodeConfig)
     clock = ManualClock()
@@ -74,7 +65,7 @@ def test_wasd_and_mouse_look_walk_where_the_head_looks(pygame_dummy) -> None:
     headset.close()
 
 
-def test_mouse_look_stops_at_the_pitch_limit(pygame_dummy) -> None:
+def test_mouse_look_stops_at_the_pitch_limit(pygame_dummy) -> None:  # noqa: F811
     pg = pygame_dummy
     clock = ManualClock()
     headset = open_xr({"backend": "mouse", "options": {"max_pitch_deg": 60}}, clock=clock)
