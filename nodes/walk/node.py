@@ -181,7 +181,7 @@ class WalkNode:
         if self._body is None:
             return
         skeleton = self._body.poll()
-        if skeleton is None:
+        if skeleton is None or not client.clock.synced:  # no session time to stamp it with yet
             return
         if self._skeleton_pub is None:
             self._skeleton_pub = client.session.declare_publisher(
