@@ -119,3 +119,23 @@ def test_the_view_reads_the_walkers_head_from_shared_memory() -> None:
     assert (actor.x, actor.y, actor.yaw, actor.pitch, actor.roll) == pytest.approx(
         (3.0, 4.0, 0.5, -0.2, 0.1)
     )  # the first-person camera nods and tilts with the head
+
+
+@pytest.mark.parametrize(("direction", "expected_deg"), [("head", 90.0), ("controller", -20.0)])
+def test_walking_follows_the_head_or_the_hand(direction: str, expected_deg: float) -> None:
+    """The head looks 90° left, the hand points 20° right: `gait.direction` picks which."""
+    from carlaverse_nodes.walk.config import WalkNodeConfig
+    from carlaverse_nodes.walk.gait import GaitSettings
+    from carlaverse_nodes.walk.walk_control import WalkControl
+
+    clock = ManualClock()
+    script = [{"t": 0.0, "axes": {"move_y": 1.0, "head_yaw_deg": 90.0, "hand_yaw_deg": -20.0}}]
+    options = {"yaw_amplitude_rad": 0.0, "pitch_amplitude_rad": 0.0, "script": script}
+    config = WalkNodeConfig(gait=GaitSettings(direction=direction))
+    control = WalkControl(config, hal.open_xr({"backend": "sim", "options": options}, clock=clock))
+    control.place(0.0, 0.0, math.radians(10.0))  # the stage faces 10° north of east
+    for _ in range(90):
+        clock.advance(1 / 90)
+        out = control.tick(1 / 90)
+    assert math.degrees(math.atan2(out.vy, out.vx)) == pytest.approx(10.0 + expected_deg)
+    assert math.degrees(out.head.yaw) == pytest.approx(100.0)  # the head: 10° + 90°

@@ -10,11 +10,12 @@ import pytest
 from carlaverse.hal.xr.fov import EyeFov, symmetric_fov, symmetric_render
 from carlaverse.hal.xr.frames import (
     StageAnchor,
-    openxr_to_unreal,
     openxr_to_world,
-    world_to_unreal_location,
+    unreal_rotation,
+    unreal_rotation_yzx,
     yzx_euler,
 )
+from carlaverse.render.carla_bridge import to_unreal
 
 DEG = math.pi / 180
 IDENTITY = (1.0, 0.0, 0.0, 0.0)
@@ -116,6 +117,7 @@ def test_yzx_euler_recovers_the_three_angles() -> None:
     assert yzx_euler(q) == pytest.approx((a, b, c))
 
 
+@pytest.mark.parametrize("convert", [unreal_rotation_yzx, unreal_rotation])
 @pytest.mark.parametrize(
     ("q", "pitch", "yaw", "roll"),
     [
@@ -123,10 +125,15 @@ def test_yzx_euler_recovers_the_three_angles() -> None:
         (about("y", 30 * DEG), 0.0, -30.0, 0.0),  # face left: Unreal yaw is clockwise
         (about("x", 20 * DEG), 20.0, 0.0, 0.0),  # face up: Unreal pitch up positive
         (about("z", 15 * DEG), 0.0, 0.0, -15.0),  # left ear down: Unreal roll is right-down
+        # turned 30° left and nodding 10° up (about the head's own +x)
+        (hamilton(about("y", 30 * DEG), about("x", 10 * DEG)), 10.0, -30.0, 0.0),
+        # turned 40° left and tilted 5° onto the left ear
+        (hamilton(about("y", 40 * DEG), about("z", 5 * DEG)), 0.0, -40.0, -5.0),
     ],
 )
-def test_unreal_rotation_of_a_camera_that_looks_where_the_head_looks(q, pitch, yaw, roll) -> None:
-    rot = openxr_to_unreal(q)
+def test_a_carla_camera_looks_where_the_head_looks(convert, q, pitch, yaw, roll) -> None:
+    """Golden: the paper's YZX reading and the exact one agree while pitch or roll is zero."""
+    rot = convert(q)
     assert (rot.pitch, rot.yaw, rot.roll) == pytest.approx((pitch, yaw, roll), abs=1e-9)
 
 
@@ -134,6 +141,23 @@ def test_unreal_rotation_adds_the_stage_heading() -> None:
     # The stage faces Unreal yaw 90° (south in the road network: CARLA's +y is our −y); the
     # head turned 30° left of it faces Unreal yaw 60°; turned and nodding 10° up.
     q = hamilton(about("y", 30 * DEG), about("x", 10 * DEG))
-    rot = openxr_to_unreal(q, stage_yaw_deg=90.0)
-    assert (rot.pitch, rot.yaw, rot.roll) == pytest.approx((10.0, 60.0, 0.0), abs=1e-9)
-    assert world_to_unreal_location(1.0, 2.0, 3.0) == (1.0, -2.0, 3.0)
+    for convert in (unreal_rotation_yzx, unreal_rotation):
+        rot = convert(q, stage_yaw_deg=90.0)
+        assert (rot.pitch, rot.yaw, rot.roll) == pytest.approx((10.0, 60.0, 0.0), abs=1e-9)
+
+
+def test_nodding_while_tilted_needs_carlas_own_euler_order() -> None:
+    """carla.Rotation turns by yaw, then pitch, then roll; a head 30° up and 30° tilted, built
+    in that order, reads back exactly — and through the world frame and the CARLA bridge the
+    same — while the YZX angles, applied in that order, would turn the camera 16° aside."""
+    q = hamilton(about("x", 30 * DEG), about("z", 30 * DEG))  # pitch up, then tilt left
+    exact = unreal_rotation(q)
+    assert (exact.pitch, exact.yaw, exact.roll) == pytest.approx((30.0, 0.0, -30.0), abs=1e-9)
+    head = openxr_to_world((0.0, 0.0, 0.0), q, StageAnchor())
+    bridge = to_unreal(0.0, 0.0, 0.0, head.yaw, head.pitch, head.roll)
+    assert (bridge.pitch, bridge.yaw, bridge.roll) == pytest.approx((30.0, 0.0, -30.0), abs=1e-9)
+    paper = unreal_rotation_yzx(q)
+    assert abs(paper.yaw) > 10.0  # 16.1°: the YZX angles are right for another order only
+    a, b, c = yzx_euler(q)
+    back = hamilton(hamilton(about("y", a), about("z", b)), about("x", c))
+    assert back == pytest.approx(q, abs=1e-12)  # they do describe the same rotation in YZX

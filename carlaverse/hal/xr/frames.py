@@ -8,14 +8,20 @@ degrees, yaw clockwise seen from above, pitch nose up positive, roll right side 
 
 The stage sits in the world at `StageAnchor` (its origin, and the world yaw its −z faces).
 
-Unreal: as the paper does, the OpenXR quaternion is split into intrinsic YZX Euler angles
-(a about +y, then b about the new +z, then c about the new +x), and the handedness is inverted
-by negating two of them. Read about OpenXR's +y, +z and +x, a head turned left gives a > 0,
-one looking up c > 0 and one tilted onto its left ear b > 0; in Unreal the head turned left
-has yaw < 0, looking up pitch > 0, tilted left roll < 0. So yaw = −a, pitch = c, roll = −b.
-(The paper says "pitch and roll": it reads the angles about Unreal's axes, where the
-forward axis is OpenXR's −z and FRotator counts pitch and roll against the right-hand rule;
-the same two flips, written once here and pinned by golden tests of what the camera sees.)
+Unreal: the paper splits the OpenXR quaternion into intrinsic YZX Euler angles (a about +y,
+then b about the new +z, then c about the new +x) and inverts the handedness by negating two
+of them. Read about OpenXR's +y, +z and +x, a head turned left gives a > 0, one looking up
+c > 0, one tilted onto its left ear b > 0; in Unreal the head turned left has yaw < 0,
+looking up pitch > 0, tilted left roll < 0. So yaw = −a, pitch = c, roll = −b (the paper says
+"pitch and roll": it reads the angles about Unreal's axes, where forward is OpenXR's −z and
+FRotator counts pitch and roll against the right-hand rule — the same two flips).
+`unreal_rotation_yzx` is that reading. `carla.Rotation` however composes yaw, then pitch,
+then roll (about OpenXR's y, x, z: YXZ), so YZX angles are exact only while pitch or roll is
+zero; with both (a head nodding while tilted) the camera turns wrong — by 16° of yaw at 30°
+pitch and 30° roll (tests/walk/test_xr_maths.py). `unreal_rotation` decomposes in
+FRotator's own order and is exact; the walk node turns heads into the world frame
+(`openxr_to_world`) and a CARLA camera from there (`render/carla_bridge.to_unreal`), which is
+the same rotation.
 """
 
 from __future__ import annotations
@@ -96,6 +102,17 @@ def yzx_euler(orientation: Quaternion) -> tuple[float, float, float]:
     return a, b, c
 
 
+def yxz_euler(orientation: Quaternion) -> tuple[float, float, float]:
+    """Intrinsic YXZ angles (a, c, b) [rad]: R = Ry(a)·Rx(c)·Rz(b) — yaw, pitch, roll."""
+    r = quaternion_matrix(orientation)
+    # Ry(a)Rx(c)Rz(b): r12 = −sin c, r02 = sin a cos c, r22 = cos a cos c,
+    # r10 = cos c sin b, r11 = cos c cos b.
+    c = math.asin(max(-1.0, min(1.0, -r[1][2])))
+    a = math.atan2(r[0][2], r[2][2])
+    b = math.atan2(r[1][0], r[1][1])
+    return a, c, b
+
+
 @dataclass(frozen=True, slots=True)
 class UnrealRotation:
     """`carla.Rotation` fields [deg]."""
@@ -105,21 +122,27 @@ class UnrealRotation:
     roll: float
 
 
-def openxr_to_unreal(orientation: Quaternion, stage_yaw_deg: float = 0.0) -> UnrealRotation:
-    """The head's rotation for a CARLA camera: YZX Euler, handedness inverted.
-
-    `stage_yaw_deg` is the Unreal yaw the stage's forward faces (Unreal degrees, clockwise).
-    """
-    a, b, c = yzx_euler(orientation)
+def _unreal(a: float, b: float, c: float, stage_yaw_deg: float) -> UnrealRotation:
+    """Yaw a, roll b, pitch c about OpenXR's +y, +z, +x [rad] as Unreal degrees."""
     return UnrealRotation(
         pitch=math.degrees(c), yaw=_wrap_deg(stage_yaw_deg - math.degrees(a)),
         roll=-math.degrees(b),
     )  # fmt: skip
 
 
-def world_to_unreal_location(x: float, y: float, z: float) -> tuple[float, float, float]:
-    """A world point in Unreal's frame: CARLA's y points south of the road network's north."""
-    return (x, -y, z)
+def unreal_rotation_yzx(orientation: Quaternion, stage_yaw_deg: float = 0.0) -> UnrealRotation:
+    """The paper's reading: YZX Euler angles, handedness inverted (see the module docstring).
+
+    `stage_yaw_deg` is the Unreal yaw the stage's forward faces (Unreal degrees, clockwise).
+    """
+    a, b, c = yzx_euler(orientation)
+    return _unreal(a, b, c, stage_yaw_deg)
+
+
+def unreal_rotation(orientation: Quaternion, stage_yaw_deg: float = 0.0) -> UnrealRotation:
+    """The head's rotation as `carla.Rotation` composes it (yaw, pitch, roll): exact."""
+    a, c, b = yxz_euler(orientation)
+    return _unreal(a, b, c, stage_yaw_deg)
 
 
 def _wrap(angle: float) -> float:

@@ -13,8 +13,10 @@ given seed and clock.
           - {t: 6, axes: {move_y: 1.0, head_yaw_deg: 90}}
 
 Script channels: axes `move_x`, `move_y` (the thumbstick, -1..1), `head_yaw_deg`,
-`head_pitch_deg` (added to the looking-around motion; yaw left positive, pitch up positive);
-buttons `run`, `interact`. Axes are interpolated linearly, buttons held (hal/input/profile).
+`head_pitch_deg` (added to the looking-around motion; yaw left positive, pitch up positive),
+`hand_yaw_deg` (where the moving hand points in the stage, left positive; the hand is
+tracked once the script names it); buttons `run`, `interact`. Axes are interpolated
+linearly, buttons held (hal/input/profile).
 """
 
 from __future__ import annotations
@@ -34,7 +36,7 @@ from carlaverse.hal.xr import XrActions, XrHeadset
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 
-SCRIPT_AXES = ("move_x", "move_y", "head_yaw_deg", "head_pitch_deg")
+SCRIPT_AXES = ("move_x", "move_y", "head_yaw_deg", "head_pitch_deg", "hand_yaw_deg")
 SCRIPT_BUTTONS = ("run", "interact")
 EYE_HEIGHT_M = {"seated": 1.2, "standing": 1.65}  # [m] above the stage floor
 
@@ -103,5 +105,8 @@ class SimHeadset(XrHeadset):
     def _actions(self, now: float) -> XrActions:
         script, st = self.options.script, self._script_t(now)
         move = (sample_axis(script, "move_x", st), sample_axis(script, "move_y", st))
+        hand = None
+        if any("hand_yaw_deg" in k.axes for k in script):
+            hand = math.radians(sample_axis(script, "hand_yaw_deg", st))
         return XrActions(move, sample_button(script, "run", st),
-                         sample_button(script, "interact", st))  # fmt: skip
+                         sample_button(script, "interact", st), hand)  # fmt: skip
