@@ -1,0 +1,150 @@
+"""Benchmark: this project's pose path against its peers, one workload, one run.
+
+    python tools/bench/bench_peers.py [--seconds 10] [--rounds 3] [--transports pose,dds,...]
+                                      [--json] [--write]
+
+The same workload for every transport: the project's 64-byte pose at 50 Hz from 1 publisher
+process to 3 measured receiver processes plus 1 more receiver (the pose path's authority,
+which receives every pose; elsewhere a receiver process that is not reported), all on
+127.0.0.1. Transports: the pose path (NodeClient -> fabric callback -> world view; also with
+the fabric's `lowlatency` setting), bare
+Zenoh, CycloneDDS (best effort, KEEP_LAST 1), ZeroMQ PUB/SUB, MQTT through mosquitto (QoS 0),
+raw UDP unicast. Each round runs every transport once, the order rotated from round to
+round, so the load of a shared machine falls on all of them alike. One-way latency from the
+CLOCK_MONOTONIC stamp in the pose to its decoded arrival; CPU time of every process per pose.
+`tools/bench/peers/` holds the harness. Not a test (tests/bench/test_peers_smoke.py runs it
+briefly).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from benchdoc import RunInfo, command_line, write_section
+from peers.profile import SAMPLE_RATE_HZ, PySpy, profile_lines
+from peers.registry import REFERENCE, TRANSPORTS, load
+from peers.report import Row, pool, split, table, verdict, versions
+from peers.run import RunFailed, run_once
+
+TITLE = "Peers: pose path against Zenoh, DDS, ZeroMQ, MQTT and UDP"
+
+
+def parse_args(argv: list[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seconds", type=float, default=10.0, help="measured seconds per run")
+    parser.add_argument("--rounds", type=int, default=3, help="runs of each transport")
+    parser.add_argument("--rate", type=float, default=50.0, help="poses per second [Hz]")
+    parser.add_argument("--receivers", type=int, default=3, help="measured receiver processes")
+    parser.add_argument(
+        "--transports", default=",".join(TRANSPORTS), help=f"from {','.join(TRANSPORTS)}"
+    )
+    parser.add_argument(
+        "--profile", action="store_true", help="one more pose path run under py-spy (its own)"
+    )
+    parser.add_argument("--native", action="store_true", help="py-spy: name native frames too")
+    parser.add_argument("--json", action="store_true", help="one JSON summary on stdout")
+    parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
+    args = parser.parse_args(argv)
+    args.transports = [t.strip() for t in args.transports.split(",") if t.strip()]
+    unknown = [t for t in args.transports if t not in TRANSPORTS]
+    if unknown:
+        parser.error(f"unknown transport {unknown[0]!r}: choose from {', '.join(TRANSPORTS)}")
+    return args
+
+
+def measure(args: argparse.Namespace, names: list[str]) -> dict[str, list[dict[str, Any]]]:
+    """Every round runs every transport once, starting one later each round."""
+    runs: dict[str, list[dict[str, Any]]] = {name: [] for name in names}
+    for k in range(args.rounds):
+        for name in names[k % len(names) :] + names[: k % len(names)]:
+            result = run_once(name, args.rate, args.seconds, args.receivers)
+            runs[name].append(result)
+            print(f"round {k + 1}/{args.rounds}: {name} done", file=sys.stderr)
+    return runs
+
+
+def workload(args: argparse.Namespace) -> str:
+    return (
+        f"Workload, the same for every transport and run: the project's 64-byte pose at "
+        f"{args.rate:g} Hz from 1 publisher process to {args.receivers} measured receiver "
+        f"processes and 1 more receiver (the pose path's authority, which receives every pose; "
+        f"elsewhere a receiver process not reported), on 127.0.0.1, {args.seconds:g} s "
+        f"measured per run after a warm-up, {args.rounds} rounds, each running every transport "
+        "once in a rotated order. Latency: one way, from the CLOCK_MONOTONIC stamp the "
+        "publisher puts in the pose to the receiver's stamp after decoding it (the pose path: "
+        "after the fabric parsed the key, decoded and checked the pose and handed it to the "
+        "world view). CPU: process CPU time (all threads) over the measured window per pose; "
+        "'whole layout' adds every process of the run (receivers, the extra receiver, router, "
+        "broker, authority). Settings: CycloneDDS best effort, KEEP_LAST 1, no batching, no "
+        "shared memory, unicast discovery on loopback; MQTT QoS 0 with TCP_NODELAY on broker "
+        "and clients; ZeroMQ PUB/SUB over TCP; UDP unicast to each receiver; Zenoh peers "
+        "(a router for discovery only); 'pose path, lowlatency' sets the fabric's `lowlatency` "
+        "(Zenoh's low-latency transport) in all its processes. 'machine busy' is the share of "
+        "both cores in use during that transport's runs (other work shares this machine)."
+    )
+
+
+def summary(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:
+    """What `--json` prints: the figures of each transport, and every receiver's counts."""
+    return {
+        row.name: {
+            "p50_ms": row.p(0.5),
+            "p99_ms": row.p(0.99),
+            "delivered": len(row.latencies_s),
+            "expected": row.expected,
+            "publisher_us_per_pose": row.publisher_s_per_msg * 1e6,
+            "receiver_us_per_pose": row.receiver_s_per_msg * 1e6,
+            "layout_us_per_pose": row.layout_s_per_msg * 1e6,
+            "receivers": [
+                {k: v for k, v in rx.items() if k != "latencies_s"}
+                for run in runs[row.name]
+                for rx in run["receivers"]
+            ],
+        }
+        for row in rows
+    }
+
+
+def profile(args: argparse.Namespace) -> list[str]:
+    """One more run of the pose path with py-spy on its publisher and first receiver."""
+    spy = PySpy(args.seconds, args.native)
+    run_once(REFERENCE, args.rate, args.seconds, args.receivers, watch=spy)
+    native = " with native frames" if args.native else ""
+    head = (
+        f"Where the pose path's CPU goes: py-spy{native} on its publisher and first receiver "
+        f"during one more {args.seconds:g} s run, {SAMPLE_RATE_HZ} samples per second "
+        "(Python threads while they run; waiting ones are not sampled):"
+    )
+    return [head, "", *profile_lines(spy, args.seconds)]
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = parse_args(argv)
+    run = RunInfo.start()
+    missing = {name: load(name).missing() for name in args.transports}
+    names = [name for name in args.transports if missing[name] is None]
+    not_run = [reason for reason in missing.values() if reason is not None]
+    for reason in not_run:
+        print(f"not run: {reason}", file=sys.stderr)
+    try:
+        runs = measure(args, names)
+    except RunFailed as exc:
+        print(f"bench_peers: {exc}", file=sys.stderr)
+        return 1
+    rows = [pool(name, runs[name]) for name in names]
+    lines = [workload(args), versions(), "", *table(rows), "", *verdict(rows), *split(rows)]
+    lines += [f"- Not run: {reason}." for reason in not_run]
+    if args.profile:
+        lines += ["", *profile(args)]
+    text = "\n".join(lines)
+    print(json.dumps(summary(rows, runs)) if args.json else text)
+    if args.write:
+        write_section(TITLE, text, command_line(argv), run)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,137 @@
+"""This project's pose path: `NodeClient.publish_pose` in the publisher, and in each receiver a
+`NodeClient` whose Zenoh callback parses the key, decodes and checks the pose
+(`fabric.inbound`) and hands it to the world view, which the receiver's main loop applies to
+its `RemoteActor`s every 20 ms (`client.update()`), as a node's loop does.
+
+The arrival is stamped where the fabric hands the decoded pose to the world view (after the
+key parse, decode and checks; the same point `tools/bench/bench_fabric.py` uses). Admission
+needs an authority: it runs in its own process (`EmptyDomain`, 50 Hz ticks) and, like every
+node, receives each pose: it is this path's extra receiver. Its clock is CLOCK_MONOTONIC, so
+session time is the host's monotonic time and a pose stamped with it is plausible to the
+world view (which rejects poses far from session time).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from carlaverse.messages import Pose
+from peers.transport import ChildProcess, Deliver, Plan, Transport
+from peers.zenoh_bare import router_endpoint, zenoh_router
+
+SESSION = "bench"
+SENDER_ID = "tx"
+JOIN_TIMEOUT_S = 30.0  # [s] a loaded 2-core host can take seconds to start five processes
+
+
+def _fabric(plan: Plan, lowlatency: bool) -> Any:
+    from carlaverse.fabric.session import FabricSettings
+
+    return FabricSettings(mode="peer", connect=[router_endpoint(plan)], lowlatency=lowlatency)
+
+
+def _open_client(plan: Plan, lowlatency: bool, node_id: str, kind: str, actor_kind: str) -> Any:
+    from carlaverse.fabric.clock import MonotonicClock
+    from carlaverse.fabric.node_client import NodeClient, NodeSettings
+    from carlaverse.fabric.session import open_session
+
+    session = open_session(_fabric(plan, lowlatency))
+    settings = NodeSettings(
+        node_id=node_id, session=SESSION, kind=kind, actor_kind=actor_kind,
+        pose_rate_hz=plan.rate_hz,
+    )  # fmt: skip
+    client = NodeClient(session, settings, MonotonicClock()).start()
+    if not client.wait_joined(JOIN_TIMEOUT_S):
+        raise TimeoutError(f"{node_id} was not admitted within {JOIN_TIMEOUT_S:g} s")
+    return client
+
+
+def run_authority(ready: Any, stop: Any, plan: Plan, lowlatency: bool) -> None:
+    """The session's authority until `stop` is set (an infrastructure process)."""
+    import threading
+
+    from carlaverse.authority.domain import EmptyDomain
+    from carlaverse.authority.service import Authority, AuthoritySettings
+    from carlaverse.fabric.clock import MonotonicClock
+    from carlaverse.fabric.session import open_session
+
+    session = open_session(_fabric(plan, lowlatency))
+    settings = AuthoritySettings(session=SESSION)
+    authority = Authority(session, settings, MonotonicClock(), EmptyDomain()).start()
+    ticking = threading.Thread(target=authority.run, name="authority-tick", daemon=True)
+    ticking.start()
+    ready.set()
+    stop.wait()
+    authority.stop()
+    ticking.join(timeout=5)
+    authority.close()
+    session.close()
+
+
+class PoseSender:
+    def __init__(self, plan: Plan, lowlatency: bool) -> None:
+        self._client = _open_client(plan, lowlatency, SENDER_ID, "scripted", "car")
+
+    def send(self, pose: Pose) -> None:
+        self._client.publish_pose(pose)
+
+    def close(self) -> None:
+        self._client.close()
+        self._client.session.close()
+
+
+class PoseReceiver:
+    poll_period_s = 0.02  # [s] the node loop applying what arrived (50 Hz)
+
+    def __init__(self, plan: Plan, lowlatency: bool, index: int, deliver: Deliver) -> None:
+        self._client = _open_client(plan, lowlatency, f"rx{index}", "observer", "")  # no actor
+        world = self._client.world
+        push_pose = world.push_pose
+
+        def stamped(node_id: str, pose: Pose, rx_t: float) -> None:
+            deliver.pose(pose)
+            push_pose(node_id, pose, rx_t)
+
+        world.push_pose = stamped
+
+    def poll(self) -> None:
+        self._client.update()
+
+    def report(self) -> dict[str, Any]:
+        """What the world view made of the poses (accepted ones count warm-ups too)."""
+        world = self._client.world
+        stats = world.stats.get(SENDER_ID)
+        return {
+            "world_view_accepted": 0 if stats is None else stats.count,
+            "world_view_rejected": dict(world.rejected),
+        }
+
+    def close(self) -> None:
+        self._client.close()
+        self._client.session.close()
+
+
+class PosePath(Transport):
+    label = "pose path (this project)"
+    modules = ("zenoh",)
+    extra_receiver = False  # the authority receives every pose
+    lowlatency = False  # the fabric's `lowlatency` setting, in every process of the run
+
+    def infrastructure(self, plan: Plan) -> list[Any]:
+        router = zenoh_router(plan, self.lowlatency)
+        authority = ChildProcess("authority", run_authority, plan, self.lowlatency)
+        return [router, authority]
+
+    def open_sender(self, plan: Plan) -> PoseSender:
+        return PoseSender(plan, self.lowlatency)
+
+    def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> PoseReceiver:
+        return PoseReceiver(plan, self.lowlatency, index, deliver)
+
+
+class PosePathLowLatency(PosePath):
+    """The same path with `fabric: {lowlatency: true}` (Zenoh's low-latency transport, no QoS
+    priorities): the project's own low-latency configuration, as DDS runs in its own."""
+
+    label = "pose path, lowlatency"
+    lowlatency = True

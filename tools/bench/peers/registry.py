@@ -1,0 +1,27 @@
+"""The compared transports by name -> (module, class), imported only when used."""
+
+from __future__ import annotations
+
+import importlib
+
+from peers.transport import Transport
+
+TRANSPORTS = {
+    "pose": ("peers.pose_path", "PosePath"),
+    "pose-ll": ("peers.pose_path", "PosePathLowLatency"),
+    "zenoh": ("peers.zenoh_bare", "BareZenoh"),
+    "dds": ("peers.dds", "CycloneDds"),
+    "zmq": ("peers.zmq_pubsub", "ZmqPubSub"),
+    "mqtt": ("peers.mqtt", "Mqtt"),
+    "udp": ("peers.udp", "Udp"),
+}
+REFERENCE = "pose"  # the path every other one is compared with
+LOW_LATENCY = "pose-ll"  # the same path in the fabric's low-latency configuration
+
+
+def load(name: str) -> Transport:
+    """The transport called `name`; ValueError naming the known ones otherwise."""
+    if name not in TRANSPORTS:
+        raise ValueError(f"unknown transport {name!r}: choose from {', '.join(TRANSPORTS)}")
+    module, cls = TRANSPORTS[name]
+    return getattr(importlib.import_module(module), cls)()

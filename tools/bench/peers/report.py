@@ -1,0 +1,159 @@
+"""Every run of a transport pooled into one row; the rows as a table, ratios and verdict.
+
+Latency percentiles pool every measured receiver of every round. CPU per message: the
+publisher's CPU time over the measured window divided by the poses it sent; a receiver's,
+divided by the poses it received (mean over the measured receivers); and the whole layout's
+(publisher, every receiver, the extra receiver and the infrastructure: router, broker,
+authority) divided by the poses sent, which is what one pose costs the machine.
+"""
+
+from __future__ import annotations
+
+import statistics
+from dataclasses import dataclass
+from typing import Any
+
+from carlaverse.fabric.stats import percentile
+from peers.registry import LOW_LATENCY, REFERENCE, load
+
+TARGET_VS_DDS = 0.8  # the pose path's p50 / CycloneDDS's p50, at most (issue 18)
+
+
+@dataclass(frozen=True, slots=True)
+class Row:
+    name: str
+    runs: int
+    expected: int  # measured poses times measured receivers
+    latencies_s: list[float]
+    publisher_s_per_msg: float  # [s] CPU
+    receiver_s_per_msg: float  # [s] CPU, mean over measured receivers
+    layout_s_per_msg: float  # [s] CPU of every process of the run, per pose sent
+    machine_busy: float  # mean share of both cores busy during its runs
+    late_sends: int  # measured sends that left > 1 ms after their schedule
+
+    @property
+    def delivery(self) -> float:
+        return len(self.latencies_s) / self.expected if self.expected else float("nan")
+
+    def p(self, q: float) -> float:
+        """The q-quantile of one-way latency [ms]."""
+        return percentile(self.latencies_s, q) * 1e3
+
+
+def pool(name: str, runs: list[dict[str, Any]]) -> Row:
+    """One transport's runs as one row."""
+    sent = sum(r["sent"] for r in runs)
+    receivers = [rx for r in runs for rx in r["receivers"]]
+    cpu_total = sum(sum(r["cpu_s"].values()) for r in runs)
+    per_receiver = [rx["cpu_s"] / rx["received"] for rx in receivers if rx["received"]]
+    return Row(
+        name=name,
+        runs=len(runs),
+        expected=sum(r["sent"] * len(r["receivers"]) for r in runs),
+        latencies_s=[x for rx in receivers for x in rx["latencies_s"]],
+        publisher_s_per_msg=sum(r["cpu_s"]["tx"] for r in runs) / sent,
+        receiver_s_per_msg=statistics.fmean(per_receiver) if per_receiver else float("nan"),
+        layout_s_per_msg=cpu_total / sent,
+        machine_busy=statistics.fmean(r["machine_busy"] for r in runs),
+        late_sends=sum(r["late_sends"] for r in runs),
+    )
+
+
+def table(rows: list[Row]) -> list[str]:
+    """The Markdown table: one line per transport, ratios against the pose path."""
+    ref = next((r for r in rows if r.name == REFERENCE), None)
+    lines = [
+        "| transport | runs | delivered | p50 ms | p99 ms | pose path p50 ÷ this | "
+        "pose path p99 ÷ this | publisher µs/pose | receiver µs/pose | whole layout µs/pose "
+        "| pose path CPU ÷ this | machine busy |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        ratios = _ratios(ref, r)
+        lines.append(
+            f"| {load(r.name).label} | {r.runs} | {len(r.latencies_s)}/{r.expected} "
+            f"({100 * r.delivery:.2f} %) | {r.p(0.5):.3f} | {r.p(0.99):.3f} | {ratios[0]} | "
+            f"{ratios[1]} | {r.publisher_s_per_msg * 1e6:.1f} | {r.receiver_s_per_msg * 1e6:.1f} "
+            f"| {r.layout_s_per_msg * 1e6:.1f} | {ratios[2]} | {100 * r.machine_busy:.0f} % |"
+        )
+    return lines
+
+
+def _ratios(ref: Row | None, row: Row) -> tuple[str, str, str]:
+    if ref is None:
+        return ("–", "–", "–")
+    pairs = (
+        (ref.p(0.5), row.p(0.5)),
+        (ref.p(0.99), row.p(0.99)),
+        (ref.layout_s_per_msg, row.layout_s_per_msg),
+    )
+    return tuple(f"{a / b:.2f}" if b > 0 else "–" for a, b in pairs)  # type: ignore[return-value]
+
+
+def verdict(rows: list[Row]) -> list[str]:
+    """The issue's target, from the figures: pose path p50 <= 0.8 x CycloneDDS p50."""
+    by_name = {r.name: r for r in rows}
+    if "dds" not in by_name:
+        return ["Target (pose path p50 ≤ 0.8 × CycloneDDS p50): not judged, DDS was not run."]
+    lines = []
+    for name in (REFERENCE, LOW_LATENCY):
+        if name in by_name:
+            ratio = by_name[name].p(0.5) / by_name["dds"].p(0.5)
+            met = "meets" if ratio <= TARGET_VS_DDS else "MISSES"
+            lines.append(
+                f"- Target, {load(name).label}: p50 / CycloneDDS p50 = {ratio:.2f}, {met} "
+                f"≤ {TARGET_VS_DDS:g}."
+            )
+    return lines
+
+
+def split(rows: list[Row]) -> list[str]:
+    """The pose path's p50 split into what Zenoh's Python binding takes and what the project
+    adds on top (bare Zenoh runs the same binding, same layout, without the project)."""
+    by_name = {r.name: r for r in rows}
+    if not {REFERENCE, "zenoh"} <= by_name.keys():
+        return []
+    pose, zenoh = by_name[REFERENCE].p(0.5), by_name["zenoh"].p(0.5)
+    line = (
+        f"- Split of the pose path's p50: bare Zenoh (same binding and layout, no project code) "
+        f"{zenoh:.3f} ms, the project's part {pose - zenoh:+.3f} ms"
+    )
+    if "dds" in by_name:
+        line += f"; bare Zenoh p50 / CycloneDDS p50 = {zenoh / by_name['dds'].p(0.5):.2f}"
+    return [line + "."]
+
+
+def versions() -> str:
+    """The versions of what was compared, detected now (the core ones are in `Machine:`)."""
+    from importlib import metadata
+
+    found = []
+    for name in ("cyclonedds", "pyzmq", "paho-mqtt"):
+        try:
+            found.append(f"{name} {metadata.version(name)}")
+        except metadata.PackageNotFoundError:
+            continue
+    found += [v for v in (_libzmq(), _mosquitto()) if v]
+    return "Compared versions: " + ", ".join(found) + "." if found else ""
+
+
+def _libzmq() -> str:
+    try:
+        import zmq
+    except ImportError:
+        return ""
+    return f"libzmq {zmq.zmq_version()}"
+
+
+def _mosquitto() -> str:
+    """mosquitto's version from its help text (it has no --version)."""
+    import subprocess
+
+    from peers.transport import find_program
+
+    program = find_program("mosquitto")
+    if program is None:
+        return ""
+    done = subprocess.run([program, "-h"], capture_output=True, text=True, timeout=10)
+    lines = [line for line in (done.stdout + done.stderr).splitlines() if line.strip()]
+    return lines[0].replace(" version ", " ").strip() if lines else ""

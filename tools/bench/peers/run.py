@@ -1,0 +1,267 @@
+"""One run of one transport: its processes, the warm-up, the measured window, the counts.
+
+Layout, the same for every transport: 1 publisher process -> `plan.receivers` receiver
+processes, of which the first `plan.measured` are reported; the last receiver is a silent
+one (the pose path's authority, which receives every pose too; elsewhere a receiver process
+whose figures are not reported), so each pose is sent to the same number of processes.
+Infrastructure (a Zenoh router for discovery, the mosquitto broker) runs besides.
+
+The publisher sends warm-up poses until every receiver has heard one, and for at least
+WARM_UP_S, then `plan.messages` measured poses at `plan.rate_hz`. The CPU window runs from
+the first measured send until every measured receiver has them all (or DRAIN_S after the
+last send); the CPU time of every process of the run is read by the parent at both ends.
+"""
+
+from __future__ import annotations
+
+import os
+import queue
+import resource
+import time
+from typing import Any
+
+import psutil
+
+from peers.arrivals import Arrivals
+from peers.registry import load
+from peers.transport import Plan, free_ports, process_context, sample
+
+WARM_UP_S = 1.0  # [s] least warm-up, so discovery and presence have settled on every path
+START_TIMEOUT_S = 60.0  # [s] for processes to be ready (admission included) on a loaded host
+DRAIN_S = 1.0  # [s] longest wait for stragglers after the last measured send
+
+
+class RunFailed(RuntimeError):
+    """A process of the run did not start or report; the message says which and why."""
+
+
+def publisher_main(name: str, plan: Plan, go: Any, warmed: list[Any], measuring: Any,
+                   sent_all: Any, finished: Any, results: Any) -> None:  # fmt: skip
+    try:
+        sender = load(name).open_sender(plan)
+        if not go.wait(START_TIMEOUT_S):
+            raise RunFailed(f"the receivers were not ready within {START_TIMEOUT_S} s")
+        period_s = 1.0 / plan.rate_hz
+        if not _warm_up(sender, warmed, period_s):
+            raise RunFailed(f"not every receiver heard the publisher within {START_TIMEOUT_S} s")
+        cpu_start_s = cpu_seconds()
+        measuring.set()
+        late = _send_measured(sender, plan.messages, period_s)
+        sent_all.set()
+        finished.wait()
+        cpu_s = cpu_seconds() - cpu_start_s
+        results.put(("publisher", {"sent": plan.messages, "late_sends": late, "cpu_s": cpu_s}))
+        sender.close()
+    except Exception as exc:  # report it to the parent in one line rather than hang it
+        results.put(("error", f"{name} publisher: {type(exc).__name__}: {exc}"))
+
+
+def cpu_seconds() -> float:
+    """This process's CPU time, all threads, user + system [s] (exact, not in clock ticks)."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _warm_up(sender: Any, warmed: list[Any], period_s: float) -> bool:
+    start = time.monotonic()
+    next_t = start
+    while time.monotonic() - start < START_TIMEOUT_S:
+        sender.send(sample(0, warm_up=True))
+        if time.monotonic() - start >= WARM_UP_S and all(e.is_set() for e in warmed):
+            return True
+        next_t += period_s
+        time.sleep(max(0.0, next_t - time.monotonic()))
+    return False
+
+
+def _send_measured(sender: Any, messages: int, period_s: float) -> int:
+    """Send poses 1..messages on a fixed schedule; return how many left > 1 ms late."""
+    late = 0
+    next_t = time.monotonic()
+    for index in range(1, messages + 1):
+        if time.monotonic() - next_t > 1e-3:
+            late += 1
+        sender.send(sample(index, warm_up=False))
+        next_t += period_s
+        time.sleep(max(0.0, next_t - time.monotonic()))
+    return late
+
+
+def receiver_main(name: str, plan: Plan, index: int, ready: Any, warmed: Any, counter: Any,
+                  measuring: Any, finished: Any, results: Any) -> None:  # fmt: skip
+    try:
+        arrivals = Arrivals(warmed, counter, index)
+        receiver = load(name).open_receiver(plan, index, arrivals)
+        ready.set()
+        cpu_s = _receive_until(receiver, measuring, finished)
+        report = getattr(receiver, "report", dict)()
+        results.put(("receiver", index, arrivals.summary() | report | {"cpu_s": cpu_s}))
+        receiver.close()
+    except Exception as exc:
+        results.put(("error", f"{name} receiver {index}: {type(exc).__name__}: {exc}"))
+
+
+def _receive_until(receiver: Any, measuring: Any, finished: Any) -> float:
+    """Serve the receiver until `finished`; its CPU time [s] since `measuring` was set.
+
+    A receiver that needs its main loop (`poll_period_s`, the pose path's `update()`) gets
+    it; the others wait without waking, so no harness work is charged to them.
+    """
+    period_s = getattr(receiver, "poll_period_s", None)
+    if period_s is None:
+        measuring.wait()
+        cpu_start_s = cpu_seconds()
+        finished.wait()
+        return cpu_seconds() - cpu_start_s
+    cpu_start_s = None
+    while not finished.is_set():
+        receiver.poll()
+        if cpu_start_s is None and measuring.is_set():
+            cpu_start_s = cpu_seconds()
+        time.sleep(period_s)  # the node loop's own pacing
+    return cpu_seconds() - (cpu_start_s or cpu_seconds())
+
+
+def run_once(name: str, rate_hz: float, seconds: float, measured: int, watch: Any = None
+             ) -> dict[str, Any]:  # fmt: skip
+    """Run `name` once; its latencies, counts and CPU times (raises RunFailed).
+
+    `watch` (a profiler) is started with the pid of every process, by role, when the
+    measured window opens, and finished when the last measured pose has been sent.
+    """
+    transport = load(name)
+    receivers = measured + 1
+    ports = free_ports(receivers + 2)
+    # A DDS domain of its own per run (ids 0-232 are valid): a bench running beside another
+    # (a test during a measurement) must not discover the other's participants.
+    options = {"dds_domain": ports[-1] % 230 + 1}
+    plan = Plan(name, receivers, measured, rate_hz, round(rate_hz * seconds), ports, options)
+    infrastructure = transport.infrastructure(plan)
+    try:
+        for part in infrastructure:
+            if not part.wait_ready(START_TIMEOUT_S):
+                raise RunFailed(f"{name}: {part.name} did not start within {START_TIMEOUT_S} s")
+        spawned = receivers if transport.extra_receiver else measured
+        return _measure(plan, spawned, {p.name: p.pid for p in infrastructure}, watch)
+    finally:
+        for part in infrastructure:
+            part.stop()
+
+
+def _measure(plan: Plan, spawned: int, others: dict[str, int], watch: Any) -> dict[str, Any]:
+    ctx = process_context()
+    ready = [ctx.Event() for _ in range(spawned)]
+    warmed = [ctx.Event() for _ in range(spawned)]
+    measuring, sent_all, finished = ctx.Event(), ctx.Event(), ctx.Event()
+    counter = ctx.RawArray("q", spawned)
+    results: Any = ctx.Queue()
+    procs = [
+        ctx.Process(target=receiver_main, name=f"rx{k}", args=(
+            plan.transport, plan, k, ready[k], warmed[k], counter, measuring, finished, results))
+        for k in range(spawned)
+    ]  # fmt: skip
+    go = ctx.Event()
+    procs.append(ctx.Process(target=publisher_main, name="tx", args=(
+        plan.transport, plan, go, warmed, measuring, sent_all, finished, results)))  # fmt: skip
+    try:
+        _start_all(procs, ready, results)  # the publisher starts up meanwhile
+        go.set()
+        _wait_for(procs, [measuring], results)
+        others_before, machine_before = _cpu_times(others), psutil.cpu_times()
+        if watch is not None:
+            watch.start({p.name: int(p.pid) for p in procs} | others)
+        _wait_sent(plan, sent_all, results)
+        if watch is not None:
+            watch.finish()
+        _drain(plan, counter)
+        others_after, machine_after = _cpu_times(others), psutil.cpu_times()
+        finished.set()
+        reports = dict(_expect(results, 30.0) for _ in range(spawned + 1))
+    finally:
+        finished.set()
+        for proc in procs:
+            proc.join(timeout=15)
+            if proc.is_alive():
+                proc.kill()
+    return {
+        "transport": plan.transport,
+        "sent": reports["tx"]["sent"],
+        "late_sends": reports["tx"]["late_sends"],
+        "receivers": [reports[f"rx{k}"] for k in range(plan.measured)],
+        "cpu_s": {role: r["cpu_s"] for role, r in reports.items()}
+        | {role: others_after[role] - others_before[role] for role in others},
+        "machine_busy": _busy_fraction(machine_before, machine_after),
+        "load_1min": os.getloadavg()[0],
+    }
+
+
+def _wait_sent(plan: Plan, sent_all: Any, results: Any) -> None:
+    deadline = time.monotonic() + plan.messages / plan.rate_hz + START_TIMEOUT_S
+    while not sent_all.wait(0.1):
+        _raise_reported_error(results)
+        if time.monotonic() > deadline:
+            raise RunFailed(f"{plan.transport}: the publisher did not finish sending in time")
+
+
+def _drain(plan: Plan, counter: Any) -> None:
+    """Wait until every measured receiver has every pose, or DRAIN_S."""
+    drain_until = time.monotonic() + DRAIN_S
+    while time.monotonic() < drain_until and min(counter[: plan.measured]) < plan.messages:
+        time.sleep(0.005)  # counters live in shared memory: polled, briefly
+
+
+def _start_all(procs: list[Any], ready: list[Any], results: Any) -> None:
+    for proc in procs:
+        proc.daemon = True
+        proc.start()
+    _wait_for(procs, ready, results)
+
+
+def _wait_for(procs: list[Any], events: list[Any], results: Any) -> None:
+    """Until every event is set; RunFailed when a process reports an error or dies."""
+    deadline = time.monotonic() + START_TIMEOUT_S
+    while not all(e.is_set() for e in events):
+        _raise_reported_error(results)
+        dead = [p.name for p in procs if p.exitcode is not None]
+        if dead:
+            raise RunFailed(f"{dead} exited before the run began")
+        if time.monotonic() > deadline:
+            raise RunFailed(f"{[p.name for p in procs]} not ready within {START_TIMEOUT_S} s")
+        time.sleep(0.05)  # the events come from several processes: no single one to wait on
+
+
+def _raise_reported_error(results: Any) -> None:
+    try:
+        item = results.get_nowait()
+    except queue.Empty:
+        return
+    if item[0] == "error":
+        raise RunFailed(item[1])
+    raise RunFailed(f"unexpected report before the measurement: {item[0]}")
+
+
+def _expect(results: Any, timeout_s: float) -> tuple[str, dict[str, Any]]:
+    """The next report, as (role, report): role `tx` or `rx<k>`; RunFailed on an error."""
+    try:
+        item = results.get(timeout=timeout_s)
+    except queue.Empty:
+        raise RunFailed(f"a process did not report within {timeout_s:.0f} s") from None
+    if item[0] == "error":
+        raise RunFailed(item[1])
+    return ("tx", item[1]) if item[0] == "publisher" else (f"rx{item[1]}", item[2])
+
+
+def _cpu_times(pids: dict[str, int]) -> dict[str, float]:
+    """CPU seconds (user + system, all threads; clock-tick resolution) of other processes."""
+    times = {}
+    for role, pid in pids.items():
+        t = psutil.Process(pid).cpu_times()
+        times[role] = t.user + t.system
+    return times
+
+
+def _busy_fraction(before: Any, after: Any) -> float:
+    """Share of the machine's CPU time (all cores) that was not idle between two readings."""
+    total = sum(after) - sum(before)
+    idle = (after.idle + after.iowait) - (before.idle + before.iowait)
+    return 0.0 if total <= 0 else 1.0 - idle / total

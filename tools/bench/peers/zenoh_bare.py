@@ -1,0 +1,87 @@
+"""Bare Zenoh (eclipse-zenoh, the version the project pins): a publisher and subscribers on one
+key, default QoS, peer mode. A router (the project's, opened as `carlaverse router` opens it)
+is there for discovery only, as multicast scouting is off: the peers then connect to each
+other and the data goes direct.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+from carlaverse.messages import Pose, encode_pose
+from peers.transport import ChildProcess, Deliver, NoPoll, Plan, Transport
+
+KEY = "bench/pose"
+
+
+def router_endpoint(plan: Plan) -> str:
+    return f"tcp/127.0.0.1:{plan.ports[plan.receivers]}"
+
+
+def run_router(ready: Any, stop: Any, endpoint: str, lowlatency: bool) -> None:
+    """The project's router on loopback (as `carlaverse router` opens it) until `stop`."""
+    from carlaverse.fabric.session import FabricSettings, open_session
+
+    settings = FabricSettings(mode="router", listen=[endpoint], lowlatency=lowlatency)
+    session = open_session(settings)
+    ready.set()
+    stop.wait()
+    session.close()
+
+
+def zenoh_router(plan: Plan, lowlatency: bool = False) -> ChildProcess:
+    return ChildProcess("zenoh router", run_router, router_endpoint(plan), lowlatency)
+
+
+def _open_peer(plan: Plan) -> Any:
+    import zenoh
+
+    config = zenoh.Config()
+    for path, value in {
+        "mode": "peer",
+        "connect/endpoints": [router_endpoint(plan)],
+        "listen/endpoints": ["tcp/127.0.0.1:0"],
+        "scouting/multicast/enabled": False,
+    }.items():
+        config.insert_json5(path, json.dumps(value))
+    return zenoh.open(config)
+
+
+class ZenohSender:
+    def __init__(self, plan: Plan) -> None:
+        self._session = _open_peer(plan)
+        self._publisher = self._session.declare_publisher(KEY)
+
+    def send(self, pose: Pose) -> None:
+        self._publisher.put(encode_pose(pose))
+
+    def close(self) -> None:
+        self._publisher.undeclare()
+        self._session.close()
+
+
+class ZenohReceiver(NoPoll):
+    def __init__(self, plan: Plan, deliver: Deliver) -> None:
+        self._session = _open_peer(plan)
+        self._subscriber = self._session.declare_subscriber(
+            KEY, lambda sample: deliver.payload(sample.payload.to_bytes())
+        )
+
+    def close(self) -> None:
+        self._subscriber.undeclare()
+        self._session.close()
+
+
+class BareZenoh(Transport):
+    label = "bare Zenoh"
+    modules = ("zenoh",)
+
+    def infrastructure(self, plan: Plan) -> list[ChildProcess]:
+        return [zenoh_router(plan)]
+
+    def open_sender(self, plan: Plan) -> ZenohSender:
+        return ZenohSender(plan)
+
+    def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> ZenohReceiver:
+        return ZenohReceiver(plan, deliver)
