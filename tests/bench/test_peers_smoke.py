@@ -54,7 +54,9 @@ def results() -> dict[str, Any]:
                "--transports", ",".join(names), "--json"]  # fmt: skip
     done = subprocess.run(command, capture_output=True, text=True, timeout=170, cwd=ROOT)
     assert done.returncode == 0, done.stderr[-2000:]
-    return json.loads(done.stdout)
+    found = json.loads(done.stdout)
+    assert found["failed"] == [], found["failed"]
+    return found
 
 
 @pytest.mark.timeout(180)

@@ -55,15 +55,25 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return args
 
 
-def measure(args: argparse.Namespace, names: list[str]) -> dict[str, list[dict[str, Any]]]:
-    """Every round runs every transport once, starting one later each round."""
+def measure(
+    args: argparse.Namespace, names: list[str]
+) -> tuple[dict[str, list[dict[str, Any]]], list[str]]:
+    """Every round runs every transport once, starting one later each round.
+
+    A run that fails is reported (and left out of its transport's figures), not retried.
+    """
     runs: dict[str, list[dict[str, Any]]] = {name: [] for name in names}
+    failed = []
     for k in range(args.rounds):
         for name in names[k % len(names) :] + names[: k % len(names)]:
-            result = run_once(name, args.rate, args.seconds, args.receivers)
-            runs[name].append(result)
-            print(f"round {k + 1}/{args.rounds}: {name} done", file=sys.stderr)
-    return runs
+            outcome = "done"
+            try:
+                runs[name].append(run_once(name, args.rate, args.seconds, args.receivers))
+            except RunFailed as exc:
+                failed.append(f"round {k + 1}, {load(name).label}: {exc}")
+                outcome = f"FAILED: {exc}"
+            print(f"round {k + 1}/{args.rounds}: {name} {outcome}", file=sys.stderr)
+    return runs, failed
 
 
 def workload(args: argparse.Namespace) -> str:
@@ -99,7 +109,7 @@ def summary(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> dict[str,
             "receiver_us_per_pose": row.receiver_s_per_msg * 1e6,
             "layout_us_per_pose": row.layout_s_per_msg * 1e6,
             "receivers": [
-                {k: v for k, v in rx.items() if k != "latencies_s"}
+                {k: v for k, v in rx.items() if k not in ("latencies_s", "in_callback_s")}
                 for run in runs[row.name]
                 for rx in run["receivers"]
             ],
@@ -129,18 +139,15 @@ def main(argv: list[str] | None = None) -> int:
     not_run = [reason for reason in missing.values() if reason is not None]
     for reason in not_run:
         print(f"not run: {reason}", file=sys.stderr)
-    try:
-        runs = measure(args, names)
-    except RunFailed as exc:
-        print(f"bench_peers: {exc}", file=sys.stderr)
-        return 1
-    rows = [pool(name, runs[name]) for name in names]
-    lines = [workload(args), versions(), "", *table(rows), "", *verdict(rows), *split(rows)]
+    runs, failed = measure(args, names)
+    rows = [pool(name, runs[name]) for name in names if runs[name]]
+    lines = [workload(args), versions(), "", *table(rows), "", *verdict(rows), *split(rows, runs)]
     lines += [f"- Not run: {reason}." for reason in not_run]
+    lines += [f"- Failed run (left out): {why}." for why in failed]
     if args.profile:
         lines += ["", *profile(args)]
     text = "\n".join(lines)
-    print(json.dumps(summary(rows, runs)) if args.json else text)
+    print(json.dumps(summary(rows, runs) | {"failed": failed}) if args.json else text)
     if args.write:
         write_section(TITLE, text, command_line(argv), run)
     return 0

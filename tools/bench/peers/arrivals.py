@@ -41,7 +41,7 @@ class Arrivals:
             if not self._warmed.is_set():
                 self._warmed.set()
             return
-        index = int(pose.x)
+        index = int(pose.vz)  # the bench index (peers.transport.sample)
         if index in self.seen:
             self.duplicates += 1
             return

@@ -13,6 +13,7 @@ world view (which rejects poses far from session time).
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 from carlaverse.messages import Pose
@@ -85,14 +86,31 @@ class PoseReceiver:
 
     def __init__(self, plan: Plan, lowlatency: bool, index: int, deliver: Deliver) -> None:
         self._client = _open_client(plan, lowlatency, f"rx{index}", "observer", "")  # no actor
+        self.in_callback_s: list[float] = []
+        self._entered = 0.0
+        self._stamp_callback_entry()
         world = self._client.world
         push_pose = world.push_pose
 
         def stamped(node_id: str, pose: Pose, rx_t: float) -> None:
             deliver.pose(pose)
+            self.in_callback_s.append(time.monotonic() - self._entered)
             push_pose(node_id, pose, rx_t)
 
         world.push_pose = stamped
+
+    def _stamp_callback_entry(self) -> None:
+        """Note when the fabric's pose callback starts its work: its first step is reading the
+        sender from the key (`Inbound._sender`), so the time from there to the hand-over is
+        what the project's callback costs (key parse, decode, checks)."""
+        inbound = self._client.inbound
+        read_sender = inbound._sender
+
+        def entered(sample: Any, channel: str) -> str | None:
+            self._entered = time.monotonic()
+            return read_sender(sample, channel)
+
+        inbound._sender = entered
 
     def poll(self) -> None:
         self._client.update()
@@ -104,6 +122,7 @@ class PoseReceiver:
         return {
             "world_view_accepted": 0 if stats is None else stats.count,
             "world_view_rejected": dict(world.rejected),
+            "in_callback_s": self.in_callback_s,
         }
 
     def close(self) -> None:

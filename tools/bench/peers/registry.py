@@ -10,6 +10,7 @@ TRANSPORTS = {
     "pose": ("peers.pose_path", "PosePath"),
     "pose-ll": ("peers.pose_path", "PosePathLowLatency"),
     "zenoh": ("peers.zenoh_bare", "BareZenoh"),
+    "zenoh-direct": ("peers.zenoh_bare", "BareZenohDirect"),
     "dds": ("peers.dds", "CycloneDds"),
     "zmq": ("peers.zmq_pubsub", "ZmqPubSub"),
     "mqtt": ("peers.mqtt", "Mqtt"),

@@ -107,16 +107,20 @@ def verdict(rows: list[Row]) -> list[str]:
     return lines
 
 
-def split(rows: list[Row]) -> list[str]:
+def split(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]:
     """The pose path's p50 split into what Zenoh's Python binding takes and what the project
-    adds on top (bare Zenoh runs the same binding, same layout, without the project)."""
+    adds on top (bare Zenoh runs the same binding, same layout, without the project), and
+    how much of the project's part is its callback's own work."""
     by_name = {r.name: r for r in rows}
     if not {REFERENCE, "zenoh"} <= by_name.keys():
         return []
     pose, zenoh = by_name[REFERENCE].p(0.5), by_name["zenoh"].p(0.5)
+    inside = [x for run in runs[REFERENCE] for rx in run["receivers"] for x in rx["in_callback_s"]]
     line = (
         f"- Split of the pose path's p50: bare Zenoh (same binding and layout, no project code) "
-        f"{zenoh:.3f} ms, the project's part {pose - zenoh:+.3f} ms"
+        f"{zenoh:.3f} ms, the project's part {pose - zenoh:+.3f} ms, of which "
+        f"{percentile(inside, 0.5) * 1e3:.3f} ms (p50; p99 {percentile(inside, 0.99) * 1e3:.3f}) "
+        "inside the fabric's pose callback (key parse, decode, checks, hand-over)"
     )
     if "dds" in by_name:
         line += f"; bare Zenoh p50 / CycloneDDS p50 = {zenoh / by_name['dds'].p(0.5):.2f}"

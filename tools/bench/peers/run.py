@@ -18,6 +18,7 @@ import os
 import queue
 import resource
 import time
+from dataclasses import dataclass
 from typing import Any
 
 import psutil
@@ -35,25 +36,44 @@ class RunFailed(RuntimeError):
     """A process of the run did not start or report; the message says which and why."""
 
 
-def publisher_main(name: str, plan: Plan, go: Any, warmed: list[Any], measuring: Any,
-                   sent_all: Any, finished: Any, results: Any) -> None:  # fmt: skip
+@dataclass(frozen=True, slots=True)
+class Signals:
+    """What the processes of one run tell each other (all shareable across processes)."""
+
+    ready: list[Any]  # per receiver: subscribed
+    warmed: list[Any]  # per receiver: a warm-up pose arrived
+    go: Any  # the parent: every receiver is ready, warm up
+    measuring: Any  # the publisher: the first measured pose goes out now
+    sent_all: Any  # the publisher: the last measured pose went out
+    finished: Any  # the parent: the window is closed, report and leave
+    counter: Any  # per receiver: measured poses received so far
+    results: Any  # reports and errors, to the parent
+
+    @classmethod
+    def make(cls, ctx: Any, receivers: int) -> Signals:
+        events = [ctx.Event() for _ in range(2 * receivers + 4)]
+        return cls(events[:receivers], events[receivers : 2 * receivers], *events[-4:],
+                   ctx.RawArray("q", receivers), ctx.Queue())  # fmt: skip
+
+
+def publisher_main(name: str, plan: Plan, sig: Signals) -> None:
     try:
         sender = load(name).open_sender(plan)
-        if not go.wait(START_TIMEOUT_S):
+        if not sig.go.wait(START_TIMEOUT_S):
             raise RunFailed(f"the receivers were not ready within {START_TIMEOUT_S} s")
         period_s = 1.0 / plan.rate_hz
-        if not _warm_up(sender, warmed, period_s):
+        if not _warm_up(sender, sig.warmed, period_s):
             raise RunFailed(f"not every receiver heard the publisher within {START_TIMEOUT_S} s")
         cpu_start_s = cpu_seconds()
-        measuring.set()
+        sig.measuring.set()
         late = _send_measured(sender, plan.messages, period_s)
-        sent_all.set()
-        finished.wait()
+        sig.sent_all.set()
+        sig.finished.wait()
         cpu_s = cpu_seconds() - cpu_start_s
-        results.put(("publisher", {"sent": plan.messages, "late_sends": late, "cpu_s": cpu_s}))
+        sig.results.put(("publisher", {"sent": plan.messages, "late_sends": late, "cpu_s": cpu_s}))
         sender.close()
     except Exception as exc:  # report it to the parent in one line rather than hang it
-        results.put(("error", f"{name} publisher: {type(exc).__name__}: {exc}"))
+        sig.results.put(("error", f"{name} publisher: {type(exc).__name__}: {exc}"))
 
 
 def cpu_seconds() -> float:
@@ -87,18 +107,17 @@ def _send_measured(sender: Any, messages: int, period_s: float) -> int:
     return late
 
 
-def receiver_main(name: str, plan: Plan, index: int, ready: Any, warmed: Any, counter: Any,
-                  measuring: Any, finished: Any, results: Any) -> None:  # fmt: skip
+def receiver_main(name: str, plan: Plan, index: int, sig: Signals) -> None:
     try:
-        arrivals = Arrivals(warmed, counter, index)
+        arrivals = Arrivals(sig.warmed[index], sig.counter, index)
         receiver = load(name).open_receiver(plan, index, arrivals)
-        ready.set()
-        cpu_s = _receive_until(receiver, measuring, finished)
+        sig.ready[index].set()
+        cpu_s = _receive_until(receiver, sig.measuring, sig.finished)
         report = getattr(receiver, "report", dict)()
-        results.put(("receiver", index, arrivals.summary() | report | {"cpu_s": cpu_s}))
+        sig.results.put(("receiver", index, arrivals.summary() | report | {"cpu_s": cpu_s}))
         receiver.close()
     except Exception as exc:
-        results.put(("error", f"{name} receiver {index}: {type(exc).__name__}: {exc}"))
+        sig.results.put(("error", f"{name} receiver {index}: {type(exc).__name__}: {exc}"))
 
 
 def _receive_until(receiver: Any, measuring: Any, finished: Any) -> float:
@@ -150,47 +169,52 @@ def run_once(name: str, rate_hz: float, seconds: float, measured: int, watch: An
 
 def _measure(plan: Plan, spawned: int, others: dict[str, int], watch: Any) -> dict[str, Any]:
     ctx = process_context()
-    ready = [ctx.Event() for _ in range(spawned)]
-    warmed = [ctx.Event() for _ in range(spawned)]
-    measuring, sent_all, finished = ctx.Event(), ctx.Event(), ctx.Event()
-    counter = ctx.RawArray("q", spawned)
-    results: Any = ctx.Queue()
-    procs = [
-        ctx.Process(target=receiver_main, name=f"rx{k}", args=(
-            plan.transport, plan, k, ready[k], warmed[k], counter, measuring, finished, results))
-        for k in range(spawned)
-    ]  # fmt: skip
-    go = ctx.Event()
-    procs.append(ctx.Process(target=publisher_main, name="tx", args=(
-        plan.transport, plan, go, warmed, measuring, sent_all, finished, results)))  # fmt: skip
+    sig = Signals.make(ctx, spawned)
+    procs = [ctx.Process(target=receiver_main, name=f"rx{k}", args=(plan.transport, plan, k, sig))
+             for k in range(spawned)]  # fmt: skip
+    procs.append(ctx.Process(target=publisher_main, name="tx", args=(plan.transport, plan, sig)))
     try:
-        _start_all(procs, ready, results)  # the publisher starts up meanwhile
-        go.set()
-        _wait_for(procs, [measuring], results)
-        others_before, machine_before = _cpu_times(others), psutil.cpu_times()
-        if watch is not None:
-            watch.start({p.name: int(p.pid) for p in procs} | others)
-        _wait_sent(plan, sent_all, results)
-        if watch is not None:
-            watch.finish()
-        _drain(plan, counter)
-        others_after, machine_after = _cpu_times(others), psutil.cpu_times()
-        finished.set()
-        reports = dict(_expect(results, 30.0) for _ in range(spawned + 1))
+        _start_all(procs, sig.ready, sig.results)  # the publisher starts up meanwhile
+        sig.go.set()
+        _wait_for(procs, [sig.measuring], sig.results)
+        window = _window(plan, sig, {p.name: int(p.pid) for p in procs} | others, watch)
+        sig.finished.set()
+        reports = dict(_expect(sig.results, 30.0) for _ in procs)
     finally:
-        finished.set()
+        sig.finished.set()
         for proc in procs:
             proc.join(timeout=15)
             if proc.is_alive():
                 proc.kill()
+    return _result(plan, reports, window)
+
+
+def _window(plan: Plan, sig: Signals, pids: dict[str, int], watch: Any) -> dict[str, Any]:
+    """From the first measured send until all arrived: the CPU of processes that do not
+    report their own (the infrastructure's) and of the whole machine."""
+    others = {role: pid for role, pid in pids.items() if role != "tx" and role[:2] != "rx"}
+    others_before, machine_before = _cpu_times(others), psutil.cpu_times()
+    if watch is not None:
+        watch.start(pids)
+    _wait_sent(plan, sig.sent_all, sig.results)
+    if watch is not None:
+        watch.finish()
+    _drain(plan, sig.counter)
+    others_after, machine_after = _cpu_times(others), psutil.cpu_times()
+    return {
+        "others_cpu_s": {role: others_after[role] - others_before[role] for role in others},
+        "machine_busy": _busy_fraction(machine_before, machine_after),
+    }
+
+
+def _result(plan: Plan, reports: dict[str, Any], window: dict[str, Any]) -> dict[str, Any]:
     return {
         "transport": plan.transport,
         "sent": reports["tx"]["sent"],
         "late_sends": reports["tx"]["late_sends"],
         "receivers": [reports[f"rx{k}"] for k in range(plan.measured)],
-        "cpu_s": {role: r["cpu_s"] for role, r in reports.items()}
-        | {role: others_after[role] - others_before[role] for role in others},
-        "machine_busy": _busy_fraction(machine_before, machine_after),
+        "cpu_s": {role: r["cpu_s"] for role, r in reports.items()} | window["others_cpu_s"],
+        "machine_busy": window["machine_busy"],
         "load_1min": os.getloadavg()[0],
     }
 
@@ -226,7 +250,8 @@ def _wait_for(procs: list[Any], events: list[Any], results: Any) -> None:
         if dead:
             raise RunFailed(f"{dead} exited before the run began")
         if time.monotonic() > deadline:
-            raise RunFailed(f"{[p.name for p in procs]} not ready within {START_TIMEOUT_S} s")
+            late = [p.name for p, e in zip(procs, events, strict=False) if not e.is_set()]
+            raise RunFailed(f"{late or 'the publisher'} not ready within {START_TIMEOUT_S} s")
         time.sleep(0.05)  # the events come from several processes: no single one to wait on
 
 

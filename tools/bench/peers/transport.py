@@ -6,7 +6,8 @@ authority), `open_sender` and `open_receiver`. The harness (`peers.run`) owns th
 processes and the counting; a transport only moves a pose from one process to the others.
 
 The sample is the project's own 64-byte pose (`carlaverse.messages.encode_pose`): its bench
-index travels in `x` (exact in float32 up to 2**24), its send time in `t` (CLOCK_MONOTONIC,
+index travels in `vz` (exact in float32 up to 2**24; not in the position, which stays put so
+that no spatial filtering can tell samples apart), its send time in `t` (CLOCK_MONOTONIC,
 seconds: one clock for every process of this host), and `flags` marks warm-up samples, which
 are sent until every receiver has heard from the publisher and are not measured. Every
 receiver decodes with `decode_pose` (size, version and finiteness checked) before it stamps
@@ -112,7 +113,8 @@ class NoPoll:
 
 def sample(index: int, warm_up: bool) -> Pose:
     """The pose every transport sends, stamped now."""
-    return Pose(index, time.monotonic(), float(index), 0.0, vx=14.0, flags=WARM_UP * warm_up)
+    t = time.monotonic()
+    return Pose(index, t, 0.0, 0.0, vx=14.0, vz=float(index), flags=WARM_UP * warm_up)
 
 
 def find_program(name: str) -> str | None:

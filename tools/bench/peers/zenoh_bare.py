@@ -62,11 +62,16 @@ class ZenohSender:
 
 
 class ZenohReceiver(NoPoll):
-    def __init__(self, plan: Plan, deliver: Deliver) -> None:
+    def __init__(self, plan: Plan, deliver: Deliver, indirect: bool) -> None:
+        import zenoh
+
         self._session = _open_peer(plan)
-        self._subscriber = self._session.declare_subscriber(
-            KEY, lambda sample: deliver.payload(sample.payload.to_bytes())
-        )
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            deliver.payload(sample.payload.to_bytes())
+
+        handler = zenoh.handlers.Callback(on_sample, indirect=indirect)
+        self._subscriber = self._session.declare_subscriber(KEY, handler)
 
     def close(self) -> None:
         self._subscriber.undeclare()
@@ -76,6 +81,9 @@ class ZenohReceiver(NoPoll):
 class BareZenoh(Transport):
     label = "bare Zenoh"
     modules = ("zenoh",)
+    # zenoh-python runs a callback on a Python thread of its own by default (`indirect`): the
+    # network thread hands each sample over. `False` runs it on the network thread itself.
+    indirect = True
 
     def infrastructure(self, plan: Plan) -> list[ChildProcess]:
         return [zenoh_router(plan)]
@@ -84,4 +92,11 @@ class BareZenoh(Transport):
         return ZenohSender(plan)
 
     def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> ZenohReceiver:
-        return ZenohReceiver(plan, deliver)
+        return ZenohReceiver(plan, deliver, self.indirect)
+
+
+class BareZenohDirect(BareZenoh):
+    """Bare Zenoh with the callback on Zenoh's network thread (`Callback(indirect=False)`)."""
+
+    label = "bare Zenoh, direct callback"
+    indirect = False
