@@ -14,8 +14,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-from carlaverse.body.kinematics import LIMBS, rotation_from_euler
-from carlaverse.hal.camera import LANDMARK_NAMES
+from carlaverse.body.kinematics import LANDMARK_INDEX, LIMBS, rotation_from_euler
 from carlaverse.hal.camera.walker import (
     FOREARM,
     HIP_HALF_WIDTH,
@@ -28,7 +27,6 @@ from carlaverse.hal.camera.walker import (
 )
 
 Angles = Mapping[str, tuple[float, float, float]]
-_INDEX = {name: i for i, name in enumerate(LANDMARK_NAMES)}
 SEGMENTS = {"shoulder": (UPPER_ARM, FOREARM), "hip": (THIGH, SHANK)}  # fractions of height
 # Head points in the head frame (forward, left, up) [fraction of height], from the neck.
 HEAD_POINTS = {
@@ -64,10 +62,10 @@ def posed_landmarks(
         a = roots[root]
         b = a + turn @ np.array([0.0, 0.0, -upper_m])
         c = b + bend @ np.array([0.0, 0.0, -lower_m])
-        out[_INDEX[root]], out[_INDEX[middle]], out[_INDEX[end]] = a, b, c
+        out[LANDMARK_INDEX[root]], out[LANDMARK_INDEX[middle]], out[LANDMARK_INDEX[end]] = a, b, c
     neck = (roots["left_shoulder"] + roots["right_shoulder"]) / 2
     head = rotation_from_euler(*angles.get("neck", REST))
     for name, offset in HEAD_POINTS.items():
-        out[_INDEX[name]] = neck + head @ (np.array(offset) * height_m)
+        out[LANDMARK_INDEX[name]] = neck + head @ (np.array(offset) * height_m)
     origin = np.zeros(3) if origin is None else origin
     return (out @ body.T + origin).astype(np.float64)

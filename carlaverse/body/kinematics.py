@@ -31,7 +31,7 @@ import numpy as np
 
 from carlaverse.hal.camera import LANDMARK_NAMES
 
-_INDEX = {name: i for i, name in enumerate(LANDMARK_NAMES)}
+LANDMARK_INDEX = {name: i for i, name in enumerate(LANDMARK_NAMES)}
 
 # (upper joint, hinge joint, root landmark, middle landmark, end landmark, hinge sign)
 # The hinge sign is the pitch that bends the lower segment its natural way: an elbow forward
@@ -51,7 +51,7 @@ DOWN = np.array([0.0, 0.0, -1.0])
 
 
 def point(landmarks: np.ndarray, name: str) -> np.ndarray:
-    return np.asarray(landmarks[_INDEX[name]], dtype=np.float64)
+    return np.asarray(landmarks[LANDMARK_INDEX[name]], dtype=np.float64)
 
 
 def nearest_rotation(columns: np.ndarray) -> np.ndarray:

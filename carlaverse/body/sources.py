@@ -25,14 +25,13 @@ import msgspec
 import numpy as np
 
 from carlaverse import messages as m
-from carlaverse.body.kinematics import JOINTS, LIMBS, joint_angles
+from carlaverse.body.kinematics import JOINTS, LANDMARK_INDEX, LIMBS, joint_angles
 from carlaverse.config import StrictStruct, convert
-from carlaverse.hal.camera import LANDMARK_NAMES, Camera, CameraConfig, registry
+from carlaverse.hal.camera import Camera, CameraConfig, registry
 from carlaverse.hal.device import open_device
 
 Clock = Callable[[], float]  # [s]
 JointAngles = Mapping[str, tuple[float, float, float]]
-_INDEX = {name: i for i, name in enumerate(LANDMARK_NAMES)}
 # The landmarks each joint's angles are computed from; a joint is sent only when all of them
 # are visible enough (a limb out of the picture is guessed by MediaPipe, not seen).
 NECK_LANDMARKS = ("left_ear", "right_ear", "left_eye", "right_eye", "mouth_left", "mouth_right")
@@ -61,8 +60,8 @@ class SkeletonSource(Protocol):
 
 def visible_joints(angles: JointAngles, visibility: np.ndarray, minimum: float) -> JointAngles:
     """The joints whose landmarks are all at least `minimum` visible."""
-    return {joint: value for joint, value in angles.items()
-            if all(visibility[_INDEX[n]] >= minimum for n in JOINT_LANDMARKS[joint])}  # fmt: skip
+    seen = {name for name, i in LANDMARK_INDEX.items() if visibility[i] >= minimum}
+    return {joint: value for joint, value in angles.items() if seen >= set(JOINT_LANDMARKS[joint])}
 
 
 def angles_bytes(angles: JointAngles) -> tuple[list[str], bytes]:
@@ -72,28 +71,31 @@ def angles_bytes(angles: JointAngles) -> tuple[list[str], bytes]:
 
 
 class SyntheticBodySource:
-    """The sim camera's walker, posed in-process at `rate_hz`."""
+    """The sim camera's walker, posed in-process at `rate_hz`; `clock` [s] paces and stamps."""
 
     def __init__(self, config: BodyConfig, clock: Clock = time.monotonic) -> None:
         sim = config.camera if config.camera.backend == "sim" else CameraConfig(backend="sim")
-        self.camera: Camera = open_device(registry(), sim, CameraConfig, source="body.camera")
+        self.camera: Camera = open_device(registry(), sim, CameraConfig, clock=clock,
+                                          source="body.camera")  # fmt: skip
         self.clock = clock
         self.period_s = 1.0 / config.rate_hz
         self.min_visibility = config.min_visibility
         self._seq = 0
-        self._due = time.monotonic()
+        self._due = clock()
 
     def poll(self) -> m.Skeleton | None:
-        now = time.monotonic()
+        now = self.clock()
         if now < self._due:
             return None
-        self._due = max(self._due + self.period_s, now - self.period_s)  # never bursts
+        self._due += self.period_s
+        if self._due <= now:  # the caller stalled: go on from now, never catch up in a burst
+            self._due = now + self.period_s
         frame = self.camera.read()
         assert frame.landmarks is not None and frame.visibility is not None  # the sim's contract
         angles = visible_joints(joint_angles(frame.landmarks), frame.visibility,
                                 self.min_visibility)  # fmt: skip
         self._seq += 1
-        return m.Skeleton(self._seq, self.clock(), *angles_bytes(angles))
+        return m.Skeleton(self._seq, now, *angles_bytes(angles))
 
     def close(self) -> None:
         self.camera.close()

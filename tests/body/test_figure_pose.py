@@ -7,8 +7,15 @@ import numpy as np
 import pytest
 
 from carlaverse.body.forward import posed_landmarks
-from carlaverse.body.kinematics import LIMBS, head_rotation, joint_angles, rotation_from_euler
-from carlaverse.hal.camera import LANDMARK_NAMES
+from carlaverse.body.kinematics import (
+    LANDMARK_INDEX as index,
+)
+from carlaverse.body.kinematics import (
+    LIMBS,
+    head_rotation,
+    joint_angles,
+    rotation_from_euler,
+)
 
 panda3d = pytest.importorskip("panda3d.core")
 
@@ -37,7 +44,6 @@ def test_figure_limbs_point_where_the_landmarks_are() -> None:
     figure = Figure(panda3d.NodePath("world"), palette.ACTOR_COLORS["pedestrian"])
     figure.pose(joint_angles(landmarks))
     to_body = BODY_IN_CAMERA.T
-    index = {name: i for i, name in enumerate(LANDMARK_NAMES)}
     for joint, hinge, root, middle, end, _sign in LIMBS:
         for segment, (a, b) in ((joint, (root, middle)), (hinge, (middle, end))):
             seen = _unit(to_body @ (landmarks[index[b]] - landmarks[index[a]]))

@@ -71,13 +71,20 @@ def test_a_missing_model_fails_at_start_in_one_line(grace_hopper: Path, tmp_path
     assert "\n" not in str(failed.value)
 
 
-def test_synthetic_source_in_process() -> None:
-    source = SyntheticBodySource(BodyConfig(rate_hz=50.0))
+def test_synthetic_source_is_paced_by_its_clock() -> None:
+    now = [100.0]  # [s] a manual clock: pacing is tested without sleeping
+    source = SyntheticBodySource(BodyConfig(rate_hz=50.0), clock=lambda: now[0])
     try:
-        first = wait_until(source.poll, 2, "a synthetic skeleton")
-        assert source.poll() is None  # not due again yet: paced at rate_hz
-        second = wait_until(source.poll, 2, "the next synthetic skeleton")
+        first = source.poll()
+        now[0] += 0.019
+        early = source.poll()  # not due yet: 50 Hz is one per 20 ms
+        now[0] += 0.002
+        second = source.poll()
+        now[0] += 1.0  # a stalled caller gets one skeleton, not a burst of 50
+        late, after_late = source.poll(), source.poll()
     finally:
         source.close()
-    assert second.seq == first.seq + 1 and second.t > first.t
+    assert first is not None and early is None and second is not None
+    assert (second.seq, second.t) == (first.seq + 1, 100.021)
+    assert late is not None and after_late is None
     assert joint_angles(first)["right_elbow"] == pytest.approx((0, -0.3, 0), abs=1e-5)
