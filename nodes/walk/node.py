@@ -196,17 +196,27 @@ class WalkNode:
 
     def close(self) -> None:
         if self._body is not None:
-            self._body.close()
+            try:
+                self._body.close()
+            except Exception:  # closing must not hide the summary; log it
+                log.exception("closing the skeleton source failed")
             self._body = None
         if self._skeleton_pub is not None:
             self._skeleton_pub.undeclare()
             self._skeleton_pub = None
         if self._process is None:
             return
-        summary = stop_loop_process(
-            self._process, self._stop, self._results, (self._state, self._control), "walk loop"
-        )
-        self._loop_summary = summary or self._loop_summary
+        if self._loop_summary:  # the loop already ended and reported (`_loop_error`)
+            self._process.join(timeout=5)
+            for block in (self._state, self._control):
+                if block is not None:
+                    block.close()
+        else:
+            self._loop_summary = stop_loop_process(
+                self._process, self._stop, self._results, (self._state, self._control),
+                "walk loop",
+            ) or {}  # fmt: skip
+        self._process = None
 
     def report(self) -> dict[str, Any]:
         return {"loop": self._loop_summary, "skeletons_sent": self._skeleton_seq,

@@ -139,3 +139,33 @@ def test_walking_follows_the_head_or_the_hand(direction: str, expected_deg: floa
         out = control.tick(1 / 90)
     assert math.degrees(math.atan2(out.vy, out.vx)) == pytest.approx(10.0 + expected_deg)
     assert math.degrees(out.head.yaw) == pytest.approx(100.0)  # the head: 10° + 90°
+
+
+def test_a_loop_that_cannot_open_its_devices_reports_one_line() -> None:
+    """The loop process puts `{"error": ...}` on its results; the node's step turns that into
+    the ValueError that `carlaverse join` prints as one line."""
+    import queue
+    import threading
+
+    from carlaverse_nodes.walk.config import WalkNodeConfig
+    from carlaverse_nodes.walk.loop_process import WalkLoopSpec, run_walk_loop
+    from carlaverse_nodes.walk.shared_state import CONTROL
+
+    from carlaverse.hal import InputConfig
+    from carlaverse.shm import SharedBlock
+
+    config = WalkNodeConfig(input=InputConfig(backend="wiimote"))
+    name = f"carlaverse-test-walk-loop-{os.getpid()}"
+    blocks = [SharedBlock(f"{name}-state", STATE, create=True),
+              SharedBlock(f"{name}-control", CONTROL, create=True)]  # fmt: skip
+    results: queue.Queue = queue.Queue()
+    try:
+        spec = WalkLoopSpec(config, blocks[0].name, blocks[1].name)
+        run_walk_loop(spec, queue.Queue(), results, threading.Event())
+    finally:
+        for block in blocks:
+            block.close()
+    report = results.get_nowait()
+    assert report["error"].startswith("BackendNotFoundError: ")
+    assert "wiimote" in report["error"] and "\n" not in report["error"]
+    assert results.empty()  # no runner, no summary
