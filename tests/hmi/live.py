@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import re
+import threading
+import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -38,3 +40,31 @@ def node_with_hmi(
         yield cluster, node, url
     finally:
         cluster.close()
+
+
+class Recent:
+    """Timestamped readings kept by a watcher thread; the test asks for a recent window."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._readings: list[tuple[float, dict[str, float]]] = []
+
+    def add(self, reading: dict[str, float]) -> None:
+        with self._lock:
+            self._readings.append((time.monotonic(), reading))
+
+    def since(self, t: float, name: str) -> list[float]:
+        """Values of `name` read at or after monotonic time t [s]."""
+        with self._lock:
+            return [r[name] for at, r in self._readings if at >= t]
+
+    def latest(self) -> dict[str, float] | None:
+        with self._lock:
+            return self._readings[-1][1] if self._readings else None
+
+
+def assert_within(shown: float, readings: list[float], slack: float, what: str) -> None:
+    """`shown` lies within the range of the node's own `readings`, widened by `slack`."""
+    assert readings, f"no {what} readings from the node in the window"
+    low, high = min(readings) - slack, max(readings) + slack
+    assert low <= shown <= high, f"shown {what} {shown}, the node's {low:.1f}..{high:.1f}"

@@ -16,7 +16,7 @@ from playwright.sync_api import Browser, Page
 from carlaverse import messages as m
 from carlaverse.keys import Keys
 from tests.browser import save_screenshot
-from tests.hmi.live import node_with_hmi
+from tests.hmi.live import Recent, assert_within, node_with_hmi
 from tests.support import Cluster, Proc, wait_until
 
 pytestmark = pytest.mark.browser
@@ -36,7 +36,7 @@ class Fabric:
         session = cluster.observer().session
         keys = Keys("t")
         self._lock = threading.Lock()
-        self.speeds: list[tuple[float, float]] = []  # (arrival, monotonic [s]; speed [km/h])
+        self.poses = Recent()  # speed_kmh by arrival time
         self.states: list[m.EgoState] = []
         self._subs = [
             session.declare_subscriber(keys.pose(node_id), self._on_pose),
@@ -45,16 +45,11 @@ class Fabric:
 
     def _on_pose(self, sample) -> None:  # type: ignore[no-untyped-def]
         pose = m.POSE.decode(sample.payload.to_bytes())
-        with self._lock:
-            self.speeds.append((time.monotonic(), math.hypot(pose.vx, pose.vy) * 3.6))
+        self.poses.add({"speed_kmh": math.hypot(pose.vx, pose.vy) * 3.6})
 
     def _on_state(self, sample) -> None:  # type: ignore[no-untyped-def]
         with self._lock:
             self.states.append(m.EGO_STATE.decode(sample.payload.to_bytes()))
-
-    def speeds_since(self, t: float) -> list[float]:
-        with self._lock:
-            return [kmh for arrived, kmh in self.speeds if arrived >= t]
 
     def last_state(self) -> m.EgoState | None:
         with self._lock:
@@ -82,10 +77,9 @@ def test_the_dashboard_follows_the_scripted_drive(
     while time.monotonic() < deadline and (len(shown) < 12 or max(shown) - min(shown) < 15):
         poses_from = time.monotonic() - WINDOW_S
         kmh = float(page.locator('[data-readout="speed"]').text_content() or "nan")
-        recent = fabric.speeds_since(poses_from)
+        recent = fabric.poses.since(poses_from, "speed_kmh")
         if recent:
-            low, high = min(recent) - ROUNDING_KMH, max(recent) + ROUNDING_KMH
-            assert low <= kmh <= high, f"shown {kmh} km/h, the car's poses {low:.1f}..{high:.1f}"
+            assert_within(kmh, recent, ROUNDING_KMH, "speed [km/h] (from its poses)")
             shown.append(kmh)
         page.wait_for_timeout(250)
     assert max(shown) - min(shown) >= 15, f"the speed shown hardly changed: {shown}"
