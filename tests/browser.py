@@ -1,9 +1,10 @@
 """A real headless browser for tests: Playwright driving Debian's Chromium.
 
 Playwright is only the driver: it never downloads a browser (no `playwright install`). It
-launches /usr/bin/chromium (tools/install-test-deps.sh installs it); each launch gets a fresh
-temporary user-data dir from Playwright, removed when the browser closes, and each test a
-fresh context (cookies, storage) and page.
+launches /usr/bin/chromium (tools/install-test-deps.sh installs it) through
+carlaverse.testing.chromium; each launch gets a fresh temporary user-data dir from
+Playwright, removed when the browser closes, and each test a fresh context (cookies,
+storage) and page.
 
 Use: mark the test (or module) `browser` and ask for the `page` fixture. Tests marked `browser`
 skip with the reason when Chromium or Playwright is absent (tests/conftest.py does that).
@@ -17,7 +18,6 @@ skip with the reason when Chromium or Playwright is absent (tests/conftest.py do
 
 from __future__ import annotations
 
-import importlib.util
 import os
 from collections.abc import Iterator
 from pathlib import Path
@@ -25,31 +25,12 @@ from typing import TYPE_CHECKING
 
 import pytest
 
+from carlaverse.testing.chromium import launch_chromium
+
 if TYPE_CHECKING:
     from playwright.sync_api import Browser, Page
 
-CHROMIUM = Path("/usr/bin/chromium")
-# Quiet, offline, no sandbox (tests run as root in a container), software rendering.
-CHROMIUM_FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
-]
 VIEWPORT = {"width": 1280, "height": 800}  # [px]
-
-
-def missing_browser() -> str:
-    """Why a browser test cannot run here, or "" when it can."""
-    if not CHROMIUM.exists():
-        return f"needs Debian chromium at {CHROMIUM} (run tools/install-test-deps.sh)"
-    if importlib.util.find_spec("playwright") is None:
-        return "needs the playwright package (pip install -e '.[test]')"
-    return ""
 
 
 @pytest.fixture(scope="module")
@@ -58,9 +39,7 @@ def chromium() -> Iterator[Browser]:
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as playwright:
-        browser = playwright.chromium.launch(
-            executable_path=str(CHROMIUM), headless=True, args=CHROMIUM_FLAGS
-        )
+        browser = launch_chromium(playwright)
         try:
             yield browser
         finally:

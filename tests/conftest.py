@@ -5,7 +5,8 @@ from pathlib import Path
 
 import pytest
 
-from tests.browser import chromium, missing_browser, page, screenshot_dir
+from carlaverse.testing.chromium import missing_browser
+from tests.browser import chromium, page, screenshot_dir
 from tests.support import Cluster
 
 __all__ = ["chromium", "page", "screenshot_dir"]  # browser fixtures for every test

@@ -10,6 +10,7 @@ event queue, the same way impulses and overrides travel.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import numpy as np
@@ -36,29 +37,25 @@ class HmiBridge(Protocol):
 
 
 class StateReader:
-    """Reads a node's shared state block from the HMI thread; attaches once the node made it."""
+    """Reads the node's shared state block from the HMI thread.
 
-    def __init__(self, name: str, dtype: np.dtype) -> None:
-        self.name = name
-        self.dtype = dtype
-        self._block: SharedBlock | None = None
+    It takes the node's own block (`block()`: None until the node has made it) rather than
+    attaching a second time: in the creating process a second attachment would confuse the
+    resource tracker's bookkeeping of the block.
+    """
+
+    def __init__(self, block: Callable[[], SharedBlock | None]) -> None:
+        self._block = block
         self.torn_reads = 0
 
     def read(self) -> np.void | None:
         """The loop's latest record, or None before its first tick."""
-        if self._block is None:
-            try:
-                self._block = SharedBlock(self.name, self.dtype)
-            except FileNotFoundError:
-                return None  # the node creates it when its loop starts
+        block = self._block()
+        if block is None:
+            return None
         try:
-            record = self._block.read()
+            record = block.read()
         except TornRead:
             self.torn_reads += 1
             return None
         return record if record["running"] else None
-
-    def close(self) -> None:
-        if self._block is not None:
-            self._block.close()
-            self._block = None

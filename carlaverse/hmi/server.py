@@ -87,6 +87,7 @@ class HmiServer:
         self._message_ids = 0
         self.frames_sent = 0  # telemetry frames handed to pages (one per page per frame)
         self.frames_made = 0
+        self.telemetry_errors = 0
         self._loop: asyncio.AbstractEventLoop | None = None
         self._thread: threading.Thread | None = None
         self._started = threading.Event()
@@ -133,6 +134,7 @@ class HmiServer:
             "pages_connected": len(self._pages),
             "frames_made": self.frames_made,
             "frames_sent": self.frames_sent,
+            "telemetry_errors": self.telemetry_errors,
             "inputs_accepted": self.inputs.accepted,
             "inputs_rejected": dict(self.inputs.rejected),
         }
@@ -170,13 +172,23 @@ class HmiServer:
             if next_t < time.monotonic() - period:
                 next_t = time.monotonic()  # fell behind (a loaded host): skip, never burst
             self._expire_messages()
-            sample = self.bridge.telemetry() if self._pages else None
+            sample = self._sample() if self._pages else None
             if sample is None:
                 continue
             self.frames_made += 1
             frame = ENCODER.encode(Telemetry(self.frames_made, sample[0], sample[1]))
             for page in self._pages:
                 page.offer(frame)
+
+    def _sample(self) -> tuple[float, dict[str, Any]] | None:
+        """The bridge's telemetry; a failing read (the node closing its state) is counted."""
+        try:
+            return self.bridge.telemetry()
+        except Exception:  # the HMI must outlive a bad read: count it, say it once
+            self.telemetry_errors += 1
+            if self.telemetry_errors == 1:
+                log.exception("reading the node's telemetry for the HMI failed")
+            return None
 
     def _push_message(self, text: str, seconds: float) -> None:
         self._message_ids += 1

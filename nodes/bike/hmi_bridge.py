@@ -6,14 +6,13 @@ The bike page only shows: the bridge takes no commands.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
-
-from carlaverse_nodes.bike.shared_state import STATE
 
 from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.hmi.bridge import StateReader
 from carlaverse.hmi.wire import Command
-from carlaverse.shm import block_name
+from carlaverse.shm import SharedBlock
 
 
 class BikeHmiBridge:
@@ -21,9 +20,9 @@ class BikeHmiBridge:
     actions: frozenset[str] = frozenset()
     cruise = False
 
-    def __init__(self, settings: NodeSettings) -> None:
+    def __init__(self, settings: NodeSettings, state: Callable[[], SharedBlock | None]) -> None:
         self.node_id = settings.node_id
-        self._reader = StateReader(block_name(settings.session, settings.node_id, "state"), STATE)
+        self._reader = StateReader(state)
         self.clock_offset = 0.0  # [s] session time − monotonic, kept by the node's step
 
     def static_info(self) -> dict[str, Any]:
@@ -49,4 +48,4 @@ class BikeHmiBridge:
         )  # InputCheck stops them
 
     def close(self) -> None:
-        self._reader.close()
+        pass  # the node owns and closes its state block

@@ -88,7 +88,7 @@ class BikeNode:
 
     def hmi_bridge(self) -> BikeHmiBridge:
         """The web HMI's view of this bike (carlaverse join bike --hmi PORT)."""
-        self._hmi = BikeHmiBridge(self.node_settings)
+        self._hmi = BikeHmiBridge(self.node_settings, lambda: self._state)
         return self._hmi
 
     def own_pose_block(self) -> OwnPoseBlock:

@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import queue
 import time
+from collections.abc import Callable
 from typing import Any
 
 from carlaverse_nodes.drive.controls import ACTIONS
-from carlaverse_nodes.drive.shared_state import INDICATORS, STATE
+from carlaverse_nodes.drive.shared_state import INDICATORS
 from carlaverse_nodes.drive.touch import TouchPress
 
 from carlaverse.fabric.node_client import NodeSettings
@@ -23,7 +24,7 @@ from carlaverse.hmi.bridge import StateReader
 from carlaverse.hmi.wire import Command, Cruise, Press
 from carlaverse.messages import Override
 from carlaverse.physics.params import VehicleParams
-from carlaverse.shm import block_name
+from carlaverse.shm import SharedBlock
 
 CRUISE_SOURCE = "hmi-cruise"
 REV_WARNING = 0.97  # of the redline
@@ -36,9 +37,14 @@ class DriveHmiBridge:
     actions = frozenset(ACTIONS)
     cruise = True
 
-    def __init__(self, settings: NodeSettings, vehicle: VehicleParams) -> None:
+    def __init__(
+        self,
+        settings: NodeSettings,
+        vehicle: VehicleParams,
+        state: Callable[[], SharedBlock | None],
+    ) -> None:
         self.node_id = settings.node_id
-        self._reader = StateReader(block_name(settings.session, settings.node_id, "state"), STATE)
+        self._reader = StateReader(state)
         self._commands: queue.SimpleQueue[Command] = queue.SimpleQueue()
         self._vehicle = vehicle
         self.clock_offset = 0.0  # [s] session time − monotonic, kept by the node's step
@@ -118,4 +124,4 @@ class DriveHmiBridge:
         return Override(self._cruise_seq, now, CRUISE_SOURCE, cruise_speed_mps=self._cruise_set_mps)
 
     def close(self) -> None:
-        self._reader.close()
+        pass  # the node owns and closes its state block

@@ -94,7 +94,7 @@ class DriveNode:
 
     def hmi_bridge(self) -> DriveHmiBridge:
         """The web HMI's view of this car (carlaverse join drive --hmi PORT)."""
-        self._hmi = DriveHmiBridge(self.node_settings, self.vehicle)
+        self._hmi = DriveHmiBridge(self.node_settings, self.vehicle, lambda: self._state)
         return self._hmi
 
     def pose_source(self) -> PoseSource | None:

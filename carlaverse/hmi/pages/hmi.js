@@ -11,6 +11,9 @@
 // (texts pushed so far), and
 // `press(action)`, `cruise(command)`, `send(object)`, `onTelemetry(fn)`.
 //
+// Frames are taken as they arrive (latency, rate, `last`, listeners); the widgets draw the
+// newest values once per display frame, so a busy page skips drawing, never falls behind.
+//
 // Latency: the node stamps each frame with its host's monotonic clock at the loop tick that
 // produced the state. The page estimates the offset between that clock and performance.now()
 // from ping/pong round trips (the sample with the shortest round trip wins, its half taken as
@@ -50,6 +53,7 @@ export class Hmi {
     this.listeners = [];
     this.socket = null;
     this.pings = 0;
+    this.drawPending = false;
   }
 
   build(root) {
@@ -101,8 +105,15 @@ export class Hmi {
     keep(this.arrivals, now);
     if (this.offsetS !== null) keep(this.latencies, (now / 1000 + this.offsetS - frame.stamp_s) * 1000);
     this.last = frame.values;
-    for (const widget of this.widgets) widget.update(frame.values);
     for (const listener of this.listeners) listener(frame.values, frame);
+    if (this.drawPending) return; // widgets draw the newest values once per display frame
+    this.drawPending = true;
+    const draw = () => {
+      this.drawPending = false;
+      for (const widget of this.widgets) widget.update(this.last);
+    };
+    if (document.hidden) setTimeout(draw, 0);
+    else requestAnimationFrame(draw);
   }
 
   showMessage(message) {
