@@ -13,19 +13,12 @@ import os
 import subprocess
 import tempfile
 import threading
-from pathlib import Path
 from typing import Any
 
-CHROMIUM = Path("/usr/bin/chromium")
+from carlaverse.testing.chromium import CHROMIUM, CHROMIUM_FLAGS
+
 FLAGS = [
-    "--headless",
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-quic",
-    "--no-first-run",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--disable-sync",
+    *CHROMIUM_FLAGS,
     "--enable-unsafe-swiftshader",  # software WebGL for the rerun web viewer
     "--remote-debugging-pipe",
 ]

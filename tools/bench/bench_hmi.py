@@ -84,10 +84,13 @@ def measure(pages: int, seconds: float) -> dict[str, Any]:
     procs.append(node)
     try:
         url = _hmi_url(node)
+        NODE_TAIL.clear()
         with sync_playwright() as playwright:
             browser = launch_chromium(playwright)
             tabs = [browser.new_page() for _ in range(pages)]
             for tab in tabs:
+                if node.poll() is not None:
+                    raise RuntimeError(f"the drive node exited ({node.returncode}): {NODE_TAIL}")
                 tab.goto(url + "dashboard")
             for tab in tabs:
                 tab.wait_for_function("window.hmi && hmi.offsetS !== null && hmi.frames > 0",
@@ -145,11 +148,21 @@ def _hmi_url(node: subprocess.Popen[str]) -> str:
     for line in node.stderr:
         found = HMI_URL.search(line)
         if found:  # keep reading what follows, so the node never blocks on a full pipe
-            threading.Thread(target=node.stderr.read, daemon=True).start()
+            threading.Thread(target=_keep_tail, args=(node,), daemon=True).start()
             return found.group(1)
         if time.monotonic() > deadline:
             break
     raise RuntimeError(f"the drive node printed no HMI URL (exit {node.poll()})")
+
+
+NODE_TAIL: list[str] = []  # the node's last stderr lines, for a failure's message
+
+
+def _keep_tail(node: subprocess.Popen[str]) -> None:
+    assert node.stderr is not None
+    for line in node.stderr:
+        NODE_TAIL.append(line)
+        del NODE_TAIL[:-20]
 
 
 def _free_port() -> int:
