@@ -72,3 +72,36 @@ def test_mouse_look_stops_at_the_pitch_limit(pygame_dummy) -> None:  # noqa: F81
     pg.event.post(pg.event.Event(pg.MOUSEMOTION, rel=(0, -2000), pos=(0, 0), buttons=(0, 0, 0)))
     w, x, _, _ = headset.pose().orientation
     assert 2 * math.atan2(x, w) == pytest.approx(math.radians(60.0))  # about +x: looking up
+
+
+def test_a_gamepad_stick_walks_and_its_button_runs(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A real SDL virtual gamepad through the pygame backend: left stick and a run button."""
+    from carlaverse_nodes.walk.config import WalkNodeConfig
+
+    from carlaverse.hal import InputConfig, XrConfig
+    from tests.hal.sdl import VirtualJoystick
+
+    monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    pytest.importorskip("pygame")
+    pad = VirtualJoystick(axes=2, buttons=2, hats=0)
+    try:
+        mapping = {"axes": {"move_x": {"index": 0}, "move_y": {"index": 1, "invert": True}},
+                   "buttons": {"run": 0}}  # SDL's stick y grows backwards  # fmt: skip
+        config = WalkNodeConfig(xr=XrConfig(backend="mouse"),
+                                input=InputConfig(backend="pygame", options=mapping))  # fmt: skip
+        clock = ManualClock()
+        pad_input = open_input(config.input, clock=clock)
+        control = WalkControl(config, open_xr(config.xr, clock=clock), pad_input)
+        control.place(0.0, 0.0, math.pi / 2)  # the stage faces north
+        pad.axis(1, -1.0)  # stick fully forward
+        out = run(control, clock, 1.5)
+        assert out.speed_mps == pytest.approx(1.4, abs=1e-3)  # SDL axes are 16-bit
+        assert math.atan2(out.vy, out.vx) == pytest.approx(math.pi / 2)
+        pad.axis(0, 1.0)  # and fully right: north-east, still at most the walk speed
+        pad.button(0, True)  # run
+        out = run(control, clock, 2.5)
+        assert out.speed_mps == pytest.approx(3.0, abs=1e-3)
+        assert math.atan2(out.vy, out.vx) == pytest.approx(math.pi / 4, abs=1e-3)
+        pad_input.close()
+    finally:
+        pad.detach()
