@@ -149,7 +149,7 @@ class InputView:
         with self.parent:
             for name in sample.axes:
                 with ui.row().classes("w-full items-center no-wrap"):
-                    ui.label(name).classes("w-20 font-mono text-sm")
+                    ui.label(name).classes("w-24 font-mono text-sm")
                     bar = ui.linear_progress(value=0.5, show_value=False).classes("grow")
                     bar.props("instant-feedback")  # no easing: the bar is where the axis is
                     value = ui.label("").classes("w-16 font-mono text-sm")

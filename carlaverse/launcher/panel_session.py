@@ -7,7 +7,7 @@ its state by a timer, so two browsers on one launcher show the same thing.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 
 from nicegui import run, ui
 
@@ -51,40 +51,53 @@ async def _act(action: Callable[..., object], *args: object) -> None:
 
 
 def _start_cards(lab: Lab) -> None:
-    with ui.card().classes("w-full"):
-        ui.label("Demo").classes("text-lg font-medium")
-        ui.label("what `carlaverse demo` runs: router, authority, scripted nodes").classes(
-            "text-xs text-gray-500"
-        )
-        kinds = ui.input("node kinds", value="scripted,scripted,scripted").props("dense")
-        kinds.props("data-testid=demo-kinds")
+    _demo_card(lab)
+    _router_card(lab)
+    _node_card(lab)
+
+
+def _card(title: str, note: str = "") -> ui.card:
+    card = ui.card().classes("w-full")
+    with card:
+        ui.label(title).classes("text-lg font-medium")
+        if note:
+            ui.label(note).classes("text-xs text-gray-500")
+    return card
+
+
+def _demo_card(lab: Lab) -> None:
+    with _card("Demo", "what `carlaverse demo` runs: router, authority, scripted nodes"):
+        kinds = ui.input("node kinds", value="scripted,scripted,scripted")
+        kinds.props("dense data-testid=demo-kinds")
         with ui.row().classes("no-wrap"):
             duration = ui.number("duration s", value=120, min=1).props("dense")
             scenario = ui.input("scenario", value="town").props("dense data-testid=demo-scenario")
-        ui.button(
-            "Start demo",
-            icon="play_arrow",
-            on_click=lambda: _act(
-                lab.start_demo, _kinds(kinds.value), float(duration.value or 1), scenario.value
-            ),
-        ).props("data-testid=start-demo")
-    with ui.card().classes("w-full"):
-        ui.label("Router and authority").classes("text-lg font-medium")
-        ui.label(f"session {lab.session!r} on {lab.endpoint}").classes("text-xs text-gray-500")
+
+        def start() -> Awaitable[None]:
+            seconds = float(duration.value or 1)
+            return _act(lab.start_demo, _kinds(kinds.value), seconds, scenario.value)
+
+        ui.button("Start demo", icon="play_arrow", on_click=start).props("data-testid=start-demo")
+
+
+def _router_card(lab: Lab) -> None:
+    with _card("Router and authority", f"session {lab.session!r} on {lab.endpoint}"):
         ui.button("Start router", on_click=lambda: _act(lab.start_router))
         scenario = ui.input("scenario", value="town").props("dense")
         ui.button("Start authority", on_click=lambda: _act(lab.start_authority, scenario.value))
-    with ui.card().classes("w-full"):
-        ui.label("Node").classes("text-lg font-medium")
+
+
+def _node_card(lab: Lab) -> None:
+    with _card("Node", "joins the lab's session; no config: headless on sim devices"):
         kind = ui.select(lab.node_kinds, label="kind", value="scripted").props("dense")
         node_id = ui.input("id", value="node-1").props("dense")
-        config = ui.input("config file (optional)", placeholder="path or shipped name").props(
-            "dense"
-        )
-        ui.button(
-            "Start node", on_click=lambda: _act(lab.start_node, kind.value, node_id.value,
-                                                config.value)
-        )  # fmt: skip
+        config = ui.input("config file (optional)", placeholder="path or shipped name")
+        config.props("dense")
+
+        def start() -> Awaitable[None]:
+            return _act(lab.start_node, kind.value, node_id.value, config.value)
+
+        ui.button("Start node", on_click=start)
 
 
 def _kinds(text: str) -> list[str]:

@@ -1,0 +1,53 @@
+"""The launcher's session view on a real session: nodes of two sites, each with its site and a
+measured pose rate, latency and loss, as an observer of the fabric sees them."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+import yaml
+
+from carlaverse.launcher.presence import PresenceRow, SessionWatch
+from tests.support import Cluster, wait_until
+
+SITES = {"car-zh": "zurich", "car-be": "berlin"}
+
+
+@pytest.fixture
+def cluster(tmp_path: Path) -> Iterator[Cluster]:
+    cluster = Cluster(tmp_path)
+    try:
+        yield cluster
+    finally:
+        cluster.close()
+
+
+def _measured(rows: list[PresenceRow]) -> dict[str, PresenceRow]:
+    return {r.node_id: r for r in rows if r.node_id in SITES and r.site and r.rate_hz > 0}
+
+
+def test_watch_lists_nodes_with_their_sites_rates_and_loss(cluster: Cluster) -> None:
+    cluster.router()
+    cluster.authority()
+    for node_id, site in SITES.items():
+        config = cluster.tmp / f"{node_id}.yaml"
+        config.write_text(yaml.safe_dump({"node": {"site": site}}))
+        cluster.scripted(node_id, config, "--duration", "60")
+    watch = SessionWatch(cluster.endpoint, "t", observer_id="launcher-test").start()
+    try:
+        rows = wait_until(
+            lambda: len(_measured(watch.rows())) == 2 and _measured(watch.rows()),
+            45,
+            "both nodes with site and pose rate",
+        )
+    finally:
+        watch.close()
+    assert {node_id: row.site for node_id, row in rows.items()} == SITES
+    for row in rows.values():
+        assert row.kind == "scripted"
+        assert 0 <= row.latency_p50_ms <= row.latency_p99_ms < 1000  # loopback, loaded host
+        assert 0 <= row.loss <= 1
+    ordered = [r.node_id for r in watch.rows() if r.node_id in SITES]
+    assert ordered == ["car-be", "car-zh"]  # by site: berlin before zurich
