@@ -10,7 +10,7 @@ from pathlib import Path
 
 from carlaverse.cli.common import fail
 from carlaverse.cli.demo import free_port
-from carlaverse.keys import KeySpaceError
+from carlaverse.keys import KeySpaceError, check_token
 
 DEFAULT_PORT = 8470
 
@@ -53,20 +53,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # joysticks without a display
-    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
     try:
+        check_token(args.session, "session name")  # before the web stack's seconds of import
         from carlaverse.launcher.app import serve
         from carlaverse.launcher.lab import Lab
+    except KeySpaceError as exc:
+        return fail("launcher", str(exc))
     except ModuleNotFoundError as exc:
         return fail("launcher", f"needs {exc.name}: pip install 'carlaverse[launcher]'")
     if not _loopback(args.bind):
         print(f"carlaverse launcher: serving on {args.bind}, reachable from the network; "
               "anyone who reaches it can start processes here", file=sys.stderr)  # fmt: skip
-    try:
-        lab = Lab(args.session, args.router or f"tcp/127.0.0.1:{free_port()}")
-    except KeySpaceError as exc:
-        return fail("launcher", str(exc))
+    os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # joysticks without a display
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
+    lab = Lab(args.session, args.router or f"tcp/127.0.0.1:{free_port()}")
     url = f"http://{args.bind}:{args.port}/"
     try:
         serve(lab, args.config_dir, args.bind, args.port, not args.no_browser,

@@ -7,7 +7,6 @@ server — Ctrl-C, SIGTERM, or closing the launcher otherwise — stops every pr
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable
 from pathlib import Path
 
@@ -17,8 +16,6 @@ from carlaverse.launcher.lab import Lab
 from carlaverse.launcher.panel_config import ConfigEditor
 from carlaverse.launcher.panel_hardware import hardware_panel
 from carlaverse.launcher.panel_session import session_panel
-
-log = logging.getLogger(__name__)
 
 TITLE = "CARLAverse launcher"
 

@@ -11,6 +11,7 @@ from collections.abc import Awaitable, Callable
 
 from nicegui import run, ui
 
+from carlaverse.config import shipped_dir
 from carlaverse.keys import KeySpaceError
 from carlaverse.launcher.lab import Lab
 from carlaverse.launcher.presence import PresenceRow
@@ -91,13 +92,20 @@ def _node_card(lab: Lab) -> None:
     with _card("Node", "joins the lab's session; no config: headless on sim devices"):
         kind = ui.select(lab.node_kinds, label="kind", value="scripted").props("dense")
         node_id = ui.input("id", value="node-1").props("dense")
-        config = ui.input("config file (optional)", placeholder="path or shipped name")
+        config = ui.input(
+            "config file (optional)", placeholder="path or shipped name", autocomplete=_shipped()
+        )
         config.props("dense")
 
         def start() -> Awaitable[None]:
             return _act(lab.start_node, kind.value, node_id.value, config.value)
 
         ui.button("Start node", on_click=start)
+
+
+def _shipped() -> list[str]:
+    """Names of the shipped node configs, offered as the config field is typed."""
+    return sorted(p.stem for p in shipped_dir().glob("*.yaml"))
 
 
 def _kinds(text: str) -> list[str]:
@@ -119,16 +127,20 @@ def _processes_and_logs(lab: Lab) -> None:
             stop_all.props("data-testid=stop-all")
         table = ui.table(rows=[], columns=PROCESS_COLUMNS, row_key="name")
         table.classes("w-full cursor-pointer").props("dense flat data-testid=processes")
+        table.props('no-data-label="nothing started yet"')
         with ui.row().classes("items-center"):
             log_title = ui.label("log: click a process").classes("font-mono text-sm")
-            stop_one = ui.button("Stop it", on_click=lambda: _act(lab.stop, selected["name"]))
+            stop_one = ui.button("", on_click=lambda: _act(lab.stop, selected["name"]))
             stop_one.props("dense flat color=negative data-testid=stop-selected")
+            stop_one.set_visibility(False)
         log = ui.log(max_lines=1000).classes("w-full h-64 text-xs").props("data-testid=log")
 
     def choose(name: str) -> None:
         selected["name"], selected["next"] = name, 0
         log.clear()
         log_title.text = f"log: {name}"
+        stop_one.text = f"stop {name}"
+        stop_one.set_visibility(True)
 
     table.on("rowClick", lambda e: choose(e.args[1]["name"]))
 
@@ -158,6 +170,7 @@ def _presence(lab: Lab) -> None:
         )
         table = ui.table(rows=[], columns=PRESENCE_COLUMNS, row_key="node_id")
         table.classes("w-full").props("dense flat data-testid=presence")
+        table.props('no-data-label="nobody is in the session"')
 
     def refresh() -> None:
         rows = [_presence_row(r) for r in lab.presence()]

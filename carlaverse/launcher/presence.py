@@ -20,6 +20,7 @@ from carlaverse.cli.stats import summaries
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
 from carlaverse.fabric.session import FabricError, FabricSettings, open_session
+from carlaverse.fabric.stats import StreamSummary
 
 log = logging.getLogger(__name__)
 
@@ -106,11 +107,12 @@ class SessionWatch:
 
 
 def presence_rows(
-    present: set[str], stats: dict[str, object], roster: dict[str, m.EgoInfo]
+    present: set[str], stats: dict[str, StreamSummary], roster: dict[str, m.EgoInfo]
 ) -> list[PresenceRow]:
-    """One row per node that is present or has published poses, sorted by site then id."""
+    """One row per node present now (its liveliness token seen, not yet gone), sorted by
+    site then id; a node that left keeps its statistics in `stats` but is not listed."""
     rows = []
-    for node_id in sorted(set(present) | set(stats) | set(roster)):
+    for node_id in sorted(present):
         info = roster.get(node_id)
         summary = stats.get(node_id)
         measured = msgspec.structs.asdict(summary) if summary is not None else {}

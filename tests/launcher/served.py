@@ -58,7 +58,7 @@ class ServedLauncher:
         for process in self.seen.values():
             try:
                 if process.is_running() and process.status() != psutil.STATUS_ZOMBIE:
-                    alive.append(f"{process.pid} {' '.join(process.cmdline()[:6])}")
+                    alive.append(f"{process.pid} {' '.join(process.cmdline()[:8])}")
             except psutil.NoSuchProcess:
                 continue
         return alive

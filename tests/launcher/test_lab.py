@@ -39,7 +39,8 @@ def test_presence_rows_join_stats_and_roster_by_site() -> None:
         "car-b": m.EgoInfo("car-b", "drive", "car", m.Extent(), 1500.0, site="berlin"),
         "car-a": m.EgoInfo("car-a", "scripted", "car", m.Extent(), 1500.0, site="zurich"),
     }
-    rows = presence_rows({"car-a", "car-b", "new"}, {"car-a": summary}, roster)
+    stats = {"car-a": summary, "left": summary}  # `left` published, then went away
+    rows = presence_rows({"car-a", "car-b", "new"}, stats, roster)
     assert [(r.node_id, r.site) for r in rows] == [("new", ""), ("car-b", "berlin"),
                                                   ("car-a", "zurich")]  # fmt: skip
     measured = rows[2]

@@ -84,6 +84,7 @@ def test_demo_shows_its_nodes_and_stop_leaves_nothing_running(
     page.get_by_test_id("stop-all").click()
     wait_until(lambda: "running" not in _table_text(page, "processes"), 30, "every process stopped")
     wait_until(lambda: not _session_children(launcher), 15, "no session process left")
+    wait_until(lambda: not any(n in presence.inner_text() for n in DEMO_NODES), 15, "nobody listed")
     assert _session_children(launcher) == []
     save_screenshot(page, screenshot_dir, "launcher-stopped")
 
