@@ -116,6 +116,30 @@ def test_tapping_low_beam_turns_the_lights_on_the_fabric(
     assert page.errors == []
 
 
+def test_cruise_set_and_cancel_from_the_touchscreen(
+    drive: tuple[Cluster, Proc, str], page: Page, screenshot_dir: Path
+) -> None:
+    cluster, _, url = drive
+    fabric = Fabric(cluster, "car")
+    page.goto(url + "touch")
+    page.wait_for_function("window.hmi && hmi.frames > 0 && hmi.info", timeout=30000)
+    page.locator('button[data-action="set"]').click()  # hold the speed it has now
+
+    def adas_on_fabric() -> bool:
+        state = fabric.last_state()
+        return state is not None and state.adas != ""
+
+    wait_until(adas_on_fabric, 10, "the cruise override in the car's EgoState.adas")
+    page.wait_for_function("hmi.last.cruise_active && hmi.last.cruise_speed_mps > 5")
+    readout = page.locator('.cruise_panel [data-readout="cruise"]')
+    assert readout.text_content().startswith("holding ")
+    save_screenshot(page, screenshot_dir, "hmi-drive-cruise")
+    page.locator('button[data-action="cancel"]').click()
+    wait_until(lambda: not adas_on_fabric(), 10, "EgoState.adas empty again after cancel")
+    page.wait_for_function("!hmi.last.cruise_active")
+    assert page.errors == []
+
+
 def test_the_hmi_listens_on_loopback_only(drive: tuple[Cluster, Proc, str]) -> None:
     _, node, url = drive
     port = int(url.rsplit(":", 1)[1].strip("/"))
