@@ -42,6 +42,7 @@ class ConfigEditor:
             ui.button("Open", icon="folder_open", on_click=self.open).props(
                 "data-testid=config-open"
             )
+            ui.button("New", icon="note_add", on_click=self.new).props("data-testid=config-new")
             ui.button("Save", icon="save", on_click=self.save).props("data-testid=config-save")
         self.status = ui.label("").props("data-testid=config-status").classes("text-sm")
         self.error_box = ui.column().props("data-testid=config-errors").classes("gap-0")
@@ -51,16 +52,28 @@ class ConfigEditor:
             self.form = ui.column().classes("grow gap-1")
 
     def open(self) -> None:
+        """Edit the file named in `open`, with the schema chosen or told by the file."""
         kind = None if self.kind.value == "auto" else self.kind.value
         try:
-            self.draft = ConfigDraft.open(self.source.value, Path(self.target.value), kind)
+            draft = ConfigDraft.open(self.source.value, Path(self.target.value), kind)
         except ConfigError as exc:
             self._say(str(exc), ok=False)
             return
-        self.tree.props["nodes"] = [_tree_nodes(self.draft.tree)]
+        self._edit(draft, f"{draft.kind} config from {self.source.value}")
+
+    def new(self) -> None:
+        """Start an empty file of the chosen schema: every field at its default."""
+        if self.kind.value == "auto":
+            self._say("choose a schema for the new file", ok=False)
+            return
+        self._edit(ConfigDraft(self.kind.value, Path(self.target.value)), "new, all defaults")
+
+    def _edit(self, draft: ConfigDraft, what: str) -> None:
+        self.draft = draft
+        self.tree.props["nodes"] = [_tree_nodes(draft.tree, set())]
         self.tree.update()
         self.tree.expand()
-        self._say(f"{self.draft.kind} config from {self.source.value}", ok=True)
+        self._say(f"{draft.kind}: {what}", ok=True)
         self._revalidate()
         self._show_section("")
 
@@ -130,6 +143,10 @@ class ConfigEditor:
         self._show_errors()
 
     def _show_errors(self) -> None:
+        if self.draft is not None:  # a mark on every section above an error
+            flagged = {p for e in self.errors for p in [*_ancestors(e.path), e.path]}
+            self.tree.props["nodes"] = [_tree_nodes(self.draft.tree, flagged)]
+            self.tree.update()
         self.error_box.clear()
         with self.error_box:
             for error in self.errors:
@@ -154,12 +171,19 @@ class ConfigEditor:
         self.status.classes(replace="text-sm " + ("text-green-700" if ok else "text-red-700"))
 
 
-def _tree_nodes(section: Section) -> dict[str, Any]:
+def _tree_nodes(section: Section, flagged: set[str]) -> dict[str, Any]:
+    mark = " ⚠" if section.path in flagged else ""
     return {
         "id": section.path or "root",
-        "label": section.name,
-        "children": [_tree_nodes(child) for child in section.sections],
+        "label": section.name + mark,
+        "children": [_tree_nodes(child, flagged) for child in section.sections],
     }
+
+
+def _ancestors(path: str) -> list[str]:
+    """The file ("") and every section above a field path: `a.b.c` → "", a, a.b."""
+    parts = path.split(".") if path else []
+    return ["", *(".".join(parts[:i]) for i in range(1, len(parts)))]
 
 
 def _show(value: Any) -> str:

@@ -121,6 +121,7 @@ def test_config_editor_rejects_then_saves(
     error = "road.grade_percent: Expected `float` <= 40.0"
     shows(page.get_by_test_id("config-errors"), error)
     shows(field, "Expected `float` <= 40.0")  # under the field itself
+    shows(page.get_by_test_id("config-tree"), "road ⚠")  # and its section marked in the tree
     page.get_by_test_id("config-save").click()
     shows(page.get_by_test_id("config-status"), "not saved")
     assert not target.exists()
@@ -128,6 +129,7 @@ def test_config_editor_rejects_then_saves(
 
     grade.fill("5.5")
     shows(page.get_by_test_id("config-errors"), "valid")
+    expect(page.get_by_test_id("config-tree")).not_to_contain_text("⚠")
     page.get_by_test_id("config-save").click()
     shows(page.get_by_test_id("config-status"), f"saved {target}")
     assert yaml.safe_load(target.read_text())["road"]["grade_percent"] == 5.5
