@@ -9,10 +9,8 @@ tick time; a node without a pose (an observer) has no place to hear from.
 from __future__ import annotations
 
 import math
-import time
-from collections import deque
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -28,9 +26,8 @@ from carlaverse.traffic.soundscape import AudioSpec
 
 @dataclass(slots=True)
 class SoundStats:
-    scenes: int = 0
-    emitters: int = 0
-    compute_ms: deque[float] = field(default_factory=lambda: deque(maxlen=10_000))
+    scenes: int = 0  # sent, all listeners together
+    emitters: int = 0  # in those scenes
 
 
 class SoundPublisher:
@@ -56,10 +53,7 @@ class SoundPublisher:
             return
         period = 1.0 / self._spec.rate_hz
         self._next_t = max(self._next_t + period, t + period / 2)
-        began = time.perf_counter()
-        scenes = self.scenes(t, egos, frame, weather, out.next_seq)
-        self.stats.compute_ms.append((time.perf_counter() - began) * 1e3)
-        for scene in scenes:
+        for scene in self.scenes(t, egos, frame, weather, out.next_seq):
             out.audio(scene.listener, scene)
             self.stats.scenes += 1
             self.stats.emitters += len(scene.emitters)

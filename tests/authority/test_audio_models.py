@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from carlaverse.authority.actors import EgoNow
+from carlaverse.authority.memory_outbox import MemoryOutbox
 from carlaverse.authority.sound_areas import ListenerAreas, MapAreaSources
 from carlaverse.authority.sound_audibility import audible
 from carlaverse.authority.sound_models import EngineBank, TyreBank
@@ -193,3 +194,18 @@ def test_every_scene_is_valid_on_the_wire_and_capped() -> None:
         assert len(scene.emitters) == 16
         assert AUDIO_SCENE.decode(AUDIO_SCENE.encode(scene)) == scene
     assert {e.kind for s in scenes for e in s.emitters} >= {"engine", "tyres", "rain", "wind"}
+
+
+def test_scenes_go_out_at_the_audio_rate_from_a_faster_tick_and_not_when_disabled() -> None:
+    egos = [ego("a", 0, 0), ego("b", 10, 0)]
+    out = MemoryOutbox()
+    publisher = SoundPublisher(AudioSpec(rate_hz=20.0), [])
+    for k in range(500):  # ten seconds of a 50 Hz authority tick
+        publisher.tick(1000.0 + k * 0.02, egos, frame([]), None, out)
+    times = [scene.t for node, scene in out.audio_scenes if node == "a"]
+    assert len(times) == 201 and publisher.stats.scenes == 2 * 201  # 20 Hz, and one at t = 0
+    assert max(np.diff(times)) == pytest.approx(0.06)  # never late by more than one tick
+    quiet = MemoryOutbox()
+    SoundPublisher(AudioSpec(enabled=False), []).tick(0.0, egos, frame([]), None, quiet)
+    SoundPublisher(AudioSpec(), []).tick(0.0, [], frame([]), None, quiet)  # nobody to hear
+    assert quiet.audio_scenes == []
