@@ -1,4 +1,4 @@
-"""The lab's refusals, the presence rows and the hardware checks on simulated devices."""
+"""The lab's refusals and the presence rows it lists."""
 
 from __future__ import annotations
 
@@ -8,9 +8,7 @@ import pytest
 
 from carlaverse import messages as m
 from carlaverse.fabric.stats import StreamSummary
-from carlaverse.hal.errors import HalError
 from carlaverse.keys import KeySpaceError
-from carlaverse.launcher import hardware
 from carlaverse.launcher.lab import Lab
 from carlaverse.launcher.presence import presence_rows
 from carlaverse.launcher.processes import LaunchError
@@ -47,31 +45,3 @@ def test_presence_rows_join_stats_and_roster_by_site() -> None:
     assert (measured.kind, measured.rate_hz, measured.latency_p99_ms, measured.loss) == (
         "scripted", 50.0, 4.0, 0.01)  # fmt: skip
     assert math.isnan(rows[1].rate_hz)  # present, no pose yet
-
-
-def test_ffb_pulses_end_with_all_forces_off_on_the_sim_device() -> None:
-    lines: list[str] = []
-    sent = hardware.ffb_pulses({"backend": "sim"}, lines.append, step_s=0.02, rate_hz=100)
-    assert sent == 10 * 2  # ten steps of two commands
-    assert lines[0] == "ffb: spring to centre" and lines[-2] == "ffb: all forces off"
-
-
-def test_motion_neutral_and_trainer_scan_on_sim_devices() -> None:
-    lines: list[str] = []
-    assert hardware.motion_neutral({"backend": "sim"}, lines.append, step_s=0.05)
-    found = hardware.trainer_scan({"backend": "ftms_sim"}, lines.append)
-    assert len(found) == 1 and "ftms_sim answers; first sample" in found[0]
-    assert lines[-1] == f"trainer: {found[0]}"
-
-
-def test_sim_joystick_moves_and_unknown_backend_is_one_line() -> None:
-    watch = hardware.JoystickWatch()
-    try:
-        first = watch.sample()
-        assert set(first.axes) == {"steer", "throttle", "brake"}
-        assert set(first.buttons) == {"a", "b"}
-    finally:
-        watch.close()
-    with pytest.raises(HalError, match="backend 'wheel'") as info:
-        hardware.JoystickWatch({"backend": "wheel"})
-    assert "\n" not in str(info.value)
