@@ -13,11 +13,12 @@ from dataclasses import dataclass
 
 from panda3d.core import Camera, DisplayRegion, NodePath, PerspectiveLens
 
+from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.render.frame import ActorDraw
 from carlaverse.render.graphics import Graphics
 from carlaverse.render.meshes import Color
 from carlaverse.render.rig import CameraView, RigLayout
-from carlaverse.render.stereo import off_axis_lens
+from carlaverse.render.stereo import aim_off_axis, off_axis_lens
 
 NEAR_M = 0.1  # [m] near clip plane: close enough for a cockpit
 
@@ -65,6 +66,8 @@ class CameraRig:
         self.head = self.anchor.attach_new_node("head")
         self.head.set_pos(-head.y, head.x, head.z)  # anchor frame: +x right, +y forward
         self.regions: list[DisplayRegion] = []
+        self.eye_lenses: list[PerspectiveLens] = []  # an xr rig's, left then right
+        self.far_m = far_m
         for view in rig.cameras:
             self.regions.append(self._camera(world, graphics, view, far_m))
 
@@ -73,6 +76,7 @@ class CameraRig:
     ) -> DisplayRegion:
         if view.frustum is not None:  # a headset's eye: its own asymmetric frustum
             lens = off_axis_lens(view.frustum, NEAR_M, far_m)
+            self.eye_lenses.append(lens)
         else:
             lens = PerspectiveLens()
             lens.set_fov(math.degrees(view.fov_h), math.degrees(view.fov_v))
@@ -87,6 +91,11 @@ class CameraRig:
         region.set_clear_color_active(True)
         region.set_clear_depth_active(True)
         return region
+
+    def set_eye_frusta(self, eyes: tuple[EyeFov, ...]) -> None:
+        """Draw the eyes with these frusta from now on (the headset's, which may change)."""
+        for lens, fov in zip(self.eye_lenses, eyes, strict=False):
+            aim_off_axis(lens, fov)
 
     def place(self, eye: Eye) -> None:
         self.anchor.set_pos_hpr(

@@ -28,6 +28,7 @@ from carlaverse import messages as m
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import JoinRefused, NodeClient, NodeSettings
 from carlaverse.fabric.world_view import WorldView
+from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.keys import KeySpaceError, parse
 from carlaverse.render.frame import (
     ActorDraw,
@@ -56,15 +57,20 @@ class OwnPoseBlock:
     """Where a node exports its own pose: a seqlock block (`carlaverse.shm`) of `dtype`.
 
     The dtype needs the fields `t, x, y, yaw`; `lights` (LIGHT_* bits), `pitch` and `roll`
-    (a walker's head: the first-person camera nods and tilts with it) and `running` (0 until
-    the loop's first tick) are used when present. The node kind names the block and its
-    dtype, so this library never imports a node kind.
+    (a walker's head: the first-person camera nods and tilts with it), `eyes` with
+    `<left|right>_eye_<left|right|up|down>` (a headset's eye frusta [rad], which an `xr` rig
+    draws with) and `running` (0 until the loop's first tick) are used when present. The node
+    kind names the block and its dtype, so this library never imports a node kind.
     """
 
     name: str
     dtype: np.dtype
     kind: str = "car"
     extent: m.Extent = CAR_EXTENT
+
+
+EYES = ("left_eye", "right_eye")  # a walker's block: `eyes` set, then <eye>_<edge> [rad]
+EDGES = ("left", "right", "up", "down")
 
 
 class OwnPose:
@@ -78,6 +84,7 @@ class OwnPose:
         self.actor_id = actor_id
         self._block: SharedBlock | None = None
         self.torn_reads = 0
+        self.eyes: tuple[EyeFov, EyeFov] | None = None  # a headset's, from the last read
 
     def actor(self) -> ActorDraw | None:
         """The node's actor now, or None before its loop runs."""
@@ -87,6 +94,7 @@ class OwnPose:
         names = self.spec.dtype.names or ()
         if "running" in names and not record["running"]:
             return None
+        self.eyes = _eye_fovs(record) if "eyes" in names else None
         size = self.spec.extent
         lights = int(record["lights"]) if "lights" in names else 0
         pitch, roll = (float(record[f]) if f in names else 0.0 for f in ("pitch", "roll"))
@@ -141,6 +149,13 @@ def joint_angles(skeleton: m.Skeleton) -> JointAngles:
     values = np.frombuffer(skeleton.angles, dtype="<f4").reshape(-1, 3)
     return {name: (float(r), float(p), float(y)) for name, (r, p, y) in zip(
         skeleton.joints, values, strict=True)}  # fmt: skip
+
+
+def _eye_fovs(record: np.void) -> tuple[EyeFov, EyeFov] | None:
+    if not record["eyes"]:
+        return None
+    left, right = (EyeFov(*(float(record[f"{eye}_{e}"]) for e in EDGES)) for eye in EYES)
+    return left, right
 
 
 class LiveWorld:

@@ -159,6 +159,9 @@ def _loop(spec: ViewSpec, stop: Any, world: Any, renderer: Any, summary: ViewSum
     while not stop.is_set() and (parent is None or parent.is_alive()):
         started = time.perf_counter()
         frame = world.frame()
+        eyes = world.own.eyes if world.own is not None else None
+        if eyes is not None:  # a walker's headset reports its eyes: draw with those
+            renderer.rig.set_eye_frusta(eyes)
         renderer.draw(frame, **aim(spec.camera, frame, world.node_id))
         if renderer.graphics.closed():
             break  # the user closed the window: the view ends, the node goes on

@@ -29,7 +29,7 @@ from typing import Annotated, Literal
 import msgspec
 
 from carlaverse.config import StrictStruct
-from carlaverse.hal.xr.fov import EyeFov
+from carlaverse.hal.xr.fov import EyeAngles, EyeFov
 
 Degrees = Annotated[float, msgspec.Meta(gt=0.0, lt=180.0)]
 Pixels = Annotated[int, msgspec.Meta(ge=8, le=16384)]
@@ -85,19 +85,14 @@ class ManualRig(StrictStruct, tag="manual", tag_field="mode"):
     head: HeadPosition = HeadPosition()
 
 
-class XrEye(StrictStruct):
-    """One eye's field of view as OpenXR reports it [deg]: left and down negative."""
-
-    left_deg: Annotated[float, msgspec.Meta(gt=-90.0, lt=90.0)]
-    right_deg: Annotated[float, msgspec.Meta(gt=-90.0, lt=90.0)]
-    up_deg: Annotated[float, msgspec.Meta(gt=-90.0, lt=90.0)]
-    down_deg: Annotated[float, msgspec.Meta(gt=-90.0, lt=90.0)]
+XrEye = EyeAngles  # one eye's field of view [deg], as OpenXR reports it
 
 
 class XrRig(StrictStruct, tag="xr", tag_field="mode"):
     """A headset: two eyes side by side, each drawn with its own asymmetric frustum (an
     off-axis lens, `render/stereo.py`); the defaults are wider outwards than towards the nose,
-    as headsets are — paste the runtime's angles for a given headset."""
+    as headsets are. A walk node whose headset reports its eyes (OpenXR, or the sim's
+    `eyes:`) overrides them with the runtime's angles every frame."""
 
     eye_resolution: Resolution = Resolution(width=1024, height=1024)
     left_eye: XrEye = XrEye(left_deg=-50.0, right_deg=40.0, up_deg=45.0, down_deg=-50.0)
@@ -248,8 +243,7 @@ def _xr(rig: XrRig) -> RigLayout:
     cams = []
     for j, (name, eye, side) in enumerate((("left_eye", rig.left_eye, 1.0),
                                            ("right_eye", rig.right_eye, -1.0))):  # fmt: skip
-        fov = EyeFov(*(math.radians(a) for a in (eye.left_deg, eye.right_deg, eye.up_deg,
-                                                  eye.down_deg)))  # fmt: skip
+        fov = eye.fov()
         viewport = (j / 2, (j + 1) / 2, 0.0, 1.0)
         cams.append(CameraView(name, 0, viewport, 0.0, 0.0, 0.0, fov.right - fov.left,
                                fov.up - fov.down, w, h, fov, side * rig.ipd_m / 2))  # fmt: skip

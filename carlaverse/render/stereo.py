@@ -17,10 +17,15 @@ from carlaverse.hal.xr.fov import EyeFov
 
 def off_axis_lens(fov: EyeFov, near_m: float, far_m: float) -> PerspectiveLens:
     """A lens whose frustum is the eye's `fov` [rad], clipped at `near_m`..`far_m`."""
-    tl, tr, td, tu = fov.tangents
     lens = PerspectiveLens()
     lens.set_near_far(near_m, far_m)
+    aim_off_axis(lens, fov)
+    return lens
+
+
+def aim_off_axis(lens: PerspectiveLens, fov: EyeFov) -> None:
+    """Give `lens` the eye's frustum: film one unit ahead, sized and offset to it."""
+    tl, tr, td, tu = fov.tangents
     lens.set_focal_length(1.0)
     lens.set_film_size(tr - tl, tu - td)
     lens.set_film_offset((tr + tl) / 2, (tu + td) / 2)
-    return lens

@@ -9,6 +9,7 @@ array, see `walkable.Walkable.to_arrays`) and impulses (counted: a pedestrian is
 from __future__ import annotations
 
 import logging
+import math
 import queue
 import time
 from dataclasses import dataclass
@@ -23,6 +24,7 @@ from carlaverse_nodes.walk.walkable import Walkable
 from carlaverse.hal import open_input, open_xr
 from carlaverse.messages import Impulse
 from carlaverse.realtime import Pacer, raise_priority
+from carlaverse.render.live import EDGES, EYES
 from carlaverse.shm import SharedBlock, new_record
 
 log = logging.getLogger(__name__)
@@ -125,7 +127,15 @@ class WalkRunner:
         r["running_pace"], r["interact"], r["tracked"] = out.running_pace, out.interact, out.tracked
         r["ticks"], r["snaps"] = self.ticks, self.walk.snaps
         r["running"] = 1
+        self._eyes(r)
         self.state.write(r)
+
+    def _eyes(self, r: Any) -> None:
+        eyes = self.headset.eye_fovs()
+        r["eyes"] = eyes is not None
+        for side, fov in zip(EYES, eyes or (), strict=False):
+            for edge in EDGES:
+                r[f"{side}_{edge}"] = getattr(fov, edge)
 
     def summary(self) -> dict[str, Any]:
         walkable = self.walk.walkable
@@ -138,6 +148,7 @@ class WalkRunner:
             "walkable_segments": len(walkable) if walkable is not None else None,
             "impulses_received": self.impulses,
             "headset": type(self.headset).__name__,
+            "eyes_deg": _eyes_deg(self.headset.eye_fovs()),
         }
 
     def close(self) -> None:
@@ -148,3 +159,10 @@ class WalkRunner:
                 device.close()
             except Exception:  # closing must not hide the summary; log it
                 log.exception("closing %s failed", type(device).__name__)
+
+
+def _eyes_deg(eyes: Any) -> list[list[float]] | None:
+    """Each eye's (left, right, up, down) [deg] for the report, as the headset gave them."""
+    if eyes is None:
+        return None
+    return [[round(math.degrees(a), 3) for a in (e.left, e.right, e.up, e.down)] for e in eyes]

@@ -42,6 +42,10 @@ SIM_SCRIPT = [  # the headless walker of `--backend sim`: stroll, look around, j
     {"t": 12.0, "axes": {"move_y": 0.6, "move_x": 0.4}, "buttons": {"run": False}},
     {"t": 20.0, "axes": {"move_y": 0.0, "move_x": 0.0}},
 ]
+SIM_EYES = {  # what a runtime reports for a typical headset [deg]: wider outwards
+    "left": {"left_deg": -52.0, "right_deg": 42.0, "up_deg": 46.0, "down_deg": -50.0},
+    "right": {"left_deg": -42.0, "right_deg": 52.0, "up_deg": 46.0, "down_deg": -50.0},
+}
 
 
 def preflight_headset(cfg: XrConfig) -> None:
@@ -85,8 +89,9 @@ class WalkNode:
         """Every device simulated: a standing walker strolls, jogs and looks around."""
         if backend != "sim":
             raise ValueError(f"--backend {backend!r}: the walk node can force only 'sim'")
-        headset = XrConfig(backend="sim", options={"posture": "standing", "script": SIM_SCRIPT,
-                                                   "yaw_amplitude_rad": 0.3})  # fmt: skip
+        options = {"posture": "standing", "script": SIM_SCRIPT, "yaw_amplitude_rad": 0.3,
+                   "eyes": SIM_EYES}  # fmt: skip
+        headset = XrConfig(backend="sim", options=options)
         return msgspec.structs.replace(config, xr=headset, input=None)
 
     def start(self, session: str, node_id: str, offset: float) -> None:

@@ -1,7 +1,8 @@
 """The walk node's shared-memory layout (see the drive node's for the pattern).
 
 `STATE` is written by the loop process every tick and read by the fabric process (the pose)
-and by a `--view` render process (the first-person camera: the head's position and angles).
+and by a `--view` render process (the first-person camera: the head's position and angles,
+and each eye's frustum when the headset reports it).
 `CONTROL` is written by the fabric process: the session-clock offset and the spawn pose.
 """
 
@@ -21,6 +22,12 @@ STATE = np.dtype(
         ("running_pace", "u1"), ("interact", "u1"), ("tracked", "u1"),
         ("ticks", "<u8"), ("snaps", "<u8"),
         ("running", "u1"),
+        # the headset's eyes as it reports them [rad] (names: `render.live.EYES, EDGES`)
+        ("eyes", "u1"),
+        ("left_eye_left", "<f8"), ("left_eye_right", "<f8"),
+        ("left_eye_up", "<f8"), ("left_eye_down", "<f8"),
+        ("right_eye_left", "<f8"), ("right_eye_right", "<f8"),
+        ("right_eye_up", "<f8"), ("right_eye_down", "<f8"),
     ]
 )  # fmt: skip
 

@@ -67,3 +67,28 @@ def test_each_eye_sees_a_car_ahead_where_its_frustum_puts_it(save_shot) -> None:
     # 200, the right eye at 100: the nasal sides are narrower.
     assert np.flatnonzero(changed(with_car[0], without[0]).any(axis=0)).mean() > 180
     assert np.flatnonzero(changed(with_car[1], without[1]).any(axis=0)).mean() < 120
+
+
+def test_the_headsets_own_frusta_replace_the_rig_files() -> None:
+    """`set_eye_frusta` (the view does it each frame with the headset's angles): the left eye
+    given the right eye's frustum sees the car where that frustum puts it."""
+    from carlaverse.render.renderer import Renderer
+
+    rig = XrRig(eye_resolution=Resolution(width=EYE_PX, height=EYE_PX), left_eye=LEFT_EYE,
+                right_eye=RIGHT_EYE, ipd_m=0.0, head=HeadPosition(z=EYE_Z))  # fmt: skip
+    me = car("me", 0.0, 0.0, kind="pedestrian", ego=True)
+    ahead = car("ahead", 20.0, 0.0)
+    with Renderer(RenderConfig(output="offscreen", camera=rig), None) as r:
+        mirrored = (RIGHT_EYE.fov(), LEFT_EYE.fov())
+        r.rig.set_eye_frusta(mirrored)
+        r.draw(SceneFrame(0.0, (me, ahead), None, NOON), follow="me")
+        with_car = r.camera_images()
+        r.draw(SceneFrame(0.0, (me,), None, NOON), follow="me")
+        without = r.camera_images()
+    near = ahead.x - ahead.length / 2
+    for eye, tan_left in ((0, -0.5), (1, -1.0)):  # now the left eye spans −0.5..1
+        cols = np.flatnonzero(changed(with_car[eye], without[eye]).any(axis=0))
+        centre = (cols.min() + cols.max() + 1) / 2
+        assert centre == pytest.approx(column(0.0, tan_left), abs=2.0)
+        width = cols.max() + 1 - cols.min()
+        assert width == pytest.approx(ahead.width / near / 1.5 * EYE_PX, abs=2.0)

@@ -85,6 +85,8 @@ def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster, tmp_path: Path) 
         assert (ground[:, 1] > ground[:, 2]).all()  # grass below it
     loop = report["loop"]
     assert loop["headset"] == "SimHeadset"
+    # the eyes the headset reported (and the view drew with): the sim's typical headset
+    assert loop["eyes_deg"] == [[-52.0, 42.0, 46.0, -50.0], [-42.0, 52.0, 46.0, -50.0]]
     assert loop["ticks"] > 90 * 5  # 90 Hz for the ≥ 8 s it took to jog
     assert loop["distance_m"] > 8.0
     assert report["skeletons_sent"] == 0  # `body: none`

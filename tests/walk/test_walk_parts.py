@@ -17,6 +17,7 @@ from carlaverse import hal
 from carlaverse.cli import main
 from carlaverse.config import ConfigError
 from carlaverse.hal.xr import XrActions, XrHeadset
+from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.render.live import OwnPose, OwnPoseBlock
 from tests.hal.helpers import ManualClock
 
@@ -96,6 +97,10 @@ block = SharedBlock(sys.argv[1], STATE, create=True)
 record = new_record(STATE)
 record["x"], record["y"], record["yaw"] = 3.0, 4.0, 0.5
 record["pitch"], record["roll"], record["running"] = -0.2, 0.1, 1
+record["eyes"] = 1  # the headset's frusta [rad], left eye then right eye
+for eye, (left, right) in (("left_eye", (-0.9, 0.7)), ("right_eye", (-0.7, 0.9))):
+    record[eye + "_left"], record[eye + "_right"] = left, right
+    record[eye + "_up"], record[eye + "_down"] = 0.8, -0.85
 block.write(record)
 print("ready", flush=True)
 sys.stdin.read()  # until the test is done
@@ -112,6 +117,7 @@ def test_the_view_reads_the_walkers_head_from_shared_memory() -> None:
         assert writer.stdout is not None and writer.stdout.readline().strip() == "ready"
         own = OwnPose(OwnPoseBlock(name, STATE, "pedestrian"), "walker")
         actor = own.actor()
+        eyes = own.eyes
         own.close()
     finally:
         writer.communicate("", timeout=10)
@@ -119,6 +125,7 @@ def test_the_view_reads_the_walkers_head_from_shared_memory() -> None:
     assert (actor.x, actor.y, actor.yaw, actor.pitch, actor.roll) == pytest.approx(
         (3.0, 4.0, 0.5, -0.2, 0.1)
     )  # the first-person camera nods and tilts with the head
+    assert eyes == (EyeFov(-0.9, 0.7, 0.8, -0.85), EyeFov(-0.7, 0.9, 0.8, -0.85))
 
 
 @pytest.mark.parametrize(("direction", "expected_deg"), [("head", 90.0), ("controller", -20.0)])

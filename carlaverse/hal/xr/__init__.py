@@ -15,6 +15,7 @@ import msgspec
 
 from carlaverse.hal.device import Device, DeviceConfig
 from carlaverse.hal.registry import BackendSpec, Registry
+from carlaverse.hal.xr.fov import EyeFov
 
 BACKENDS = {
     "sim": BackendSpec("carlaverse.hal.xr.sim", "SimHeadset"),
@@ -59,6 +60,10 @@ class XrHeadset(Device):
         if norm > 1.0:
             raw = msgspec.structs.replace(raw, move=(x / norm, y / norm))
         return raw
+
+    def eye_fovs(self) -> tuple[EyeFov, EyeFov] | None:
+        """The (left, right) eyes' fields of view, when the headset reports them."""
+        return None
 
     def _pose(self, now: float) -> tuple[tuple[float, float, float], tuple, bool]:
         raise NotImplementedError

@@ -14,6 +14,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Annotated
+
+import msgspec
+
+from carlaverse.config import StrictStruct
+
+Angle = Annotated[float, msgspec.Meta(gt=-90.0, lt=90.0)]
 
 
 @dataclass(frozen=True, slots=True)
@@ -36,6 +43,20 @@ class EyeFov:
         """(tan left, tan right, tan down, tan up): the frustum on the plane one unit ahead."""
         return (math.tan(self.left), math.tan(self.right), math.tan(self.down),
                 math.tan(self.up))  # fmt: skip
+
+
+class EyeAngles(StrictStruct):
+    """One eye's field of view in a config file [deg], as OpenXR reports it: left and down
+    negative."""
+
+    left_deg: Angle
+    right_deg: Angle
+    up_deg: Angle
+    down_deg: Angle
+
+    def fov(self) -> EyeFov:
+        return EyeFov(*(math.radians(a) for a in (self.left_deg, self.right_deg, self.up_deg,
+                                                   self.down_deg)))  # fmt: skip
 
 
 def symmetric_fov(fov: EyeFov) -> float:

@@ -5,7 +5,7 @@ session on an offscreen OpenGL context, the stage space, the view space (the hea
 swapchain per eye at the runtime's recommended size, and the `walk` action set with its
 suggested bindings (`openxr_bindings`). Each `pose()` runs one turn of the frame loop: it
 handles the session's state changes, waits for the runtime's frame, locates the head and
-both eyes (their asymmetric fields of view land in `eye_fovs`, for the renderer's off-axis
+both eyes (their asymmetric fields of view are `eye_fovs()`, for the renderer's off-axis
 lenses, `carlaverse.render.stereo`, or the symmetric render and crop, `fov`), syncs and
 reads the actions, and ends the frame.
 
@@ -76,7 +76,7 @@ class OpenXrHeadset(XrHeadset):
     def __init__(self, options: OpenXrOptions, *, clock: Clock = time.monotonic) -> None:
         super().__init__(options, clock=clock)
         probe_runtime()
-        self.eye_fovs: tuple[EyeFov, ...] = ()
+        self._eye_fovs: tuple[EyeFov, EyeFov] | None = None
         self.session_state = xr.SessionState.IDLE
         self.running = False
         self._last = ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), False)
@@ -171,6 +171,10 @@ class OpenXrHeadset(XrHeadset):
     def _actions(self, now: float) -> XrActions:
         return self._actions_now
 
+    def eye_fovs(self) -> tuple[EyeFov, EyeFov] | None:
+        """The runtime's per-eye frusta at the last frame (they may change, e.g. with IPD)."""
+        return self._eye_fovs
+
     def _track(self, display_time: int) -> None:
         head = xr.locate_space(self.head_space, self.space, display_time)
         valid = (
@@ -185,8 +189,9 @@ class OpenXrHeadset(XrHeadset):
         _state, views = xr.locate_views(self.session, xr.ViewLocateInfo(
             view_configuration_type=xr.ViewConfigurationType.PRIMARY_STEREO,
             display_time=display_time, space=self.space))  # fmt: skip
-        self.eye_fovs = tuple(EyeFov(v.fov.angle_left, v.fov.angle_right, v.fov.angle_up,
-                                     v.fov.angle_down) for v in views)  # fmt: skip
+        if len(views) == 2:  # primary stereo: left, then right
+            self._eye_fovs = tuple(EyeFov(v.fov.angle_left, v.fov.angle_right, v.fov.angle_up,
+                                          v.fov.angle_down) for v in views)  # fmt: skip
         self._actions_now = self._read_actions(display_time)
 
     def _read_actions(self, display_time: int) -> XrActions:

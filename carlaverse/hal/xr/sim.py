@@ -32,6 +32,7 @@ from carlaverse.hal.device import Clock
 from carlaverse.hal.input.profile import Keyframe, profile_time, sample_axis, sample_button
 from carlaverse.hal.noise import OrnsteinUhlenbeck
 from carlaverse.hal.xr import XrActions, XrHeadset
+from carlaverse.hal.xr.fov import EyeAngles, EyeFov
 
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
 Positive = Annotated[float, msgspec.Meta(gt=0)]
@@ -39,6 +40,11 @@ Positive = Annotated[float, msgspec.Meta(gt=0)]
 SCRIPT_AXES = ("move_x", "move_y", "head_yaw_deg", "head_pitch_deg", "hand_yaw_deg")
 SCRIPT_BUTTONS = ("run", "interact")
 EYE_HEIGHT_M = {"seated": 1.2, "standing": 1.65}  # [m] above the stage floor
+
+
+class SimEyes(StrictStruct):
+    left: EyeAngles
+    right: EyeAngles
 
 
 class SimHeadsetOptions(StrictStruct):
@@ -53,6 +59,7 @@ class SimHeadsetOptions(StrictStruct):
     step_s: Positive = 0.01  # [s] noise time grid
     script: list[Keyframe] = msgspec.field(default_factory=list)
     loop: bool = False  # repeat the script from its last keyframe's time
+    eyes: SimEyes | None = None  # the eyes' fields of view it reports, like a runtime
 
 
 def check_script(script: list[Keyframe]) -> None:
@@ -101,6 +108,10 @@ class SimHeadset(XrHeadset):
         pitch = o.pitch_amplitude_rad * math.sin(2 * math.pi * t / o.pitch_period_s)
         pitch += math.radians(sample_axis(o.script, "head_pitch_deg", st))
         return position, yaw_pitch_quaternion(yaw, pitch), True
+
+    def eye_fovs(self) -> tuple[EyeFov, EyeFov] | None:
+        eyes = self.options.eyes
+        return None if eyes is None else (eyes.left.fov(), eyes.right.fov())
 
     def _actions(self, now: float) -> XrActions:
         script, st = self.options.script, self._script_t(now)
