@@ -34,7 +34,7 @@ from carlaverse.config import (
 )
 from carlaverse.messages import ACTOR_KINDS
 from carlaverse.traffic.openscenario import import_triggers
-from carlaverse.traffic.soundscape import AudioSpec, check_siren_vehicles
+from carlaverse.traffic.soundscape import AudioSpec, check_siren_vehicles, named_vehicles
 from carlaverse.traffic.trigger_spec import TriggerSpec, check_triggers
 
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
@@ -332,7 +332,8 @@ class ScenarioSpec(StrictStruct, kw_only=True):
     openscenario: str | None = None  # an .xosc whose events become more triggers
 
     def __post_init__(self) -> None:
-        check_siren_vehicles(self.audio, [v.id for v in self.traffic.scripted_vehicles])
+        named = named_vehicles(self.traffic.scripted_vehicles, self.triggers)
+        check_siren_vehicles(self.audio, named)
         check_triggers(self.triggers)
 
     @property

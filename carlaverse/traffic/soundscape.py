@@ -7,20 +7,28 @@
       sirens: [{vehicle: ambulance, pattern: wail}]
       construction: [{name: dig, x: 120, y: 60, radius_m: 12}]
 
-Sirens ride on scripted vehicles (`traffic.scripted_vehicles`), the only NPCs whose ids a
-scenario knows; the authority puts everything else (engines, tyres, leaves, water, rain, wind)
-together from its own state (docs/architecture.md §6).
+Sirens ride on the NPCs whose ids the scenario knows: scripted vehicles
+(`traffic.scripted_vehicles`) and those its triggers spawn. The authority puts everything else
+(engines, tyres, leaves, water, rain, wind) together from its own state (docs/architecture.md
+§6).
 """
 
 from __future__ import annotations
 
 import math
-from typing import Annotated, Literal
+from collections.abc import Sequence
+from typing import Annotated, Literal, Protocol
 
 import msgspec
 
 from carlaverse.config import StrictStruct
 from carlaverse.messages import AUDIO_MAX_EMITTERS, SIREN_PATTERNS
+from carlaverse.traffic.trigger_spec import Spawn, TriggerSpec
+
+
+class HasId(Protocol):
+    id: str
+
 
 SirenPattern = Literal[SIREN_PATTERNS]  # type: ignore[valid-type]  # the wire's pattern table
 SoundLevel = Annotated[float, msgspec.Meta(ge=0, le=194)]  # [dB SPL]; 194 dB = 1 atm peak
@@ -67,13 +75,20 @@ class AudioSpec(StrictStruct):
         _unique("construction zone name", [z.name for z in self.construction])
 
 
-def check_siren_vehicles(audio: AudioSpec, scripted_ids: list[str]) -> None:
-    """Every siren must ride on a scripted vehicle of the same scenario."""
+def named_vehicles(scripted: Sequence[HasId], triggers: Sequence[TriggerSpec]) -> list[str]:
+    """Ids of the NPC vehicles a scenario names: its scripted ones and its triggers' spawns."""
+    spawned = [a.id for t in triggers for a in t.actions if isinstance(a, Spawn)]
+    return [*(v.id for v in scripted), *spawned]
+
+
+def check_siren_vehicles(audio: AudioSpec, vehicle_ids: list[str]) -> None:
+    """Every siren must ride on a vehicle the scenario names (scripted, or a trigger's spawn)."""
     for siren in audio.sirens:
-        if siren.vehicle not in scripted_ids:
+        if siren.vehicle not in vehicle_ids:
             raise ValueError(
-                f"audio.sirens: vehicle {siren.vehicle!r} is not a scripted vehicle; "
-                f"declare it under traffic.scripted_vehicles (known: {scripted_ids or 'none'})"
+                f"audio.sirens: vehicle {siren.vehicle!r} is not a vehicle of this scenario; "
+                "declare it under traffic.scripted_vehicles or spawn it from a trigger "
+                f"(known: {vehicle_ids or 'none'})"
             )
 
 

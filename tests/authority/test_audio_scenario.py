@@ -47,8 +47,12 @@ def test_a_bad_audio_section_names_the_field(tmp_path: Path, body: str, expected
     assert expected in str(err.value) and str(tmp_path) in str(err.value)
 
 
-def test_a_siren_must_ride_on_a_scripted_vehicle(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match=r"vehicle .ambulance. is not a scripted vehicle.*amb"):
+def test_a_siren_must_ride_on_a_scripted_or_spawned_vehicle(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match=r"vehicle .ambulance. is not a vehicle of this.*amb"):
         load_scenario(scenario(tmp_path, AMBULANCE + "audio: {sirens: [{vehicle: ambulance}]}\n"))
     spec = load_scenario(scenario(tmp_path, AMBULANCE + "audio: {sirens: [{vehicle: amb}]}\n"))
     assert spec.spec.audio.sirens[0].level_db == 118.0
+    spawn = "{type: spawn, id: police, edges: [A0B0]}"
+    trigger = f"triggers: [{{id: go, when: 't > 5', actions: [{spawn}]}}]\n"
+    spec = load_scenario(scenario(tmp_path, trigger + "audio: {sirens: [{vehicle: police}]}\n"))
+    assert spec.spec.audio.sirens[0].vehicle == "police"
