@@ -33,6 +33,7 @@ class BikeHmiBridge:
         if s is None:
             return None
         values = {
+            "t": float(s["t"]),  # [s] session time of the loop tick, as in its poses
             "speed_mps": float(s["speed_mps"]),
             "power_w": float(s["power_w"]),
             "cadence_rpm": float(s["cadence_rpm"]),

@@ -64,6 +64,7 @@ class DriveHmiBridge:
         if s is None:
             return None
         values = {
+            "t": float(s["t"]),  # [s] session time of the loop tick, as in its poses
             "speed_mps": float(s["speed_mps"]),
             "rpm": float(s["rpm"]),
             "gear": int(s["gear"]),

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import re
 import threading
-import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -42,29 +41,34 @@ def node_with_hmi(
         cluster.close()
 
 
-class Recent:
-    """Timestamped readings kept by a watcher thread; the test asks for a recent window."""
+class LoopRecord:
+    """A node's loop state as a watcher thread reads it, by the loop's own time `t`."""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._readings: list[tuple[float, dict[str, float]]] = []
 
-    def add(self, reading: dict[str, float]) -> None:
+    def add(self, t: float, reading: dict[str, float]) -> None:
         with self._lock:
-            self._readings.append((time.monotonic(), reading))
+            self._readings.append((t, reading))
 
-    def since(self, t: float, name: str) -> list[float]:
-        """Values of `name` read at or after monotonic time t [s]."""
+    def around(self, t: float, half_width_s: float, name: str) -> list[float]:
+        """Values of `name` the loop held within ±half_width_s of its time t [s]."""
         with self._lock:
-            return [r[name] for at, r in self._readings if at >= t]
+            return [r[name] for at, r in self._readings if abs(at - t) <= half_width_s]
 
     def latest(self) -> dict[str, float] | None:
         with self._lock:
             return self._readings[-1][1] if self._readings else None
 
+    def last_t(self) -> float:
+        """The loop time [s] of the newest reading (−inf before the first)."""
+        with self._lock:
+            return self._readings[-1][0] if self._readings else float("-inf")
+
 
 def assert_within(shown: float, readings: list[float], slack: float, what: str) -> None:
     """`shown` lies within the range of the node's own `readings`, widened by `slack`."""
-    assert readings, f"no {what} readings from the node in the window"
+    assert readings, f"no {what} readings from the node near the frame's time"
     low, high = min(readings) - slack, max(readings) + slack
     assert low <= shown <= high, f"shown {what} {shown}, the node's {low:.1f}..{high:.1f}"

@@ -6,7 +6,6 @@ checks what the page shows against it."""
 from __future__ import annotations
 
 import threading
-import time
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -16,23 +15,23 @@ from playwright.sync_api import Browser, Page
 
 from carlaverse.shm import SharedBlock, block_name
 from tests.browser import save_screenshot
-from tests.hmi.live import Recent, assert_within, node_with_hmi
+from tests.hmi.live import LoopRecord, assert_within, node_with_hmi
 from tests.support import wait_until
 
 pytestmark = pytest.mark.browser
 
-# The sim trainer's rider: 180 W ± 10 W, the page rounds to 1 W and 1 rpm; a value shown
-# may be up to WINDOW_S old on a loaded host (the trainer changes its reading a few times a
-# second), so it must be among the values the loop held over that window.
-WINDOW_S = 0.8  # [s]
+# The sim trainer's rider: 180 W ± 10 W, the page rounds to 1 W and 1 rpm. The frame shown
+# carries its loop tick's time `t`; the watcher reads the loop every ~10 ms (more on a loaded
+# host), so the value shown must be among those the loop held within ±HALF_WIDTH_S of t.
+HALF_WIDTH_S = 0.1  # [s]
 SAMPLES = 8
 
 
 @pytest.fixture
-def loop_state(tmp_path: Path, chromium: Browser) -> Iterator[tuple[str, Recent]]:
+def loop_state(tmp_path: Path, chromium: Browser) -> Iterator[tuple[str, LoopRecord]]:
     """The bike's HMI URL and a thread recording its loop state every 10 ms."""
     with node_with_hmi(tmp_path, "bike", "bike") as (_, _, url):
-        readings, stop = Recent(), threading.Event()
+        readings, stop = LoopRecord(), threading.Event()
         watcher = threading.Thread(target=_watch, args=(readings, stop), daemon=True)
         watcher.start()
         try:
@@ -42,7 +41,7 @@ def loop_state(tmp_path: Path, chromium: Browser) -> Iterator[tuple[str, Recent]
             watcher.join(5)
 
 
-def _watch(readings: Recent, stop: threading.Event) -> None:
+def _watch(readings: LoopRecord, stop: threading.Event) -> None:
     block: SharedBlock | None = None
     try:
         while not stop.wait(0.01):
@@ -53,28 +52,32 @@ def _watch(readings: Recent, stop: threading.Event) -> None:
             s = block.read()
             if s["running"]:
                 names = ("power_w", "cadence_rpm", "grade_percent", "speed_mps")
-                readings.add({name: float(s[name]) for name in names})
+                readings.add(float(s["t"]), {name: float(s[name]) for name in names})
     finally:
         if block is not None:
             block.close()
 
 
 def test_the_bike_page_shows_power_and_cadence_from_the_trainer(
-    loop_state: tuple[str, Recent], page: Page, screenshot_dir: Path
+    loop_state: tuple[str, LoopRecord], page: Page, screenshot_dir: Path
 ) -> None:
     url, readings = loop_state
     page.goto(url + "bike")
     wait_until(lambda: (readings.latest() or {}).get("power_w", 0) > 100, 30, "the rider pedalling")
-    page.wait_for_function("window.hmi && hmi.last && hmi.last.power_w > 100", timeout=30000)
+    page.wait_for_function("window.hmi && hmi.drawn && hmi.drawn.power_w > 100", timeout=30000)
     for _ in range(SAMPLES):
-        window_from = time.monotonic() - WINDOW_S
-        power, cadence, grade = (
-            float(page.locator(f'[data-readout="{name}"]').text_content() or "nan")
-            for name in ("power", "cadence", "grade")
-        )
-        assert_within(power, readings.since(window_from, "power_w"), 1.0, "power [W]")
-        assert_within(cadence, readings.since(window_from, "cadence_rpm"), 1.0, "cadence [rpm]")
-        assert_within(grade, readings.since(window_from, "grade_percent"), 0.1, "grade [%]")
+        shown, t = page.evaluate("""() => [
+            ["power", "cadence", "grade"].map(
+                (name) => document.querySelector(`[data-readout="${name}"]`).textContent),
+            hmi.drawn.t]""")
+        power, cadence, grade = (float(text) for text in shown)
+        wait_until(lambda t=t: readings.last_t() > t + HALF_WIDTH_S, 5,
+                   "the watcher to read past the frame's time")  # fmt: skip
+        near = {name: readings.around(t, HALF_WIDTH_S, name)
+                for name in ("power_w", "cadence_rpm", "grade_percent")}  # fmt: skip
+        assert_within(power, near["power_w"], 1.0, "power [W]")
+        assert_within(cadence, near["cadence_rpm"], 1.0, "cadence [rpm]")
+        assert_within(grade, near["grade_percent"], 0.1, "grade [%]")
         page.wait_for_timeout(200)
     save_screenshot(page, screenshot_dir, "hmi-bike")
     assert page.errors == []

@@ -6,7 +6,7 @@
 //   </script>
 //
 // window.hmi exposes the live state for pages of your own and for tests: `last` (newest
-// values), `info`, `frames`, `arrivals` (performance.now() of recent frames, ms),
+// values), `drawn` (the values the widgets show), `info`, `frames`, `arrivals` (performance.now() of recent frames, ms),
 // `latencies` (node state → this page, ms), `rejected` (reasons the node gave), `messages`
 // (texts pushed so far), and
 // `press(action)`, `cruise(command)`, `send(object)`, `onTelemetry(fn)`.
@@ -54,6 +54,7 @@ export class Hmi {
     this.socket = null;
     this.pings = 0;
     this.drawPending = false;
+    this.drawn = null; // the values the widgets show now
   }
 
   build(root) {
@@ -110,7 +111,8 @@ export class Hmi {
     this.drawPending = true;
     const draw = () => {
       this.drawPending = false;
-      for (const widget of this.widgets) widget.update(this.last);
+      this.drawn = this.last;
+      for (const widget of this.widgets) widget.update(this.drawn);
     };
     if (document.hidden) setTimeout(draw, 0);
     else requestAnimationFrame(draw);
