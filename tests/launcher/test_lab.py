@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 
 import pytest
 
@@ -15,7 +16,7 @@ from carlaverse.launcher.processes import LaunchError
 
 
 @pytest.fixture
-def lab() -> Lab:
+def lab() -> Iterator[Lab]:
     lab = Lab("lab", "tcp/127.0.0.1:1")
     yield lab
     lab.close()
