@@ -21,6 +21,7 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 from importlib.metadata import entry_points
 from typing import Any, Protocol
@@ -33,6 +34,7 @@ from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.fabric.stats import StreamSummary
 from carlaverse.fabric.waiting import POLL_S, SessionWait, WaitNotice
+from carlaverse.messages import Notice
 from carlaverse.security.redact import redact_yaml
 
 log = logging.getLogger(__name__)
@@ -130,6 +132,7 @@ def run_node(
     join_timeout_s: float | None = None,
     loop_hz: float = 50.0,
     on_wait: Callable[[str], None] | None = None,
+    on_notice: Callable[[Notice], None] | None = None,
 ) -> NodeSummary:
     """Join, run the node's loop until `duration_s` or `stop`, leave cleanly, summarise.
 
@@ -151,7 +154,7 @@ def run_node(
                 client.start(pose_source=node.pose_source())
                 missing = _wait_admitted(client, WaitNotice(wait, say), stop, limits)
                 if not missing:
-                    _loop(node, client, limits, stop, 1.0 / loop_hz)
+                    _loop(node, client, limits, stop, 1.0 / loop_hz, on_notice)
                 close_node()  # first: its report (e.g. the control loop's timing) is final
                 client.close()  # then publishing stops, so the counts below are final too
                 summary = _summary(node, client, time.monotonic() - limits.started)
@@ -199,7 +202,12 @@ def _wait_admitted(
 
 
 def _loop(
-    node: NodeKind, client: NodeClient, limits: RunLimits, stop: threading.Event, period: float
+    node: NodeKind,
+    client: NodeClient,
+    limits: RunLimits,
+    stop: threading.Event,
+    period: float,
+    on_notice: Callable[[Notice], None] | None,
 ) -> None:
     next_t = time.monotonic()
     while not stop.is_set():
@@ -207,8 +215,17 @@ def _loop(
             break
         now = client.update()
         node.step(client, now)
+        _hand_on(client.world.notices, on_notice)
         next_t += period
         stop.wait(max(0.0, next_t - time.monotonic()))
+
+
+def _hand_on(notices: deque[Notice], on_notice: Callable[[Notice], None] | None) -> None:
+    """Scenario messages for this participant go to whoever shows them (HMI, terminal)."""
+    while notices:
+        notice = notices.popleft()
+        if on_notice is not None:
+            on_notice(notice)
 
 
 def _summary(node: NodeKind, client: NodeClient, duration: float) -> NodeSummary:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import msgspec
@@ -18,12 +19,13 @@ from carlaverse.cli.common import (
     say,
     stop_on_signals,
 )
-from carlaverse.cli.join_hmi import add_hmi_arguments, node_hmi
+from carlaverse.cli.join_hmi import NodeHmi, add_hmi_arguments, node_hmi
 from carlaverse.cli.join_view import add_view_arguments, node_view
 from carlaverse.config import ConfigError, load_config
 from carlaverse.fabric.node_client import JoinRefused, NodeSettings
 from carlaverse.fabric.session import FabricError, FabricSettings, FabricUnreachable, build_config
 from carlaverse.keys import KeySpaceError, check_token
+from carlaverse.messages import Notice
 from carlaverse.node_runtime import (
     JoinTimeout,
     NodeSummary,
@@ -98,6 +100,17 @@ def _prepare(args: argparse.Namespace) -> tuple[type, Any, NodeSettings, FabricS
     return kind_cls, config, node_settings, fabric
 
 
+def _show_notice(hmi: NodeHmi, say_line: Callable[[str], None]) -> Callable[[Notice], None]:
+    """A scenario's message for this participant: on its HMI when it has one, and a line."""
+
+    def show(notice: Notice) -> None:
+        if hmi.server is not None:
+            hmi.server.show_message(notice.text, notice.duration_s)
+        say_line(f"scenario message: {notice.text}")
+
+    return show
+
+
 def run(args: argparse.Namespace) -> int:
     try:
         kind_cls, config, node_settings, fabric = _prepare(args)
@@ -115,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
             summary = run_node(
                 node, node_settings, fabric, config, args.duration, stop,
                 join_timeout_s=args.join_timeout, on_wait=say("join"),
+                on_notice=_show_notice(hmi, say("join")),
             )  # fmt: skip
         summary.extra.update(view.extra | hmi.extra)
     except JoinRefused as exc:

@@ -196,6 +196,8 @@ class Inbound:
                 self.rejected.add("events/reserved_id")  # no actor for the authority, ever
             elif event.node_id != self.node_id:
                 self.world.push_present(event.node_id)
+        elif isinstance(event, m.Notice) and event.to in ("", self.node_id):
+            self.world.push_notice(event)
 
     def _on_despawned(self, event: m.Despawned) -> None:
         if event.node_id != self.node_id:

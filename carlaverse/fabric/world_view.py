@@ -34,13 +34,23 @@ from carlaverse.fabric.remote_actor import (
 )
 from carlaverse.fabric.stats import StreamStats
 from carlaverse.keys import AUTHORITY_ID
-from carlaverse.messages import EgoState, LightsState, NpcBatch, Pose, Skeleton, Snapshot, Weather
+from carlaverse.messages import (
+    EgoState,
+    LightsState,
+    Notice,
+    NpcBatch,
+    Pose,
+    Skeleton,
+    Snapshot,
+    Weather,
+)
 
 log = logging.getLogger(__name__)
 
 INBOX_LIMIT = 100_000  # beyond this the owner is not draining; oldest input is dropped
 TOMBSTONE_S = 30.0  # [s] a tombstone outlives any sample still in flight by far
 STATS_LIMIT = 1024  # per-sender statistics kept at most (present senders first)
+NOTICE_LIMIT = 32  # scenario messages waiting for the node's loop; older ones are dropped
 
 
 @dataclass(frozen=True, slots=True)
@@ -55,6 +65,8 @@ class WorldView:
         self.own_id = own_id
         self.settings = settings
         self.inbox: deque[tuple[Any, ...]] = deque(maxlen=INBOX_LIMIT)
+        # scenario messages for this participant, oldest first; the node's loop takes them
+        self.notices: deque[Notice] = deque(maxlen=NOTICE_LIMIT)
         self.egos: dict[str, RemoteActor] = {}
         self.npcs = NpcTable(settings)
         self.ego_states: dict[str, EgoState] = {}
@@ -100,6 +112,9 @@ class WorldView:
     def push_present(self, node_id: str) -> None:
         self.inbox.append(("present", node_id))
 
+    def push_notice(self, notice: Notice) -> None:
+        self.inbox.append(("notice", notice))
+
     # ------------------------------------------------------------ owner thread
 
     def update(self, now: float) -> None:
@@ -114,6 +129,9 @@ class WorldView:
         if self.npcs.is_expired(now):
             self.npcs.clear()
         self._forget_tombstones(now)
+
+    def _on_notice(self, notice: Notice) -> None:
+        self.notices.append(notice)
 
     def _on_pose(self, node_id: str, pose: Pose, rx_t: float) -> None:
         if node_id in self._tombstones or node_id not in self.present:
