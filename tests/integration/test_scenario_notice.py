@@ -2,8 +2,10 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
+from carlaverse.analysis.export import events_table
 from tests.support import Cluster, wait_until
 from tests.traffic.helpers import CROSSING_MAP, write_scenario
 
@@ -22,10 +24,15 @@ triggers:
 """
 
 
-def test_a_notice_reaches_the_node_it_names(tmp_path: Path) -> None:
+def test_a_notice_reaches_the_node_it_names_and_the_firing_is_recorded(tmp_path: Path) -> None:
     cluster = Cluster(tmp_path)
+    mcap = tmp_path / "session.mcap"
     try:
         cluster.router()
+        recorder = cluster.start("record", "--session", "t", "--connect", cluster.endpoint,
+                                 "-o", str(mcap), name="recorder")  # fmt: skip
+        wait_until(lambda: any(x.startswith("recording session") for x in recorder.stderr), 30,
+                   "the recorder to subscribe")  # fmt: skip
         scenario = write_scenario(tmp_path, SCENARIO)
         cluster.start("authority", "--scenario", str(scenario), "--session", "t",
                       "--connect", cluster.endpoint, "--json", name="authority")  # fmt: skip
@@ -35,5 +42,15 @@ def test_a_notice_reaches_the_node_it_names(tmp_path: Path) -> None:
         node.stop()
         assert not any("Not for rider one" in line for line in node.stderr)
         assert node.json()["node_id"] == "scripted-1"
+        assert recorder.stop() == 0
     finally:
         cluster.close()
+    events = events_table(mcap).to_pylist()
+    (fired,) = [e for e in events if e["type"] == "trigger"]
+    assert json.loads(fired["fields"])["actions"] == [
+        "message to scripted-1",
+        "message to scripted-2",
+    ]
+    assert json.loads(fired["fields"])["values"]["v"] > 1
+    assert sorted(json.loads(e["fields"])["to"] for e in events if e["type"] == "notice") == [
+        "scripted-1", "scripted-2"]  # fmt: skip
