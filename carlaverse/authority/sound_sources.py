@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
+from itertools import chain
 
 import numpy as np
 
@@ -127,7 +128,7 @@ class SoundSources:
     @classmethod
     def concat(cls, parts: Sequence[SoundSources]) -> SoundSources:
         columns = [np.concatenate([getattr(p, f) for p in parts]) for f in _ARRAYS]
-        return cls([i for p in parts for i in p.ids], *columns)
+        return cls(list(chain.from_iterable(p.ids for p in parts)), *columns)
 
 
 _ARRAYS = ("owner", "listener", "kind", "pos", "vel", "level_db", "drive", "extent_m")
@@ -155,7 +156,8 @@ class ActorSounds:
     def __init__(self, sirens: Sequence[SirenSpec]) -> None:
         self._engines, self._tyres = EngineBank(), TyreBank()
         self._sirens = {s.vehicle: s for s in sirens}
-        self._last_speed: dict[str, float] = {}
+        self._last_ids: list[str] = []
+        self._last_speeds = np.zeros(0)  # [m/s] of those actors
         self._last_t: float | None = None
 
     def sources(self, t: float, actors: ActorColumns, wetness: float) -> SoundSources:
@@ -177,14 +179,14 @@ class ActorSounds:
 
     def _acceleration(self, t: float, ids: list[str], speed: np.ndarray) -> np.ndarray:
         """[m/s²] along the path since the last call; 0 for actors new since then."""
-        last, dt = self._last_speed, (t - self._last_t) if self._last_t is not None else 0.0
-        before = np.fromiter(
-            (last.get(i, s) for i, s in zip(ids, speed.tolist(), strict=True)),
-            dtype=np.float64,
-            count=len(ids),
-        )
-        self._last_speed = dict(zip(ids, speed.tolist(), strict=True))
-        self._last_t = t
+        dt = (t - self._last_t) if self._last_t is not None else 0.0
+        if ids == self._last_ids:  # the usual case: the same actors in the same order
+            before = self._last_speeds
+        else:
+            last = dict(zip(self._last_ids, self._last_speeds.tolist(), strict=True))
+            now = speed.tolist()
+            before = np.array([last.get(i, s) for i, s in zip(ids, now, strict=True)])
+        self._last_ids, self._last_speeds, self._last_t = ids, speed, t
         return (speed - before) / dt if dt > 0 else np.zeros(len(ids))
 
     def _siren_sources(self, actors: ActorColumns) -> SoundSources:

@@ -90,6 +90,11 @@ def test_acceleration_is_the_change_of_speed_per_actor_between_calls() -> None:
 
     assert load["v1.engine"] == pytest.approx(cruise(10.25) + 1.0 / 3.0)  # 1 m/s² of 3 m/s²
     assert load["v9.engine"] == pytest.approx(cruise(12.0))  # new: no acceleration known
+    same = frame([("v1", "car", 5.0, 0, 10.5, 0), ("v9", "car", 3, 0, 11.5, 0)])
+    found = sounds.sources(0.5, actor_columns([], same), 0.0)  # same actors, same order
+    load = dict(zip(found.ids, found.drive[:, 1].tolist(), strict=True))
+    assert load["v1.engine"] == pytest.approx(cruise(10.5) + 1.0 / 3.0)
+    assert load["v9.engine"] == 0.0  # slowing down at 2 m/s²: no load
 
 
 def point_sources(levels: list[float], xs: list[float]) -> SoundSources:
