@@ -4,7 +4,7 @@
       rate_hz: 60              # telemetry frames per second to every page
       units: km/h              # or mph
       pages_dir: my-pages      # extra pages (HTML/JS), relative to this file; optional
-      home: dashboard          # the page / redirects to
+      home: dashboard          # the page the node's printed URL opens (/ lists them all)
     layouts:
       dashboard:
         title: Dashboard

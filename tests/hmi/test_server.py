@@ -53,6 +53,11 @@ def test_the_dashboard_shows_telemetry_in_the_configured_units_at_30_hz_or_more(
     readout = page.locator('[data-readout="speed"]')
     wait_until(lambda: readout.text_content() == "45", 5, "44.7 mph shown as 45")
     assert page.locator('[data-readout="gear"]').text_content() == "D3"
+    # where the YAML puts them: speedometer in column 1, gear in column 2 of a 2-column grid
+    boxes = {name: page.locator(f'[data-widget="{name}"]').bounding_box()
+             for name in ("speedometer", "gear")}  # fmt: skip
+    assert boxes["speedometer"]["x"] < 640 <= boxes["gear"]["x"]  # the viewport is 1280 px
+    assert abs(boxes["speedometer"]["y"] - boxes["gear"]["y"]) < 1  # one row
     frames, started = page.evaluate("[hmi.frames, performance.now()]")
     page.wait_for_timeout(2000)  # a measuring window, not a wait for a condition
     frames_after, ended = page.evaluate("[hmi.frames, performance.now()]")
