@@ -2,8 +2,9 @@
 
 Each child runs in its own process group (a new session), so a Ctrl-C typed at the launcher's
 terminal does not reach it behind the launcher's back, and stopping it reaches its whole tree:
-SIGINT to the group first (every command shuts down cleanly on it: a node leaves, a recorder
-closes its file), then SIGKILL to the group and to any descendant that left it, after a grace.
+SIGINT to the child first (every command shuts down cleanly on it — a node leaves, a recorder
+closes its file — and stops its own helpers, such as a drive node's loop process, in order),
+then SIGKILL to the group and to any descendant that left it, after a grace.
 
     supervisor = Supervisor()
     supervisor.start("router", "router", ["router", "--listen", "tcp/127.0.0.1:7447"])
@@ -138,12 +139,12 @@ def _pump(child: Child, stream: IO[str] | None) -> None:
 
 
 def stop_children(children: list[Child], grace_s: float) -> None:
-    """SIGINT each running child's group at once; SIGKILL what is left of each tree after
-    `grace_s`. Returns when every process of those trees has gone."""
+    """SIGINT each running child at once; SIGKILL what is left of each tree after `grace_s`.
+    Returns when every process of those trees has gone."""
     trees = {c.name: _tree(c.proc.pid) for c in children if c.running}
     for child in children:
         if child.name in trees:
-            _signal_group(child.proc.pid, signal.SIGINT)
+            child.proc.send_signal(signal.SIGINT)  # its helpers are its to stop, in order
     deadline = time.monotonic() + grace_s
     for child in children:
         if child.name not in trees:
