@@ -41,11 +41,14 @@ def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster, tmp_path: Path) 
     pytest.importorskip("panda3d", reason="the view needs the render extra")
     rig = tmp_path / "rig.yaml"
     rig.write_text(SMALL_XR_RIG)
+    config = tmp_path / "walk.yaml"
+    config.write_text("lanes: {snap: true}\n")  # on the crossing map's sidewalks
     cluster.router()
-    cluster.authority()
+    cluster.authority("--scenario", "crossing")  # its walk spawn: the sidewalk by the zebra
     obs = cluster.observer()  # first: it sees the walker from its first step
     walker = cluster.start(
         "join", "walk", "--id", "walker", "--session", "t", "--connect", cluster.endpoint,
+        "--config", str(config),
         "--backend", "sim", "--duration", "60", "--json", "--view", "--offscreen",
         "--view-out", str(tmp_path / "view"), "--render-config", str(rig), name="walker",
     )  # fmt: skip
@@ -79,10 +82,10 @@ def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster, tmp_path: Path) 
     frames = sorted((tmp_path / "view").glob("frame-*.png"))
     image = np.asarray(Image.open(frames[-1])).astype(int)
     assert image.shape == (160, 320, 3)  # two 160 px eyes side by side
-    for eye in (image[:, :160], image[:, 160:]):  # at eye height over the empty map:
+    for eye in (image[:, :160], image[:, 160:]):  # at eye height over the map:
         sky, ground = eye[:20].reshape(-1, 3), eye[-20:].reshape(-1, 3)
         assert (sky[:, 2] > sky[:, 1] + 30).all()  # blue above the horizon
-        assert (ground[:, 1] > ground[:, 2]).all()  # grass below it
+        assert (ground[:, 2] < ground[:, 0] + 30).all()  # pavement or grass below it
     loop = report["loop"]
     assert loop["headset"] == "SimHeadset"
     # the eyes the headset reported (and the view drew with): the sim's typical headset
@@ -90,6 +93,9 @@ def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster, tmp_path: Path) 
     assert loop["ticks"] > 90 * 5  # 90 Hz for the ≥ 8 s it took to jog
     assert loop["distance_m"] > 8.0
     assert report["skeletons_sent"] == 0  # `body: none`
+    # the map came from the authority and its sidewalks, crossings and walking areas reached
+    # the loop (as segments)
+    assert report["walkable_segments"] == loop["walkable_segments"] > 20
 
 
 def test_the_skeleton_source_feeds_ego_skeleton(cluster: Cluster, tmp_path: Path) -> None:
