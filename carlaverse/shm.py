@@ -12,6 +12,7 @@ Layout: 8-byte little-endian sequence counter, then one record of a numpy struct
 
 from __future__ import annotations
 
+import multiprocessing
 import os
 import struct
 import time
@@ -33,8 +34,13 @@ def _untrack(shm: shared_memory.SharedMemory) -> None:
     Before Python 3.13 (`track=False`), attaching registers the block with the tracker, which
     unlinks it when the attaching process exits: a view closing first would remove the running
     node's block under it. Only the creator may unlink.
+
+    A multiprocessing child (a node's loop or view process) shares its parent's tracker, which
+    already holds the creator's registration and unlinks nothing before the whole family
+    exits: unregistering there would drop the creator's entry, and the creator's own unlink
+    then ends in a KeyError traceback from the tracker. So a child leaves it alone.
     """
-    if os.name == "posix":
+    if os.name == "posix" and multiprocessing.parent_process() is None:
         resource_tracker.unregister(shm._name, "shared_memory")  # type: ignore[attr-defined]
 
 

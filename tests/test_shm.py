@@ -7,6 +7,7 @@ import os
 import subprocess
 import sys
 import uuid
+from pathlib import Path
 
 import numpy as np
 
@@ -77,3 +78,37 @@ def test_a_process_that_only_attached_leaves_the_block_to_its_owner() -> None:
         again.close()
     finally:
         owner.close()
+
+
+FAMILY = """
+import multiprocessing as mp
+import numpy as np
+from multiprocessing import resource_tracker as rt
+from carlaverse.shm import SharedBlock
+
+DTYPE = np.dtype([("v", "<f8")])
+
+
+def attach(name):
+    SharedBlock(name, DTYPE).close()
+
+
+if __name__ == "__main__":
+    owner = SharedBlock("cv-test-{pid}-family", DTYPE, create=True)
+    child = mp.get_context("spawn").Process(target=attach, args=(owner.name,))
+    child.start()
+    child.join(60)
+    assert child.exitcode == 0
+    owner.close()  # unlinks: the shared tracker must still know the block
+    rt._resource_tracker._stop()  # wait for the tracker to handle everything, as at exit
+"""
+
+
+def test_a_loop_process_attaching_leaves_the_owners_tracking_alone(tmp_path) -> None:
+    """A node's loop or view process shares the node's tracker: no KeyError at the unlink."""
+    script = tmp_path / "family.py"
+    script.write_text(FAMILY.replace("{pid}", str(os.getpid())))
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
+                          timeout=60, cwd=Path(__file__).resolve().parents[1])  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "Traceback" not in done.stderr and "KeyError" not in done.stderr, done.stderr
