@@ -20,7 +20,7 @@ from tests.support import Cluster, wait_until
 def test_demo_with_a_walker_and_a_scripted_car_headless() -> None:
     done = subprocess.run(
         [sys.executable, "-m", "carlaverse", "demo", "--nodes", "walk,scripted",
-         "--scenario", "none", "--duration", "6", "--json", "--quiet"],
+         "--duration", "6", "--json", "--quiet"],  # the default scenario: the town, SUMO
         capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr[-3000:]
@@ -28,6 +28,7 @@ def test_demo_with_a_walker_and_a_scripted_car_headless() -> None:
     assert summary["all_seen"], summary["nodes"]
     assert "walk-1" in summary["nodes"]["scripted-2"]["actors_seen"]
     assert summary["nodes"]["walk-1"]["poses_sent"] > 100  # 50 Hz for most of 6 s
+    assert summary["nodes"]["walk-1"]["npcs_now"] > 0  # the town's traffic around the walker
 
 
 SMALL_XR_RIG = """
