@@ -12,6 +12,7 @@ listeners in Python: the authority's tick stays cheap with many nodes.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from itertools import starmap
 
 import numpy as np
 
@@ -64,7 +65,9 @@ def _loudest_shared(
     n = len(sources)
     if n == 0 or len(ears) == 0:
         return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp), np.zeros(0)
-    d2 = sum((ears[:, None, k] - sources.pos[None, :, k]) ** 2 for k in range(3))  # [m²]
+    # |e − p|² = |e|² + |p|² − 2 e·p: one matrix product instead of three broadcasts
+    pos = sources.pos
+    d2 = (ears * ears).sum(1)[:, None] + (pos * pos).sum(1)[None, :] - 2.0 * ears @ pos.T  # [m²]
     quietness = np.maximum(d2, MIN_DISTANCE_M**2) * np.power(10.0, -sources.level_db / 10.0)
     on_a_listener = (sources.owner >= 0) & (sources.owner < len(ears))
     quietness[sources.owner[on_a_listener], np.flatnonzero(on_a_listener)] = np.inf
@@ -82,6 +85,4 @@ def emitters(sources: SoundSources) -> list[AudioEmitter]:
     kinds = [AUDIO_KINDS[k] for k in sources.kind.tolist()]
     floats = [*sources.pos.T, *sources.vel.T, sources.level_db, sources.extent_m, *sources.drive.T]
     columns = [column.tolist() for column in floats]
-    return [
-        AudioEmitter(i, k, *row) for i, k, *row in zip(sources.ids, kinds, *columns, strict=True)
-    ]
+    return list(starmap(AudioEmitter, zip(sources.ids, kinds, *columns, strict=True)))

@@ -10,7 +10,8 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from itertools import chain
+from itertools import chain, repeat
+from operator import add
 
 import numpy as np
 
@@ -114,7 +115,7 @@ class SoundSources:
     def take(self, index: np.ndarray) -> SoundSources:
         """The rows at `index`, in that order."""
         return SoundSources(
-            [self.ids[i] for i in index.tolist()],
+            list(map(self.ids.__getitem__, index.tolist())),
             self.owner[index],
             self.listener[index],
             self.kind[index],
@@ -140,7 +141,7 @@ def _on_actors(
     """Sources of one `kind` on the actors selected by the boolean mask `pick`."""
     where = np.flatnonzero(pick)
     return SoundSources.build(
-        [f"{actors.ids[i]}.{kind}" for i in where.tolist()],
+        list(map(add, map(actors.ids.__getitem__, where.tolist()), repeat(f".{kind}"))),
         KIND_INDEX[kind],
         actors.pos[where],
         level[where],

@@ -11,8 +11,8 @@ for every vehicle, the (listeners × sources) audibility matrix, the areas near 
 the loudest 32 above 30 dB — and encodes every scene as the Zenoh outbox does. No SUMO: the
 NPC columns are what the engine would hand over, so only the audio work is timed.
 
-Target: CPU p99 ≤ 2 ms per instant at 500 NPCs and 16 listeners (≤ 4 % of a core at 20 Hz, a
-tenth of one 50 Hz tick's budget). This is a measurement, not a test.
+Target: CPU p99 ≤ 4 ms per instant at 500 NPCs and 16 listeners: a fifth of the 20 ms budget
+of the one 50 Hz authority tick in 2.5 that carries audio. This is a measurement, not a test.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from carlaverse.traffic.soundscape import AudioSpec, ConstructionZone, SirenSpec
 SIDE_M = 1200.0  # [m] town square
 AREAS = 150
 RATE_HZ = 20.0  # [Hz] audio instants, the scenario default
-TARGET_P99_MS = 2.0  # [ms] per instant
+TARGET_P99_MS = 4.0  # [ms] CPU per instant
 TARGET = (500, 16)  # (NPCs, listeners) the target is stated at
 KINDS = ("car",) * 14 + ("van", "van", "truck", "bus", "motorcycle", "bicycle")
 SPEC = AudioSpec(
