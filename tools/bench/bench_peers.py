@@ -25,11 +25,20 @@ from typing import Any
 
 from benchdoc import RunInfo, command_line, write_section
 from peers.profile import SAMPLE_RATE_HZ, PySpy, profile_lines
-from peers.registry import REFERENCE, TRANSPORTS, load
+from peers.registry import COMPARED, DIAGNOSTIC, REFERENCE, TRANSPORTS, load
 from peers.report import Row, pool, split, table, verdict, versions
 from peers.run import RunFailed, run_once
+from peers.steps import steps_line
 
 TITLE = "Peers: pose path against Zenoh, DDS, ZeroMQ, MQTT and UDP"
+DIAGNOSIS = "Peers: where the pose path's time goes"
+VARIANTS = (
+    "Variants: 'bare Zenoh, direct callback' runs the subscriber's callback on Zenoh's network "
+    "thread (`Callback(indirect=False)`) instead of zenoh-python's own Python thread; 'bare "
+    "Zenoh, pose publisher options' publishes as `NodeClient` does (drop under congestion, "
+    "real-time priority, remote destinations only); 'pose path, no node loop' is the pose path "
+    "whose receivers never run `update()`, so the Zenoh callback has each process to itself."
+)
 
 
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
@@ -39,16 +48,23 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     parser.add_argument("--rate", type=float, default=50.0, help="poses per second [Hz]")
     parser.add_argument("--receivers", type=int, default=3, help="measured receiver processes")
     parser.add_argument(
-        "--transports", default=",".join(TRANSPORTS), help=f"from {','.join(TRANSPORTS)}"
+        "--transports", default=",".join(COMPARED), help=f"from {','.join(TRANSPORTS)}"
     )
     parser.add_argument(
         "--profile", action="store_true", help="one more pose path run under py-spy (its own)"
+    )
+    parser.add_argument(
+        "--diagnose",
+        action="store_true",
+        help=f"take the pose path apart: {','.join(DIAGNOSTIC)} and py-spy (its own section)",
     )
     parser.add_argument("--native", action="store_true", help="py-spy: name native frames too")
     parser.add_argument("--json", action="store_true", help="one JSON summary on stdout")
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
     args = parser.parse_args(argv)
     args.transports = [t.strip() for t in args.transports.split(",") if t.strip()]
+    if args.diagnose:
+        args.transports, args.profile = list(DIAGNOSTIC), True
     unknown = [t for t in args.transports if t not in TRANSPORTS]
     if unknown:
         parser.error(f"unknown transport {unknown[0]!r}: choose from {', '.join(TRANSPORTS)}")
@@ -125,8 +141,9 @@ def profile(args: argparse.Namespace) -> list[str]:
     native = " with native frames" if args.native else ""
     head = (
         f"Where the pose path's CPU goes: py-spy{native} on its publisher and first receiver "
-        f"during one more {args.seconds:g} s run, {SAMPLE_RATE_HZ} samples per second "
-        "(Python threads while they run; waiting ones are not sampled):"
+        f"during one more {args.seconds:g} s run, {SAMPLE_RATE_HZ} samples per second. It "
+        "samples Python threads that are running or runnable (a thread waiting for a free core "
+        "counts), not those asleep or blocked, and cannot see Zenoh's own Rust threads:"
     )
     return [head, "", *profile_lines(spy, args.seconds)]
 
@@ -141,15 +158,18 @@ def main(argv: list[str] | None = None) -> int:
         print(f"not run: {reason}", file=sys.stderr)
     runs, failed = measure(args, names)
     rows = [pool(name, runs[name]) for name in names if runs[name]]
-    lines = [workload(args), versions(), "", *table(rows), "", *verdict(rows), *split(rows, runs)]
+    lines = [workload(args), versions(), *([VARIANTS] if args.diagnose else [])]
+    lines += ["", *table(rows), "", *verdict(rows), *split(rows, runs)]
     lines += [f"- Not run: {reason}." for reason in not_run]
     lines += [f"- Failed run (left out): {why}." for why in failed]
+    if args.diagnose:
+        lines.append(steps_line())
     if args.profile:
         lines += ["", *profile(args)]
     text = "\n".join(lines)
     print(json.dumps(summary(rows, runs) | {"failed": failed}) if args.json else text)
     if args.write:
-        write_section(TITLE, text, command_line(argv), run)
+        write_section(DIAGNOSIS if args.diagnose else TITLE, text, command_line(argv), run)
     return 0
 
 

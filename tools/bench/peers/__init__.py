@@ -8,4 +8,5 @@ arrivals.py   a receiver's count and latencies
 run.py        one run of one transport: processes, warm-up, measured window, CPU
 report.py     rounds pooled into the table, the ratios, the target and the split
 profile.py    py-spy on the pose path's publisher and a receiver
+steps.py      the fabric's pose callback, step by step
 """

@@ -135,6 +135,7 @@ class PosePath(Transport):
     modules = ("zenoh",)
     extra_receiver = False  # the authority receives every pose
     lowlatency = False  # the fabric's `lowlatency` setting, in every process of the run
+    node_loop = True  # whether each receiver's main thread applies what arrived (`update()`)
 
     def infrastructure(self, plan: Plan) -> list[Any]:
         router = zenoh_router(plan, self.lowlatency)
@@ -145,7 +146,10 @@ class PosePath(Transport):
         return PoseSender(plan, self.lowlatency)
 
     def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> PoseReceiver:
-        return PoseReceiver(plan, self.lowlatency, index, deliver)
+        receiver = PoseReceiver(plan, self.lowlatency, index, deliver)
+        if not self.node_loop:
+            receiver.poll_period_s = None  # type: ignore[misc]
+        return receiver
 
 
 class PosePathLowLatency(PosePath):
@@ -154,3 +158,11 @@ class PosePathLowLatency(PosePath):
 
     label = "pose path, lowlatency"
     lowlatency = True
+
+
+class PosePathNoNodeLoop(PosePath):
+    """Diagnostic: the pose path whose receivers never run their node loop, so the Zenoh
+    callback has the process to itself (the world view's inbox just fills)."""
+
+    label = "pose path, no node loop"
+    node_loop = False

@@ -58,9 +58,11 @@ class Signals:
 
 def publisher_main(name: str, plan: Plan, sig: Signals) -> None:
     try:
-        sender = load(name).open_sender(plan)
+        # Opened once the receivers are up: a pose path publisher joined early and silent
+        # for longer than the despawn timeout would be despawned and join again.
         if not sig.go.wait(START_TIMEOUT_S):
             raise RunFailed(f"the receivers were not ready within {START_TIMEOUT_S} s")
+        sender = load(name).open_sender(plan)
         period_s = 1.0 / plan.rate_hz
         if not _warm_up(sender, sig.warmed, period_s):
             raise RunFailed(f"not every receiver heard the publisher within {START_TIMEOUT_S} s")
@@ -174,7 +176,7 @@ def _measure(plan: Plan, spawned: int, others: dict[str, int], watch: Any) -> di
              for k in range(spawned)]  # fmt: skip
     procs.append(ctx.Process(target=publisher_main, name="tx", args=(plan.transport, plan, sig)))
     try:
-        _start_all(procs, sig.ready, sig.results)  # the publisher starts up meanwhile
+        _start_all(procs, sig.ready, sig.results)
         sig.go.set()
         _wait_for(procs, [sig.measuring], sig.results)
         window = _window(plan, sig, {p.name: int(p.pid) for p in procs} | others, watch)

@@ -49,9 +49,9 @@ def _open_peer(plan: Plan) -> Any:
 
 
 class ZenohSender:
-    def __init__(self, plan: Plan) -> None:
+    def __init__(self, plan: Plan, options: dict[str, Any]) -> None:
         self._session = _open_peer(plan)
-        self._publisher = self._session.declare_publisher(KEY)
+        self._publisher = self._session.declare_publisher(KEY, **options)
 
     def send(self, pose: Pose) -> None:
         self._publisher.put(encode_pose(pose))
@@ -88,8 +88,12 @@ class BareZenoh(Transport):
     def infrastructure(self, plan: Plan) -> list[ChildProcess]:
         return [zenoh_router(plan)]
 
+    def publisher_options(self) -> dict[str, Any]:
+        """`declare_publisher` options: Zenoh's defaults."""
+        return {}
+
     def open_sender(self, plan: Plan) -> ZenohSender:
-        return ZenohSender(plan)
+        return ZenohSender(plan, self.publisher_options())
 
     def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> ZenohReceiver:
         return ZenohReceiver(plan, deliver, self.indirect)
@@ -100,3 +104,19 @@ class BareZenohDirect(BareZenoh):
 
     label = "bare Zenoh, direct callback"
     indirect = False
+
+
+class BareZenohPoseOptions(BareZenoh):
+    """Bare Zenoh with the pose publisher's options (`NodeClient`): drop under congestion,
+    real-time priority, remote destinations only."""
+
+    label = "bare Zenoh, pose publisher options"
+
+    def publisher_options(self) -> dict[str, Any]:
+        import zenoh
+
+        return {
+            "congestion_control": zenoh.CongestionControl.DROP,
+            "priority": zenoh.Priority.REAL_TIME,
+            "allowed_destination": zenoh.Locality.REMOTE,
+        }

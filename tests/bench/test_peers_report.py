@@ -1,0 +1,60 @@
+"""The peers benchmark's arithmetic (tools/bench/peers/report.py) on runs made by hand.
+
+Pooling must count every measured receiver of every round, divide CPU by the right number of
+poses, and judge the issue's target (pose path p50 <= 0.8 x CycloneDDS p50) both ways.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from types import ModuleType
+from typing import Any
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[2] / "tools" / "bench"
+
+
+@pytest.fixture
+def report(monkeypatch: pytest.MonkeyPatch) -> ModuleType:
+    monkeypatch.syspath_prepend(str(BENCH))  # the harness imports itself as `peers`
+    import peers.report
+
+    return peers.report
+
+
+def run(name: str, latencies_ms: list[list[float]], cpu_s: dict[str, float]) -> dict[str, Any]:
+    """One run: `latencies_ms` per measured receiver; 4 poses sent."""
+    receivers = [
+        {"latencies_s": [x / 1e3 for x in lat], "received": len(lat), "cpu_s": cpu_s[f"rx{k}"]}
+        for k, lat in enumerate(latencies_ms)
+    ]
+    return {"transport": name, "sent": 4, "late_sends": 0, "receivers": receivers,
+            "cpu_s": cpu_s, "machine_busy": 0.5}  # fmt: skip
+
+
+def test_pooling_counts_every_receiver_and_divides_cpu_per_pose(report: ModuleType) -> None:
+    cpu = {"tx": 0.004, "rx0": 0.002, "rx1": 0.001, "router": 0.001}
+    runs = [run("zenoh", [[1, 2, 3, 4], [1, 2]], cpu), run("zenoh", [[5, 6, 7, 8], []], cpu)]
+    row = report.pool("zenoh", runs)
+    assert row.expected == 16 and len(row.latencies_s) == 10
+    assert row.delivery == pytest.approx(10 / 16)
+    assert row.publisher_s_per_msg == pytest.approx(0.008 / 8)  # 1 ms a pose
+    # receivers: 2 ms over 4 poses, 1 ms over 2, 2 ms over 4 (one received nothing)
+    assert row.receiver_s_per_msg == pytest.approx((0.5e-3 + 0.5e-3 + 0.5e-3) / 3)
+    assert row.layout_s_per_msg == pytest.approx(2 * 0.008 / 8)
+    assert row.p(0.5) == pytest.approx(3.0)  # nearest rank of ten: the fifth
+
+
+@pytest.mark.parametrize(("pose_ms", "met"), [(0.8, "meets"), (0.81, "MISSES")])
+def test_the_target_is_judged_against_cyclonedds(
+    report: ModuleType, pose_ms: float, met: str
+) -> None:
+    cpu = {"tx": 0.001, "rx0": 0.001}
+    rows = [
+        report.pool("pose", [run("pose", [[pose_ms] * 4], cpu)]),
+        report.pool("dds", [run("dds", [[1.0] * 4], cpu)]),
+    ]
+    (line,) = report.verdict(rows)
+    assert f"= {pose_ms / 1.0:.2f}, {met} ≤ 0.8" in line
+    assert "|" in report.table(rows)[2] and "1.00 |" in report.table(rows)[2]
