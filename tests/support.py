@@ -89,6 +89,12 @@ class Proc:
         return "".join(self.stdout) + "".join(self.stderr)
 
 
+def _accepts(port: int) -> bool:
+    with socket.socket() as probe:
+        probe.settimeout(0.5)
+        return probe.connect_ex(("127.0.0.1", port)) == 0
+
+
 def _drain(stream: Any, sink: list[str]) -> None:
     for line in stream:
         sink.append(line)
@@ -110,7 +116,12 @@ class Cluster:
         return proc
 
     def router(self) -> Proc:
-        return self.start("router", "--listen", self.endpoint, name="router")
+        """A router, returned once it accepts connections: a client that tries once (a raw
+        zenoh session, a foreign client) would time out against one still starting up."""
+        proc = self.start("router", "--listen", self.endpoint, name="router")
+        wait_until(lambda: _accepts(self.port) or not proc.alive(), 30, "the router to listen")
+        assert proc.alive(), f"the router exited: {proc.output()[-2000:]}"
+        return proc
 
     def authority(self, *extra: str) -> Proc:
         return self.start(

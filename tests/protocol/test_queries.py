@@ -67,15 +67,17 @@ class Foreign:
 @pytest.fixture(scope="module")
 def session(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Foreign]:
     cluster = Cluster(Path(tmp_path_factory.mktemp("queries")))
-    cluster.router()
-    cluster.authority()
-    foreign = Foreign(cluster.endpoint)
-    try:
+    foreign = None
+    try:  # everything started is stopped, even when a later step fails
+        cluster.router()
+        cluster.authority()
+        foreign = Foreign(cluster.endpoint)
         # the readiness signal: the authority's token comes after its queryables
         wait_until(lambda: "authority" in foreign.present, 30, "the node/authority token")
         yield foreign
     finally:
-        foreign.close()
+        if foreign is not None:
+            foreign.close()
         cluster.close()
 
 
