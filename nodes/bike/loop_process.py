@@ -8,7 +8,6 @@ measured every tick) and priority come from `carlaverse.realtime`.
 from __future__ import annotations
 
 import logging
-import queue
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -16,6 +15,7 @@ from typing import Any
 from carlaverse_nodes.bike.bike_loop import BikeLoop, BikeOutput
 from carlaverse_nodes.bike.config import BikeNodeConfig
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
+from carlaverse_nodes.loop_host import drain
 
 from carlaverse.hal import open_ffb, open_input, open_speed_sensor, open_trainer
 from carlaverse.messages import Impulse
@@ -121,11 +121,7 @@ class BikeRunner:
         return self.trainer_state.speed_mps or 0.0
 
     def _drain_events(self) -> None:
-        while True:
-            try:
-                event = self.events.get_nowait()
-            except queue.Empty:
-                return
+        for event in drain(self.events):
             if isinstance(event, Impulse):
                 self.pending.append(event)
 

@@ -10,8 +10,8 @@ scenario says nothing).
 
 from __future__ import annotations
 
+import functools
 import logging
-import multiprocessing as mp
 import threading
 from typing import Any
 
@@ -21,38 +21,27 @@ from carlaverse_nodes.bike.hmi_bridge import BikeHmiBridge
 from carlaverse_nodes.bike.loop_process import BikeLoopSpec, run_bike_loop
 from carlaverse_nodes.bike.road_grade import RoadGrade
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
+from carlaverse_nodes.loop_host import LoopHost
 
 from carlaverse import messages as m
 from carlaverse.config import ConfigError
 from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.hal import FfbConfig, InputConfig, TrainerConfig
 from carlaverse.hal.input.pursuit import scripted_route
-from carlaverse.realtime import stop_loop_process
-from carlaverse.render.live import OwnPoseBlock
-from carlaverse.shm import SharedBlock, block_name
 
 log = logging.getLogger(__name__)
 
 
-class BikeNode:
+class BikeNode(LoopHost):
     name = "bike"
     config_type = BikeNodeConfig
 
     def __init__(self, config: BikeNodeConfig) -> None:
+        super().__init__(STATE, CONTROL, "bike loop")
         self.config = config
         self.table = resolve_table(config)
         self.node_settings = node_settings(config)
-        self._ctx = mp.get_context("spawn")
-        self._state: SharedBlock | None = None
-        self._control: SharedBlock | None = None
-        self._process: Any = None
-        self._events: Any = None
-        self._results: Any = None
-        self._stop: Any = None
-        self._joins_seen = 0
-        self._spawn_seq = 0
         self._forwarded = 0
-        self._loop_summary: dict[str, Any] = {}
         self._grades: RoadGrade | None = None  # the scenario's, once fetched
         self._grades_join = 0  # the join whose scenario was asked for
         self._hmi: BikeHmiBridge | None = None
@@ -72,37 +61,21 @@ class BikeNode:
         )  # fmt: skip
 
     def start(self, session: str, node_id: str, offset: float) -> None:
-        self._state = SharedBlock(block_name(session, node_id, "state"), STATE, create=True)
-        self._control = SharedBlock(block_name(session, node_id, "control"), CONTROL, create=True)
-        self._control.write_fields(
-            clock_offset=offset, grade_percent=self.config.road.grade_percent
+        spec = functools.partial(BikeLoopSpec, self.config, self.table)
+        grade = self.config.road.grade_percent
+        self._start_loop(
+            session, node_id, run_bike_loop, spec, clock_offset=offset, grade_percent=grade
         )
-        self._events, self._results = self._ctx.Queue(), self._ctx.Queue()
-        self._stop = self._ctx.Event()
-        spec = BikeLoopSpec(self.config, self.table, self._state.name, self._control.name)
-        self._process = self._ctx.Process(
-            target=run_bike_loop, args=(spec, self._events, self._results, self._stop),
-            name=f"{node_id}-loop", daemon=True,
-        )  # fmt: skip
-        self._process.start()
 
     def hmi_bridge(self) -> BikeHmiBridge:
         """The web HMI's view of this bike (carlaverse join bike --hmi PORT)."""
         self._hmi = BikeHmiBridge(self.node_settings, lambda: self._state)
         return self._hmi
 
-    def own_pose_block(self) -> OwnPoseBlock:
-        """Where a view reads this bike's pose without network delay (the loop's state)."""
-        n = self.node_settings
-        name = block_name(n.session, n.node_id, "state")
-        return OwnPoseBlock(name, STATE, n.actor_kind, n.extent)
-
     def pose_source(self) -> PoseSource | None:
         def source(t: float) -> m.Pose | None:
-            if self._state is None:
-                return None
-            s = self._state.read()
-            if not s["running"]:
+            s = self._running_state()
+            if s is None:
                 return None
             f = {name: float(s[name]) for name in ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")}
             return m.Pose(0, **f, roll=float(s["lean"]), wz=float(s["yaw_rate"]))
@@ -127,20 +100,6 @@ class BikeNode:
             self._forwarded += 1
         if not self._process.is_alive():
             raise RuntimeError(f"the bike loop process died (exit {self._process.exitcode})")
-
-    def _place_at_spawn(self, client: NodeClient) -> None:
-        reply = client.join_reply
-        if reply is None or reply.spawn is None or client.joins == self._joins_seen:
-            return
-        self._joins_seen = client.joins
-        if self._spawn_seq:  # a re-join keeps the bike where it is
-            return
-        self._spawn_seq += 1
-        sp = reply.spawn
-        assert self._control is not None
-        self._control.write_fields(
-            spawn_seq=self._spawn_seq, spawn_x=sp.x, spawn_y=sp.y, spawn_yaw=sp.yaw
-        )
 
     def _follow_grade(self, client: NodeClient) -> None:
         """Ask each authority joined for its scenario's grades; tell the loop the grade here."""
@@ -171,11 +130,7 @@ class BikeNode:
         return fallback if grade is None else grade
 
     def close(self) -> None:
-        if self._process is None:
-            return
-        self._loop_summary = stop_loop_process(
-            self._process, self._stop, self._results, (self._state, self._control), "bike loop"
-        )
+        self._stop_loop()
 
     def report(self) -> dict[str, Any]:
         areas = len(self._grades.tilts) if self._grades is not None else None

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import dataclasses
 import logging
-import queue
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -23,6 +22,7 @@ from carlaverse_nodes.drive.config import DriveNodeConfig, input_configs
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 from carlaverse_nodes.drive.touch import TouchButtons, TouchPress
 from carlaverse_nodes.drive.vehicle_loop import DriveLoop, LoopOutput
+from carlaverse_nodes.loop_host import drain
 
 from carlaverse.hal import FfbCommand, MotionFrame, open_ffb, open_input, open_motion
 from carlaverse.messages import Impulse, Override
@@ -148,11 +148,7 @@ class _Runner:
         return MergedInput(axes, buttons)
 
     def _drain_events(self) -> None:
-        while True:
-            try:
-                event = self.events.get_nowait()
-            except queue.Empty:
-                return
+        for event in drain(self.events):
             if isinstance(event, Impulse):
                 self.pending.append(event)
             elif isinstance(event, Override):

@@ -8,8 +8,8 @@ pose, and publishes the ego state when lights, indicator, gear or ADAS change.
 
 from __future__ import annotations
 
+import functools
 import logging
-import multiprocessing as mp
 from typing import Any
 
 import msgspec
@@ -17,38 +17,27 @@ from carlaverse_nodes.drive.config import DriveNodeConfig, node_settings, resolv
 from carlaverse_nodes.drive.hmi_bridge import DriveHmiBridge
 from carlaverse_nodes.drive.loop_process import LoopSpec, run_loop
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
+from carlaverse_nodes.loop_host import LoopHost
 
 from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.hal import FfbConfig, InputConfig, MotionConfig
 from carlaverse.hal.input.pursuit import scripted_route
 from carlaverse.messages import EgoState, Pose
 from carlaverse.physics.params import VehicleParams
-from carlaverse.realtime import stop_loop_process
-from carlaverse.render.live import OwnPoseBlock
-from carlaverse.shm import SharedBlock, block_name
 
 log = logging.getLogger(__name__)
 
 
-class DriveNode:
+class DriveNode(LoopHost):
     name = "drive"
     config_type = DriveNodeConfig
 
     def __init__(self, config: DriveNodeConfig) -> None:
+        super().__init__(STATE, CONTROL, "control loop")
         self.config = config
         self.vehicle: VehicleParams = resolve_vehicle(config)
         self.node_settings = node_settings(config, self.vehicle)
-        self._ctx = mp.get_context("spawn")
-        self._state: SharedBlock | None = None
-        self._control: SharedBlock | None = None
-        self._process: Any = None
-        self._events: Any = None
-        self._results: Any = None
-        self._stop: Any = None
         self._last_state: tuple[int, int, int, bool] | None = None
-        self._spawn_seq = 0
-        self._joins_seen = 0
-        self._loop_summary: dict[str, Any] = {}
         self._forwarded = 0
         self._hmi: DriveHmiBridge | None = None
 
@@ -72,25 +61,8 @@ class DriveNode:
 
     def start(self, session: str, node_id: str, offset: float) -> None:
         """Create the shared blocks and start the control process."""
-        self._state = SharedBlock(block_name(session, node_id, "state"), STATE, create=True)
-        self._control = SharedBlock(block_name(session, node_id, "control"), CONTROL, create=True)
-        self._control.write_fields(clock_offset=offset)
-        self._events, self._results = self._ctx.Queue(), self._ctx.Queue()
-        self._stop = self._ctx.Event()
-        spec = LoopSpec(self.config, self.vehicle, self._state.name, self._control.name)
-        self._process = self._ctx.Process(
-            target=run_loop,
-            args=(spec, self._events, self._results, self._stop),
-            name=f"{node_id}-loop",
-            daemon=True,
-        )
-        self._process.start()
-
-    def own_pose_block(self) -> OwnPoseBlock:
-        """Where a view reads this car's pose without network delay (the loop's state)."""
-        n = self.node_settings
-        name = block_name(n.session, n.node_id, "state")
-        return OwnPoseBlock(name, STATE, n.actor_kind, n.extent)
+        spec = functools.partial(LoopSpec, self.config, self.vehicle)
+        self._start_loop(session, node_id, run_loop, spec, clock_offset=offset)
 
     def hmi_bridge(self) -> DriveHmiBridge:
         """The web HMI's view of this car (carlaverse join drive --hmi PORT)."""
@@ -99,10 +71,8 @@ class DriveNode:
 
     def pose_source(self) -> PoseSource | None:
         def source(t: float) -> Pose | None:
-            if self._state is None:
-                return None
-            s = self._state.read()
-            if not s["running"]:
+            s = self._running_state()
+            if s is None:
                 return None
             return Pose(
                 0,
@@ -146,22 +116,6 @@ class DriveNode:
         if not self._process.is_alive():
             raise RuntimeError(f"the control loop process died (exit {self._process.exitcode})")
 
-    def _place_at_spawn(self, client: NodeClient) -> None:
-        reply = client.join_reply
-        if reply is None or reply.spawn is None or client.joins == self._joins_seen:
-            return
-        self._joins_seen = client.joins
-        if self._spawn_seq:  # a re-join keeps the car where it is
-            return
-        self._spawn_seq += 1
-        sp = reply.spawn
-        self._control.write_fields(
-            spawn_seq=self._spawn_seq,
-            spawn_x=sp.x,
-            spawn_y=sp.y,  # type: ignore[union-attr]
-            spawn_yaw=sp.yaw,
-        )
-
     def _publish_state(self, client: NodeClient, s: Any) -> None:
         if not s["running"]:
             return
@@ -182,11 +136,7 @@ class DriveNode:
         )
 
     def close(self) -> None:
-        if self._process is None:
-            return
-        self._loop_summary = stop_loop_process(
-            self._process, self._stop, self._results, (self._state, self._control), "control loop"
-        )
+        self._stop_loop()
 
     def report(self) -> dict[str, Any]:
         return {"loop": self._loop_summary, "events_forwarded": self._forwarded}

@@ -10,12 +10,12 @@ from __future__ import annotations
 
 import logging
 import math
-import queue
 import time
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from carlaverse_nodes.loop_host import drain
 from carlaverse_nodes.walk.config import WalkNodeConfig
 from carlaverse_nodes.walk.shared_state import CONTROL, STATE
 from carlaverse_nodes.walk.walk_control import WalkControl, WalkOutput
@@ -106,11 +106,7 @@ class WalkRunner:
             self.walk.place(float(c["spawn_x"]), float(c["spawn_y"]), float(c["spawn_yaw"]))
 
     def _drain_events(self) -> None:
-        while True:
-            try:
-                event = self.events.get_nowait()
-            except queue.Empty:
-                return
+        for event in drain(self.events):
             if isinstance(event, Impulse):
                 self.impulses += 1
             elif isinstance(event, np.ndarray):

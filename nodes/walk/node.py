@@ -11,14 +11,15 @@ authority in a thread), and publishes the body's joints from the skeleton source
 
 from __future__ import annotations
 
+import functools
 import logging
-import multiprocessing as mp
 import queue
 import threading
 from typing import Any
 
 import msgspec
 import zenoh
+from carlaverse_nodes.loop_host import LoopHost
 from carlaverse_nodes.walk.body import SkeletonSource, check_body, open_skeleton_source
 from carlaverse_nodes.walk.config import WalkNodeConfig, node_settings
 from carlaverse_nodes.walk.loop_process import WalkLoopSpec, run_walk_loop
@@ -29,9 +30,6 @@ from carlaverse import messages as m
 from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.hal import XrConfig, xr
 from carlaverse.hal.errors import HalError
-from carlaverse.realtime import stop_loop_process
-from carlaverse.render.live import OwnPoseBlock
-from carlaverse.shm import SharedBlock, block_name
 
 log = logging.getLogger(__name__)
 
@@ -59,30 +57,21 @@ def preflight_headset(cfg: XrConfig) -> None:
         raise ValueError(str(exc)) from exc
 
 
-class WalkNode:
+class WalkNode(LoopHost):
     name = "walk"
     config_type = WalkNodeConfig
 
     def __init__(self, config: WalkNodeConfig) -> None:
         preflight_headset(config.xr)
         check_body(config.body)
+        super().__init__(STATE, CONTROL, "walk loop")
         self.config = config
         self.node_settings = node_settings(config)
-        self._ctx = mp.get_context("spawn")
-        self._state: SharedBlock | None = None
-        self._control: SharedBlock | None = None
-        self._process: Any = None
-        self._events: Any = None
-        self._results: Any = None
-        self._stop: Any = None
-        self._joins_seen = 0
-        self._spawn_seq = 0
         self._lanes_join = 0  # the join whose map was asked for
         self._walkable_segments: int | None = None
         self._body: SkeletonSource | None = open_skeleton_source(config.body)
         self._skeleton_pub: Any = None
         self._skeleton_seq = 0
-        self._loop_summary: dict[str, Any] = {}
 
     @classmethod
     def with_backend(cls, config: WalkNodeConfig, backend: str) -> WalkNodeConfig:
@@ -95,30 +84,13 @@ class WalkNode:
         return msgspec.structs.replace(config, xr=headset, input=None)
 
     def start(self, session: str, node_id: str, offset: float) -> None:
-        self._state = SharedBlock(block_name(session, node_id, "state"), STATE, create=True)
-        self._control = SharedBlock(block_name(session, node_id, "control"), CONTROL, create=True)
-        self._control.write_fields(clock_offset=offset)
-        self._events, self._results = self._ctx.Queue(), self._ctx.Queue()
-        self._stop = self._ctx.Event()
-        spec = WalkLoopSpec(self.config, self._state.name, self._control.name)
-        self._process = self._ctx.Process(
-            target=run_walk_loop, args=(spec, self._events, self._results, self._stop),
-            name=f"{node_id}-loop", daemon=True,
-        )  # fmt: skip
-        self._process.start()
-
-    def own_pose_block(self) -> OwnPoseBlock:
-        """Where a view reads this walker's head without network delay (the loop's state)."""
-        n = self.node_settings
-        name = block_name(n.session, n.node_id, "state")
-        return OwnPoseBlock(name, STATE, n.actor_kind, n.extent)
+        spec = functools.partial(WalkLoopSpec, self.config)
+        self._start_loop(session, node_id, run_walk_loop, spec, clock_offset=offset)
 
     def pose_source(self) -> PoseSource | None:
         def source(t: float) -> m.Pose | None:
-            if self._state is None:
-                return None
-            s = self._state.read()
-            if not s["running"]:
+            s = self._running_state()
+            if s is None:
                 return None
             f = {name: float(s[name]) for name in ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")}
             return m.Pose(0, **f)  # the body stands upright; the head's pitch stays local
@@ -145,20 +117,6 @@ class WalkNode:
             return f"exit code {self._process.exitcode}"
         self._loop_summary = report
         return str(report.get("error", f"exit code {self._process.exitcode}"))
-
-    def _place_at_spawn(self, client: NodeClient) -> None:
-        reply = client.join_reply
-        if reply is None or reply.spawn is None or client.joins == self._joins_seen:
-            return
-        self._joins_seen = client.joins
-        if self._spawn_seq:  # a re-join keeps the walker where it is
-            return
-        self._spawn_seq += 1
-        sp = reply.spawn
-        assert self._control is not None
-        self._control.write_fields(
-            spawn_seq=self._spawn_seq, spawn_x=sp.x, spawn_y=sp.y, spawn_yaw=sp.yaw
-        )
 
     def _follow_lanes(self, client: NodeClient) -> None:
         """With snapping on, ask each authority joined for its map; the loop gets the lanes."""
@@ -209,19 +167,7 @@ class WalkNode:
         if self._skeleton_pub is not None:
             self._skeleton_pub.undeclare()
             self._skeleton_pub = None
-        if self._process is None:
-            return
-        if self._loop_summary:  # the loop already ended and reported (`_loop_error`)
-            self._process.join(timeout=5)
-            for block in (self._state, self._control):
-                if block is not None:
-                    block.close()
-        else:
-            self._loop_summary = stop_loop_process(
-                self._process, self._stop, self._results, (self._state, self._control),
-                "walk loop",
-            ) or {}  # fmt: skip
-        self._process = None
+        self._stop_loop()
 
     def report(self) -> dict[str, Any]:
         return {"loop": self._loop_summary, "skeletons_sent": self._skeleton_seq,
