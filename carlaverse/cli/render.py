@@ -168,7 +168,10 @@ def _render_recording(args: argparse.Namespace, stop: threading.Event) -> int:
     world = RecordedWorld(args.source)
     start = args.at if args.at is not None else first_pose_time(args.source)
     with Renderer(_config(args), recorded_map(args.source)) as renderer:
-        return _capture(args, renderer, lambda k: world.frame(start + k / args.fps), stop)
+        frames = _capture(args, renderer, lambda k: world.frame(start + k / args.fps), stop)
+    if world.bad_samples:  # a damaged or foreign sample is skipped, not drawn: say how many
+        say("render")(f"{world.bad_samples} recorded samples could not be read and were skipped")
+    return frames
 
 
 def _render_live(args: argparse.Namespace, stop: threading.Event) -> int:

@@ -87,6 +87,7 @@ class UnbufferedFile:
         return len(data)
 
     def tell(self) -> int:
+        """Bytes written so far: the MCAP writer records offsets with it (file protocol)."""
         return self._pos
 
     def flush(self) -> None:

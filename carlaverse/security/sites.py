@@ -97,11 +97,6 @@ def secure_fabric(
     return msgspec.structs.replace(base, mode=mode, zenoh={**base.zenoh, **entries})
 
 
-def node_zenoh_entries(config_path: str | Path, node_id: str) -> dict[str, Any]:
-    """Only the raw entries, to merge into a node config's own `fabric.zenoh`."""
-    return node_fabric_settings(config_path, node_id, connect=[]).zenoh
-
-
 def write_dictionary(loaded: LoadedRoster, site: str) -> Path:
     """The login dictionary of `site`'s router: its own nodes and every other site's router."""
     logins = [_pair(loaded.node_identity(n.id)) for n in loaded.nodes_at(site)]

@@ -105,13 +105,11 @@ class LinkModel:
 
 
 class Direction(LinkModel):
-    """One direction of the relay: its TCP schedule plus stalls and statistics."""
+    """One direction of the relay: its TCP schedule plus stalls and its trace."""
 
     def __init__(self, profile: LinkProfile, rng: random.Random) -> None:
         super().__init__(profile, rng, "tcp")
         self.blocked_until = 0.0  # [s] loop time; a loss burst holds deliveries until then
-        self.bytes = 0
-        self.chunks = 0
         # [s] loop time per chunk: read from the sender, due by the schedule, written on
         self.trace: deque[tuple[float, float, float]] = deque(maxlen=TRACE_CHUNKS)
 
@@ -323,8 +321,6 @@ class LinkEmulator:
                     break
                 writer.write(data)
                 direction.trace.append((read_t, due, loop.time()))
-                direction.bytes += len(data)
-                direction.chunks += 1
                 await writer.drain()
         except OSError:
             self.counts["write_error"] += 1
