@@ -16,11 +16,13 @@ whole by the tick.
 
 from __future__ import annotations
 
+import dataclasses
 import logging
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from carlaverse.authority.actors import build_actors, egos_at
 from carlaverse.authority.collisions import CollisionMatrix, TickContacts
@@ -135,6 +137,10 @@ class TrafficDomain:
 
     def close(self) -> None:
         self._engine.close()
+
+    def report(self) -> dict[str, Any]:
+        """The domain's counters and its engine's, for the authority's `--json` summary."""
+        return {**dataclasses.asdict(self.stats), **self._engine.counters()}
 
     # ------------------------------------------------------------------ one tick
 

@@ -7,6 +7,7 @@ import logging
 import sys
 import threading
 import time
+from typing import Any
 
 from carlaverse.authority.domain import EmptyDomain, GlobalDomain
 from carlaverse.authority.service import Authority, AuthoritySettings
@@ -68,6 +69,12 @@ def load_domain(scenario: str, seed: int | None) -> GlobalDomain:
         raise ConfigError(scenario, str(exc)) from exc
 
 
+def traffic_report(domain: GlobalDomain) -> dict[str, Any] | None:
+    """The traffic domain's counters; None for `--scenario none` (no traffic to count)."""
+    report = getattr(domain, "report", None)  # TrafficDomain's, imported only with SUMO
+    return report() if report is not None else None
+
+
 def run(args: argparse.Namespace) -> int:
     session_name = args.session or "default"
     try:
@@ -113,6 +120,7 @@ def run(args: argparse.Namespace) -> int:
                 "despawned": authority.despawned,
                 "dropped": authority.dropped,
                 "sent": authority.outbox.sent,
+                "traffic": traffic_report(domain),
             }
         )
     else:

@@ -123,6 +123,9 @@ class SumoEngine:
     def ego_failures(self) -> int:
         return self._egos.failures
 
+    def counters(self) -> dict[str, int]:
+        return {"failed_routes": self._demand.failed_routes, "ego_failures": self.ego_failures}
+
     def stop_npc(self, npc_id: str) -> None:
         ls = self._ls
         try:

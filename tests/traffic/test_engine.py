@@ -93,4 +93,6 @@ def test_egos_off_the_network_do_not_break_the_tick(tmp_path: Path, net_cache: P
         run(domain, out, T0, 3.0, egos=lambda t: {"far": far, "lost": lost})
         # The walker is retried once per second, not every tick; counted, never raised.
         assert 2 <= domain.engine.ego_failures <= 4
+        report = domain.report()  # what the authority's --json summary shows as `traffic`
+        assert report["ego_failures"] == domain.engine.ego_failures and report["ticks"] >= 150
         assert len(out.npcs) >= 59 and out.npcs[-1].ids  # the world went on
