@@ -15,6 +15,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
+from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.hmi.wire import Command
 from carlaverse.shm import SharedBlock, TornRead
 
@@ -24,6 +25,7 @@ class HmiBridge(Protocol):
     node_id: str
     actions: frozenset[str]  # the `press` actions the node takes
     cruise: bool  # it takes cruise set/resume/cancel
+    torn_reads: int  # telemetry reads that met the loop mid-write (that frame is skipped)
 
     def static_info(self) -> dict[str, Any]: ...
 
@@ -59,3 +61,45 @@ class StateReader:
             self.torn_reads += 1
             return None
         return record if record["running"] else None
+
+
+class StateBridge:
+    """The usual bridge: telemetry from the loop's state block, stamped on monotonic time.
+
+    A node kind's bridge names its `kind`, picks its values from the state record
+    (`_values`) and, when it takes commands, overrides `submit`.
+    """
+
+    kind: str
+    actions: frozenset[str] = frozenset()
+    cruise = False
+
+    def __init__(self, settings: NodeSettings, state: Callable[[], SharedBlock | None]) -> None:
+        self.node_id = settings.node_id
+        self._reader = StateReader(state)
+        self.clock_offset = 0.0  # [s] session time − monotonic, kept by the node's step
+
+    @property
+    def torn_reads(self) -> int:
+        return self._reader.torn_reads
+
+    def static_info(self) -> dict[str, Any]:
+        return {}
+
+    def telemetry(self) -> tuple[float, dict[str, Any]] | None:
+        s = self._reader.read()
+        if s is None:
+            return None
+        t = float(s["t"])  # [s] session time of the loop tick, as in its poses
+        values = {"t": t, "speed_mps": float(s["speed_mps"]), **self._values(s)}
+        return t - self.clock_offset, values
+
+    def _values(self, s: np.void) -> dict[str, Any]:
+        """The kind's own values from the state record (beside `t` and `speed_mps`)."""
+        raise NotImplementedError
+
+    def submit(self, command: Command) -> None:
+        raise ValueError(f"the {self.kind} HMI takes no commands, got {command!r}")
+
+    def close(self) -> None:
+        pass  # the node owns and closes its state block

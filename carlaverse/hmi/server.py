@@ -135,6 +135,7 @@ class HmiServer:
             "frames_made": self.frames_made,
             "frames_sent": self.frames_sent,
             "telemetry_errors": self.telemetry_errors,
+            "telemetry_torn_reads": self.bridge.torn_reads,
             "inputs_accepted": self.inputs.accepted,
             "inputs_rejected": dict(self.inputs.rejected),
         }

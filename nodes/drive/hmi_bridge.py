@@ -18,9 +18,10 @@ from typing import Any
 from carlaverse_nodes.drive.controls import ACTIONS
 from carlaverse_nodes.drive.shared_state import INDICATORS
 from carlaverse_nodes.drive.touch import TouchPress
+from carlaverse_nodes.loop_host import drain
 
 from carlaverse.fabric.node_client import NodeSettings
-from carlaverse.hmi.bridge import StateReader
+from carlaverse.hmi.bridge import StateBridge
 from carlaverse.hmi.wire import Command, Cruise, Press
 from carlaverse.messages import Override
 from carlaverse.physics.params import VehicleParams
@@ -32,7 +33,7 @@ LATE_TICK_US = 2000.0  # [µs] a control tick this late is worth a warning
 COLLISION_SHOWN_S = 3.0  # [s] the collision warning stays up this long
 
 
-class DriveHmiBridge:
+class DriveHmiBridge(StateBridge):
     kind = "drive"
     actions = frozenset(ACTIONS)
     cruise = True
@@ -43,11 +44,9 @@ class DriveHmiBridge:
         vehicle: VehicleParams,
         state: Callable[[], SharedBlock | None],
     ) -> None:
-        self.node_id = settings.node_id
-        self._reader = StateReader(state)
+        super().__init__(settings, state)
         self._commands: queue.SimpleQueue[Command] = queue.SimpleQueue()
         self._vehicle = vehicle
-        self.clock_offset = 0.0  # [s] session time − monotonic, kept by the node's step
         self._cruise_seq = 0
         self._cruise_set_mps: float | None = None  # what `resume` goes back to
         self._impulses_seen = 0
@@ -59,13 +58,8 @@ class DriveHmiBridge:
             "transmission": self._vehicle.transmission.mode,
         }
 
-    def telemetry(self) -> tuple[float, dict[str, Any]] | None:
-        s = self._reader.read()
-        if s is None:
-            return None
-        values = {
-            "t": float(s["t"]),  # [s] session time of the loop tick, as in its poses
-            "speed_mps": float(s["speed_mps"]),
+    def _values(self, s: Any) -> dict[str, Any]:
+        return {
             "rpm": float(s["rpm"]),
             "gear": int(s["gear"]),
             "indicator": INDICATORS[int(s["indicator"])],
@@ -78,7 +72,6 @@ class DriveHmiBridge:
             "brake": float(s["brake"]),
             "warnings": self._warnings(s),
         }
-        return float(s["t"]) - self.clock_offset, values
 
     def _warnings(self, s: Any) -> list[str]:
         found = []
@@ -101,15 +94,12 @@ class DriveHmiBridge:
     def forward(self, events: Any, now: float, speed_mps: float) -> int:
         """Move the pages' commands onto the loop's event queue (node step); how many."""
         forwarded = 0
-        while True:
-            try:
-                command = self._commands.get_nowait()
-            except queue.Empty:
-                return forwarded
+        for command in drain(self._commands):
             event = self._for_loop(command, now, speed_mps)
             if event is not None:
                 events.put(event)
                 forwarded += 1
+        return forwarded
 
     def _for_loop(self, command: Command, now: float, speed_mps: float) -> Any:
         if isinstance(command, Press):
@@ -123,6 +113,3 @@ class DriveHmiBridge:
         if command.command == "cancel":
             return Override(self._cruise_seq, now, CRUISE_SOURCE, active=False)
         return Override(self._cruise_seq, now, CRUISE_SOURCE, cruise_speed_mps=self._cruise_set_mps)
-
-    def close(self) -> None:
-        pass  # the node owns and closes its state block

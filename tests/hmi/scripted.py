@@ -20,6 +20,7 @@ class ScriptedBridge:
     node_id = "scripted-car"
     actions = frozenset({"low_beam", "gear_drive"})
     cruise = True
+    torn_reads = 0
 
     def __init__(self, **values: Any) -> None:
         self.values: dict[str, Any] = {
