@@ -27,6 +27,19 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
+def demo_seen(kind: str, *args: str, timeout: float = 120) -> dict[str, Any]:
+    """`carlaverse demo --nodes KIND,scripted ARGS --json` run to its end: its summary, once
+    it exited 0, every node saw every other and the scripted node saw `KIND-1`."""
+    argv = [sys.executable, "-m", "carlaverse", "demo", "--nodes", f"{kind},scripted",
+            "--json", "--quiet", *args]  # fmt: skip
+    done = subprocess.run(argv, capture_output=True, text=True, timeout=timeout)
+    assert done.returncode == 0, done.stderr[-3000:]
+    summary = json.loads(done.stdout)
+    assert summary["all_seen"], summary["nodes"]
+    assert f"{kind}-1" in summary["nodes"]["scripted-2"]["actors_seen"], summary["nodes"]
+    return summary
+
+
 def wait_until(condition: Callable[[], Any], timeout: float, what: str, poll: float = 0.02) -> Any:
     """Poll `condition` until it is truthy; fail naming `what` when the deadline passes."""
     deadline = time.monotonic() + timeout

@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -14,7 +11,7 @@ import yaml
 from carlaverse import messages as m
 from carlaverse.hal.ffb_server import FfbServer, LogActuator
 from carlaverse.hal.ffb_server.actuator import LogActuatorOptions
-from tests.support import Cluster, InProcessAuthority, wait_until
+from tests.support import Cluster, InProcessAuthority, demo_seen, wait_until
 
 
 def test_demo_sees_the_bike_and_its_fork_reaches_the_ffb_server(tmp_path: Path) -> None:
@@ -27,16 +24,9 @@ def test_demo_sees_the_bike_and_its_fork_reaches_the_ffb_server(tmp_path: Path) 
             "ffb": {"backend": "udp", "options": {"port": ffb.address[1]}},
             "road": {"grade_percent": 4.0, "roughness": 0.5},
         }))  # fmt: skip
-        done = subprocess.run(
-            [sys.executable, "-m", "carlaverse", "demo", "--nodes", "bike,scripted",
-             "--scenario", "none", "--duration", "8", "--json", "--quiet",
-             "--node-config", f"bike={config}"],
-            capture_output=True, text=True, timeout=120,
-        )  # fmt: skip
-        assert done.returncode == 0, done.stderr[-3000:]
-        summary = json.loads(done.stdout)
-        assert summary["all_seen"], summary["nodes"]
-        assert "bike-1" in summary["nodes"]["scripted-2"]["actors_seen"]
+        demo_seen(
+            "bike", "--scenario", "none", "--duration", "8", "--node-config", f"bike={config}"
+        )
         assert ffb.stats.applied > 500  # 200 Hz fork commands for most of 8 s
 
 

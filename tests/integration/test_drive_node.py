@@ -3,10 +3,7 @@
 from __future__ import annotations
 
 import itertools
-import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
@@ -19,7 +16,7 @@ from carlaverse.hal.input.pursuit import scripted_route
 from carlaverse.hal.motion_server import LogPlatform, MotionServer
 from carlaverse.hal.motion_server.platform import LogPlatformOptions
 from carlaverse.keys import Keys
-from tests.support import Cluster, InProcessAuthority, wait_until
+from tests.support import Cluster, InProcessAuthority, demo_seen, wait_until
 
 
 def drive_config(tmp: Path, ffb_port: int, motion_port: int) -> Path:
@@ -52,31 +49,9 @@ def test_demo_with_a_drive_node_reaches_the_ffb_and_motion_servers(tmp_path: Pat
         MotionServer(LogPlatform(LogPlatformOptions()), "127.0.0.1", 0) as motion,
     ):
         config = drive_config(tmp_path, ffb.address[1], motion.address[1])
-        done = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "carlaverse",
-                "demo",
-                "--nodes",
-                "drive,scripted",
-                "--scenario",
-                "none",
-                "--duration",
-                "8",
-                "--json",
-                "--quiet",
-                "--node-config",
-                f"drive={config}",
-            ],
-            capture_output=True,
-            text=True,
-            timeout=120,
+        demo_seen(
+            "drive", "--scenario", "none", "--duration", "8", "--node-config", f"drive={config}"
         )
-        assert done.returncode == 0, done.stderr[-3000:]
-        summary = json.loads(done.stdout)
-        assert summary["all_seen"], summary["nodes"]
-        assert "drive-1" in summary["nodes"]["scripted-2"]["actors_seen"]
         assert ffb.stats.applied > 1000  # 500 Hz for most of 8 s
         assert motion.stats.frames > 200  # 100 Hz
 

@@ -28,6 +28,15 @@ map:
     edges: {MAPS / "crossing.edg.xml"}
     connections: {MAPS / "crossing.con.xml"}
 """
+# One scripted car and no other traffic: it leaves the west end of WZ at 10 m/s and reaches
+# the zebra after ~10 s.
+FOLLOWER = """
+traffic:
+  vehicles: {count: 0}
+  pedestrians: {count: 0}
+  scripted_vehicles:
+    - {id: follower, edges: [WZ, ZC, CE], depart_speed_mps: 10}
+"""
 
 
 CAR = Extent(4.5, 1.8, 1.5)  # [m]

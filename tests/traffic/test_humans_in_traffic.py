@@ -16,6 +16,7 @@ from carlaverse.messages import ContactStarted, Extent
 from carlaverse.traffic.sumo_tools import import_libsumo
 from tests.traffic.helpers import (
     CROSSING_MAP,
+    FOLLOWER,
     T0,
     domain_of,
     ego_track,
@@ -26,17 +27,9 @@ from tests.traffic.helpers import (
     write_scenario,
 )
 
-QUIET = """
-traffic:
-  vehicles: {count: 0}
-  pedestrians: {count: 0}
-  scripted_vehicles:
-    - {id: follower, edges: [WZ, ZC, CE], depart_speed_mps: 10}
-"""
-
 
 def test_npc_queues_behind_a_stopped_human_driver(tmp_path: Path, net_cache: Path) -> None:
-    scenario = write_scenario(tmp_path, CROSSING_MAP + QUIET)
+    scenario = write_scenario(tmp_path, CROSSING_MAP + FOLLOWER)
     with domain_of(scenario, net_cache) as domain:
         x, y, yaw = lane_point(domain.map_reply(), "WZ_2", 60.0)  # ego centre, 60 m down WZ
         track = ego_track("driver")
@@ -51,7 +44,7 @@ def test_npc_queues_behind_a_stopped_human_driver(tmp_path: Path, net_cache: Pat
 
 
 def test_npc_yields_to_a_human_walker_on_the_zebra(tmp_path: Path, net_cache: Path) -> None:
-    scenario = write_scenario(tmp_path, CROSSING_MAP + QUIET)
+    scenario = write_scenario(tmp_path, CROSSING_MAP + FOLLOWER)
     with domain_of(scenario, net_cache) as domain:
         reply = domain.map_reply()
         zebra_x = lane_point(reply, ":Z_c0_0", 0.0)[0]  # the zebra runs north-south
@@ -73,7 +66,7 @@ def test_npc_yields_to_a_human_walker_on_the_zebra(tmp_path: Path, net_cache: Pa
 
 
 def test_a_despawned_ego_leaves_sumo(tmp_path: Path, net_cache: Path) -> None:
-    scenario = write_scenario(tmp_path, CROSSING_MAP + QUIET)
+    scenario = write_scenario(tmp_path, CROSSING_MAP + FOLLOWER)
     with domain_of(scenario, net_cache) as domain:
         x, y, yaw = lane_point(domain.map_reply(), "WZ_2", 30.0)
         track = ego_track("driver")

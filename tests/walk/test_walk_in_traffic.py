@@ -23,6 +23,7 @@ from carlaverse.hal import XrConfig, open_xr
 from carlaverse.messages import ContactStarted, MapReply, Pose
 from tests.traffic.helpers import (
     CROSSING_MAP,
+    FOLLOWER,
     T0,
     domain_of,
     ego_track,
@@ -37,15 +38,6 @@ pytest.importorskip("libsumo")
 __all__ = ["net_cache"]
 
 LOOP_DT = 1.0 / 90.0  # [s] the walk loop's 90 Hz
-
-# The follower leaves the west end of WZ at 10 m/s and reaches the zebra after ~10 s.
-FOLLOWER = """
-traffic:
-  vehicles: {count: 0}
-  pedestrians: {count: 0}
-  scripted_vehicles:
-    - {id: follower, edges: [WZ, ZC, CE], depart_speed_mps: 10}
-"""
 
 
 class WalkerOnTheLoop:

@@ -2,10 +2,7 @@
 
 from __future__ import annotations
 
-import json
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -14,19 +11,11 @@ import yaml
 from PIL import Image
 
 from carlaverse import messages as m
-from tests.support import Cluster, wait_until
+from tests.support import Cluster, demo_seen, wait_until
 
 
 def test_demo_with_a_walker_and_a_scripted_car_headless() -> None:
-    done = subprocess.run(
-        [sys.executable, "-m", "carlaverse", "demo", "--nodes", "walk,scripted",
-         "--duration", "6", "--json", "--quiet"],  # the default scenario: the town, SUMO
-        capture_output=True, text=True, timeout=120,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr[-3000:]
-    summary = json.loads(done.stdout)
-    assert summary["all_seen"], summary["nodes"]
-    assert "walk-1" in summary["nodes"]["scripted-2"]["actors_seen"]
+    summary = demo_seen("walk", "--duration", "6")  # the default scenario: the town, SUMO
     assert summary["nodes"]["walk-1"]["poses_sent"] > 100  # 50 Hz for most of 6 s
     assert summary["nodes"]["walk-1"]["npcs_now"] > 0  # the town's traffic around the walker
 
