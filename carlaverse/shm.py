@@ -122,3 +122,34 @@ def new_record(dtype: np.dtype) -> np.void:
 def block_name(session: str, node_id: str, part: str) -> str:
     """A node's block name, `carlaverse-<session>-<node id>-<part>`, so a viewer can attach."""
     return f"carlaverse-{session}-{node_id}-{part}"
+
+
+class BlockReader:
+    """A reader of another process's block that attaches once the block exists: `read()` is
+    None until then, on a torn read (counted) and, when the layout has `running`, until the
+    writer's loop has ticked once."""
+
+    def __init__(self, name: str, dtype: np.dtype) -> None:
+        self.name = name
+        self.dtype = dtype
+        self.torn_reads = 0
+        self._block: SharedBlock | None = None
+
+    def read(self) -> np.void | None:
+        if self._block is None:
+            try:
+                self._block = SharedBlock(self.name, self.dtype)
+            except FileNotFoundError:
+                return None  # the writer creates it when its loop starts
+        try:
+            record = self._block.read()
+        except TornRead:
+            self.torn_reads += 1
+            return None
+        running = "running" not in (self.dtype.names or ()) or bool(record["running"])
+        return record if running else None
+
+    def close(self) -> None:
+        if self._block is not None:
+            self._block.close()
+            self._block = None

@@ -27,16 +27,14 @@ class AirConfig(StrictStruct, frozen=True):
 
 
 class ListenerConfig(StrictStruct, frozen=True):
-    """Where the ears are: the ego's head, moved by an XR head pose when one is tracked."""
+    """Where the ears are: a tracked XR head when the node has one (the walk node's state),
+    else the ego's pose plus the head's offset in it."""
 
-    source: Literal["ego", "xr"] = "ego"
     # Head centre in the vehicle frame (x forward, y left, z up) [m]: a driver's seat.
     head_offset_m: tuple[float, float, float] = (0.2, 0.35, 1.2)
     # The own engine, also in the vehicle frame [m]; heard when the node reports rpm.
     engine_offset_m: tuple[float, float, float] = (1.6, 0.0, 0.6)
     own_engine_level_db: float = 72.0  # [dB SPL at 1 m] own engine at full load
-    cylinders: Annotated[int, msgspec.Meta(ge=1, le=16)] = 4
-    xr_backend: str = "sim"  # when source is xr: the carlaverse.hal.xr backend
 
 
 class OutputConfig(StrictStruct, frozen=True):
@@ -45,6 +43,9 @@ class OutputConfig(StrictStruct, frozen=True):
     backend: Literal["sounddevice", "sim"] = "sounddevice"
     device: str | int | None = None  # PortAudio device name or index; None = the default
     prefill_blocks: Annotated[int, msgspec.Meta(ge=1, le=64)] = 3  # queued ahead [blocks]
+    wav: str | None = None  # sim only: also write what it plays to this WAV (tests, demos)
+    # SCHED_FIFO priority of the audio process where allowed (else nice −10); 0 = unchanged.
+    realtime_priority: Annotated[int, msgspec.Meta(ge=0, le=99)] = 30
 
 
 class AudioConfig(StrictStruct, frozen=True):

@@ -187,3 +187,10 @@ def build_renderer(config: AudioConfig, hrirs: HrirSet | None = None) -> Rendere
     from carlaverse.audio.panning import Panned
 
     return Renderer(config, Panned(config.layout))
+
+
+def layout_channels(layout: str) -> int:
+    """Output channels of a layout: 2 for binaural, one per speaker otherwise."""
+    from carlaverse.audio.panning import layout_azimuths
+
+    return 2 if layout == "binaural" else len(layout_azimuths(layout))

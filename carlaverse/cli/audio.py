@@ -9,10 +9,13 @@ for one listener, offline, as 16-bit multi-channel WAV.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import msgspec
 
@@ -74,3 +77,72 @@ def _progress() -> Callable[[float], None]:
             print(f"carlaverse audio: {fraction:5.1%} rendered", file=sys.stderr, flush=True)
 
     return report
+
+
+# ---------------------------------------------------------------- `carlaverse join … --audio`
+
+
+def add_audio_argument(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--audio", metavar="CONFIG",
+        help="play what the node hears, in a process of its own (audio config: path or "
+        "shipped name, e.g. audio/headphones; audio/headless plays to a simulated device)",
+    )  # fmt: skip
+
+
+@dataclass
+class NodeAudio:
+    """The running audio of a node, if any; `report` holds its summary once it has closed."""
+
+    process: Any = None
+    report: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def extra(self) -> dict[str, Any]:
+        """What the node's exit summary gets: {'audio': report} when audio ran."""
+        return {"audio": self.report} if self.report else {}
+
+
+@contextlib.contextmanager
+def node_audio(args: argparse.Namespace, node: Any, node_id: str, session: str,
+               fabric: Any) -> Iterator[NodeAudio]:  # fmt: skip
+    """Run the node's audio (when --audio) for the duration of the block; ConfigError (one
+    line) when its config is wrong or its output cannot open."""
+    audio = NodeAudio()
+    if args.audio:
+        audio.process = _start_audio(args.audio, node, node_id, session, fabric)
+    try:
+        yield audio
+    finally:
+        if audio.process is not None:
+            from carlaverse.audio.process import audio_report
+
+            audio.report = audio_report(audio.process.close())
+            if not args.json:
+                print(_audio_line(audio.report), file=sys.stderr)
+
+
+def _start_audio(name: str, node: Any, node_id: str, session: str, fabric: Any) -> Any:
+    from carlaverse.audio.config import AudioConfig
+    from carlaverse.audio.ears import BlockSpec
+    from carlaverse.audio.output import OutputError
+    from carlaverse.audio.process import AudioProcess, AudioSpec
+    from carlaverse.config import ConfigError, load_config
+
+    config = load_config(name, AudioConfig)
+    own = node.own_pose_block() if hasattr(node, "own_pose_block") else None
+    block = BlockSpec(own.name, own.dtype) if own is not None else None
+    try:
+        return AudioProcess(AudioSpec(node_id, session, fabric, config, block)).start()
+    except OutputError as exc:
+        raise ConfigError("--audio", str(exc)) from exc
+
+
+def _audio_line(report: dict[str, Any]) -> str:
+    if report.get("error"):
+        return f"carlaverse join: audio stopped: {report['error']}"
+    return (
+        f"carlaverse join: audio ({report['layout']} on {report['device']}): "
+        f"{report['blocks']} blocks, {report['underruns']} underruns, {report['scenes']} scenes, "
+        f"update-to-ear latency p50 {report['latency_ms_p50']} ms"
+    )

@@ -9,6 +9,7 @@ from typing import Any
 
 import msgspec
 
+from carlaverse.cli.audio import add_audio_argument, node_audio
 from carlaverse.cli.common import (
     StopSignal,
     add_fabric_args,
@@ -72,6 +73,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_fabric_args(parser)
     add_output_args(parser)
     add_view_arguments(parser)
+    add_audio_argument(parser)
     add_hmi_arguments(parser)
 
 
@@ -124,13 +126,14 @@ def run(args: argparse.Namespace) -> int:
         with (
             node_view(args, node, node_settings, fabric) as view,  # --view: its own process
             node_hmi(args, args.kind, node, say("join")) as hmi,  # --hmi: a thread of its own
+            node_audio(args, node, node_id, node_settings.session, fabric) as audio,  # --audio
         ):
             summary = run_node(
                 node, node_settings, fabric, config, args.duration, stop,
                 join_timeout_s=args.join_timeout, on_wait=say("join"),
                 on_notice=_show_notice(hmi, say("join")),
             )  # fmt: skip
-        summary.extra.update(view.extra | hmi.extra)
+        summary.extra.update(view.extra | hmi.extra | audio.extra)
     except JoinRefused as exc:
         return fail("join", f"the authority refused {node_id!r}: {exc}", EXIT_REFUSED)
     except (FabricUnreachable, JoinTimeout) as exc:

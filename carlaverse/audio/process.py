@@ -1,0 +1,236 @@
+"""A live node's audio, in a process of its own: `carlaverse join KIND --audio CONFIG`.
+
+    audio = AudioProcess(AudioSpec(node_id, session, fabric, config, block)).start()
+    ...                                     # the node runs; its control loop is never touched
+    summary = audio.close()                 # blocks played, underruns, update latency
+
+The process opens its own fabric session and subscribes to `audio/<node id>` (the Zenoh
+callback only decodes and hands the scene over), reads the node's ears from its shared
+state (`ears.Ears`) or, for a kind without one, from the node's published pose, renders
+block after block and queues them for the output device (`output`), which paces it. A bad
+scene is counted and dropped. The process ends when told, or when its parent is gone.
+"""
+
+from __future__ import annotations
+
+import logging
+import multiprocessing as mp
+import os
+import queue
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from typing import Any
+
+import zenoh
+
+from carlaverse import messages as m
+from carlaverse.audio.config import AudioConfig
+from carlaverse.audio.ears import BlockSpec, Ears
+from carlaverse.audio.scene import LOCAL
+from carlaverse.fabric.session import FabricSettings
+from carlaverse.fabric.stats import percentile
+from carlaverse.keys import Keys
+
+log = logging.getLogger(__name__)
+
+CLOSE_TIMEOUT_S = 10.0  # [s] for the audio process to stop and report
+START_TIMEOUT_S = 60.0  # [s] for it to load its HRTF set and open its output (a slow host)
+READY = "ready"
+PENDING_SCENES = 8  # scenes waiting for the next block; more means the renderer stalled
+PUT_TIMEOUT_S = 0.25  # [s] a full queue this long: look at the stop flag again
+
+
+@dataclass(frozen=True)
+class AudioSpec:
+    """Everything the audio process needs; picklable (it crosses a spawn boundary)."""
+
+    node_id: str
+    session: str
+    fabric: FabricSettings
+    config: AudioConfig
+    block: BlockSpec | None = None
+
+
+@dataclass
+class AudioSummary:
+    layout: str = ""
+    device: str = ""
+    blocks: int = 0  # played by the device
+    underruns: int = 0  # blocks the device needed that were not ready
+    playing_s: float = 0.0  # [s] wall time since the device began to play
+    scenes: int = 0
+    bad_scenes: int = 0
+    late_scenes: int = 0  # replaced by a newer one before a block took them
+    emitters_max: int = 0
+    dropped: dict[str, int] = field(default_factory=dict)
+    latency_ms_p50: float = float("nan")  # emitter update → the block carrying it plays
+    latency_ms_p99: float = float("nan")
+    cpu_per_audio_s: float = float("nan")  # CPU seconds per second of audio rendered
+    priority: str = ""  # how the audio process is scheduled
+    pid: int = 0
+    error: str = ""
+
+
+class SceneInbox:
+    """Scenes from the fabric for the render loop (a Zenoh callback: never waits)."""
+
+    def __init__(self) -> None:
+        self.scenes: deque[tuple[m.AudioScene, float]] = deque(maxlen=PENDING_SCENES)
+        self.received = 0
+        self.bad = 0
+        self.pose: m.Pose | None = None
+
+    def on_scene(self, sample: zenoh.Sample) -> None:
+        try:
+            scene = m.AUDIO_SCENE.decode(sample.payload.to_bytes())
+        except m.MessageError:
+            self.bad += 1
+            return
+        self.received += 1
+        self.scenes.append((scene, time.monotonic()))
+
+    def on_pose(self, sample: zenoh.Sample) -> None:
+        try:
+            self.pose = m.decode_pose(sample.payload.to_bytes())
+        except m.MessageError:
+            self.bad += 1
+
+    def take(self) -> list[tuple[m.AudioScene, float]]:
+        taken = []
+        while self.scenes:
+            taken.append(self.scenes.popleft())
+        return taken
+
+
+class AudioProcess:
+    """The parent's handle on the audio process."""
+
+    def __init__(self, spec: AudioSpec) -> None:
+        ctx = mp.get_context("spawn")  # a fresh interpreter: PortAudio never enters the node
+        self._stop = ctx.Event()
+        self._results: Any = ctx.Queue()
+        self.process = ctx.Process(target=run_audio, args=(spec, self._stop, self._results),
+                                   name=f"{spec.node_id}-audio", daemon=True)  # fmt: skip
+
+    def start(self, timeout_s: float = START_TIMEOUT_S) -> AudioProcess:
+        """Start it and wait until its output is open; OutputError (its one line) if not."""
+        from carlaverse.audio.output import OutputError
+
+        self.process.start()
+        try:
+            first = self._results.get(timeout=timeout_s)
+        except queue.Empty:
+            self.close(timeout_s=1.0)
+            raise OutputError(f"the audio process did not start in {timeout_s:g} s") from None
+        if isinstance(first, AudioSummary):  # it ended before it was ready: the reason
+            self.process.join(timeout=CLOSE_TIMEOUT_S)
+            raise OutputError(first.error)
+        return self
+
+    def close(self, timeout_s: float = CLOSE_TIMEOUT_S) -> AudioSummary:
+        """Stop the audio process and return what it reports."""
+        self._stop.set()
+        try:
+            summary: AudioSummary = self._results.get(timeout=timeout_s)
+        except queue.Empty:
+            summary = AudioSummary(error="the audio process did not report")
+        self.process.join(timeout=timeout_s)
+        if self.process.is_alive():
+            self.process.kill()
+            self.process.join()
+        return summary
+
+
+def run_audio(spec: AudioSpec, stop: Any, results: Any) -> None:
+    """Entry point of the audio process."""
+    summary = AudioSummary(layout=spec.config.layout, pid=os.getpid())
+    try:
+        _run(spec, stop, results, summary)
+    except Exception as exc:  # the node must hear why its audio is gone; it keeps running
+        log.warning("the audio of %s failed: %s", spec.node_id, exc)
+        summary.error = str(exc) if type(exc).__name__ == "OutputError" else (
+            f"{type(exc).__name__}: {exc}")  # fmt: skip
+    finally:
+        results.put(summary)
+
+
+def _run(spec: AudioSpec, stop: Any, results: Any, summary: AudioSummary) -> None:
+    from carlaverse.audio.output import open_output
+    from carlaverse.audio.renderer import build_renderer, layout_channels
+    from carlaverse.fabric.session import open_session
+    from carlaverse.realtime import raise_priority
+
+    # Before any thread starts: they inherit it (the device's, Zenoh's own run at theirs).
+    summary.priority = raise_priority(spec.config.output.realtime_priority)
+    output = open_output(spec.config, layout_channels(spec.config.layout))  # fails fast
+    renderer = build_renderer(spec.config)
+    summary.device = output.device
+    session = open_session(spec.fabric)
+    inbox, ears = SceneInbox(), Ears(spec.config.listener, spec.block)
+    keys = Keys(spec.session)
+    subscribers = [session.declare_subscriber(keys.audio(spec.node_id), inbox.on_scene)]
+    if spec.block is None:
+        subscribers.append(session.declare_subscriber(keys.ego(spec.node_id, "pose"),
+                                                      inbox.on_pose))  # fmt: skip
+    results.put(READY)
+    cpu_start = time.process_time()
+    try:
+        _loop(spec, stop, renderer, output, inbox, ears, summary)
+    finally:
+        _report(summary, renderer, output, inbox, time.process_time() - cpu_start)
+        output.close()
+        for subscriber in subscribers:
+            subscriber.undeclare()
+        ears.close()
+        session.close()
+
+
+def _loop(spec: AudioSpec, stop: Any, renderer: Any, output: Any, inbox: SceneInbox,
+          ears: Ears, summary: AudioSummary) -> None:  # fmt: skip
+    parent = mp.parent_process()
+    started = False
+    stamp: float | None = None
+    while not stop.is_set() and (parent is None or parent.is_alive()):
+        for scene, arrived in _newest(inbox, summary):
+            renderer.hear(scene.emitters, renderer.t)
+            summary.emitters_max = max(summary.emitters_max, len(scene.emitters))
+            stamp = arrived
+        ears.pose = inbox.pose
+        listener = ears.listener(renderer.t)
+        if listener is not None:
+            renderer.place(listener)
+        renderer.hear(ears.own_emitters(renderer.t), renderer.t, LOCAL)
+        block = renderer.render_block()
+        while not output.queue.put(block, stamp, PUT_TIMEOUT_S):
+            if stop.is_set():
+                return
+        if not started and output.queue.full():
+            output.start()  # prefilled: the device may begin
+            started = True
+
+
+def _newest(inbox: SceneInbox, summary: AudioSummary) -> list[tuple[m.AudioScene, float]]:
+    """Only the newest pending scene matters: each replaces the whole emitter list."""
+    taken = inbox.take()
+    summary.late_scenes += max(0, len(taken) - 1)
+    return taken[-1:]
+
+
+def _report(summary: AudioSummary, renderer: Any, output: Any, inbox: SceneInbox,
+            cpu_s: float) -> None:  # fmt: skip
+    summary.blocks, summary.underruns = output.played, output.underruns
+    summary.playing_s = round(output.playing_s(), 3)
+    summary.scenes, summary.bad_scenes = inbox.received, inbox.bad
+    summary.dropped = dict(renderer.slots.dropped)
+    rendered_s = renderer.blocks * renderer.block / renderer.rate
+    if rendered_s > 0:
+        summary.cpu_per_audio_s = round(cpu_s / rendered_s, 3)
+    if output.latencies_s:
+        summary.latency_ms_p50 = round(percentile(output.latencies_s, 0.5) * 1e3, 1)
+        summary.latency_ms_p99 = round(percentile(output.latencies_s, 0.99) * 1e3, 1)
+
+
+def audio_report(summary: AudioSummary) -> dict[str, Any]:
+    """The summary as a node's exit report carries it."""
+    return dict(summary.__dict__)
