@@ -21,6 +21,7 @@ REFERENCE_TEMPERATURE_K = 293.15  # [K]
 TRIPLE_POINT_K = 273.16  # [K] of water
 FIT_LOW_HZ, FIT_HIGH_HZ = 1000.0, 4000.0  # [Hz] where the fit matches ISO 9613-1 exactly
 FIT_ROUNDS = 6  # alternations between the flat loss and the pole: converged to < 0.01 dB
+TABLE_POINTS = 512  # distances tabulated, geometric: < 0.01 dB between two of them
 MAX_POLE = 0.97  # keeps the pole's impulse response inside the renderer's FFT history
 
 
@@ -56,12 +57,20 @@ def absorption_db_per_m(frequency_hz: np.ndarray | float, air: AirConfig) -> np.
 class AirAbsorption:
     """Per emitter, for the distance its sound travelled: a flat gain and a one-pole."""
 
-    def __init__(self, air: AirConfig, sample_rate_hz: float) -> None:
+    def __init__(self, air: AirConfig, sample_rate_hz: float, max_distance_m: float = 5e3):
         self.alpha_low, self.alpha_high = absorption_db_per_m(
             np.array([FIT_LOW_HZ, FIT_HIGH_HZ]), air
         )
         self._cos_low = math.cos(2.0 * math.pi * FIT_LOW_HZ / sample_rate_hz)
         self._cos_high = math.cos(2.0 * math.pi * FIT_HIGH_HZ / sample_rate_hz)
+        # The fit is smooth in distance: tabulated once, interpolated per block.
+        self._grid = np.geomspace(0.1, 1.5 * max_distance_m, TABLE_POINTS)
+        self._flat, self._pole = self.fit(self._grid)
+
+    def at(self, distance_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`fit` from the table: (flat gain, pole) per distance."""
+        d = np.asarray(distance_m, dtype=np.float64)
+        return np.interp(d, self._grid, self._flat), np.interp(d, self._grid, self._pole)
 
     def fit(self, distance_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(flat gain, pole a of y[n] = (1 − a)·x[n] + a·y[n−1]) per distance."""

@@ -67,7 +67,7 @@ class Renderer:
         self.sources = SourceBank(capacity, self.rate, self.block, config.seed)
         self.delays = DelayLines(capacity, config.max_distance_m / self.c_mps + 0.05, self.rate,
                                  self.block)  # fmt: skip
-        self.air = AirAbsorption(config.air, self.rate)
+        self.air = AirAbsorption(config.air, self.rate, config.max_distance_m)
         self._delays = unit_delays(self.n_fft)
         self.frames = np.zeros((capacity, self.n_fft), dtype=np.float32)
         self.tau_s = np.zeros(capacity)
@@ -139,7 +139,7 @@ class Renderer:
         amplitude = 10.0 ** ((self.slots.level_db[live] - self.config.full_scale_db_spl) / 20.0)
         gain = amplitude / np.maximum(distance, MIN_DISTANCE_M)
         gain[(self.slots.state[live] == FADING) | (distance > self.config.max_distance_m)] = 0.0
-        flat, pole = self.air.fit(distance)
+        flat, pole = self.air.at(distance)
         response = one_pole_response(pole, self._delays) * (gain * flat)[:, None].astype(np.float32)
         head = (emitted_from / distance[:, None]) @ self.listener.rotation  # world → head
         extent = self.slots.extent_m[live]

@@ -56,13 +56,14 @@ class SourceBank:
         self._bands = {name: self.noise.unit_power(bands)[0] for name, bands in (
             ("engine", v.ENGINE_NOISE), ("hit", v.CONSTRUCTION_HIT),
             ("rumble", v.CONSTRUCTION_RUMBLE),
-            *((kind, shape[0]) for kind, shape in v.AMBIENCE.items()))}  # fmt: skip
+            )}  # fmt: skip
         self._generators = {
             "engine": self._engine,
             "tyres": self._tyres,
             "siren": self._siren,
             "construction": self._construction,
-        }  # fmt: skip; every other kind is ambience
+        }  # every other kind is ambience, rendered together
+        self._ambient = _AmbienceTable(self.noise)
 
     def reset(self, slots: np.ndarray) -> None:
         """Fresh state for emitters that just appeared."""
@@ -82,13 +83,16 @@ class SourceBank:
         n = len(slots)
         tone = np.zeros((n, self.block), dtype=np.float32)
         gains0, gains1 = np.zeros((n, NOISE_BANDS)), np.zeros((n, NOISE_BANDS))
-        for code in np.unique(kinds):
+        ambient = self._ambient.codes[kinds] >= 0
+        for code in np.flatnonzero(np.bincount(kinds[~ambient], minlength=len(v.KINDS))):
             sel = np.flatnonzero(kinds == code)
             kind = v.KINDS[code]
-            generate = self._generators.get(kind, self._ambience)
-            part, gains0[sel], gains1[sel] = generate(slots[sel], drive.part(sel), kind)
+            part, gains0[sel], gains1[sel] = self._generators[kind](slots[sel], drive.part(sel))
             if part is not None:
                 tone[sel] = part
+        if ambient.any():
+            sel = np.flatnonzero(ambient)
+            gains0[sel], gains1[sel] = self._ambience(slots[sel], drive.a1[sel], kinds[sel])
         out = tone + self.noise.read(self.offset[slots], gains0, gains1, self.block)
         self.offset[slots] = (self.offset[slots] + self.block) % self.noise.samples
         self.clock_s[slots] += self.block / self.rate
@@ -112,7 +116,7 @@ class SourceBank:
         self.phase[slots] = np.mod(end, 2 * TWO_PI)
         return np.mod(phase, np.float32(2 * TWO_PI))
 
-    def _engine(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
+    def _engine(self, slots: np.ndarray, d: Drive) -> Generated:
         """Harmonics of the firing frequency (rpm/60 · cylinders/2), brighter under load,
         with intake and exhaust hiss."""
         per_rpm = self.cylinders[slots] / 120.0  # firing frequency per rpm [Hz]
@@ -123,7 +127,7 @@ class SourceBank:
         hiss = self._bands["engine"] * (share * norm)[:, None]
         return self.tables.engine(phase, load) * norm[:, None].astype(np.float32), hiss, hiss
 
-    def _siren(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
+    def _siren(self, slots: np.ndarray, d: Drive) -> Generated:
         """wail / yelp: a triangle sweep; hi-lo: two alternating tones (each glides into the
         other over one block, as a real two-tone horn does)."""
         t0 = self.clock_s[slots]
@@ -135,7 +139,7 @@ class SourceBank:
 
     # ------------------------------------------------------------------ noise
 
-    def _tyres(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
+    def _tyres(self, slots: np.ndarray, d: Drive) -> Generated:
         """Road roar rising in pitch with speed; wetness adds spray hiss."""
         n = len(slots)
         both = self._tyre_bands(np.concatenate([d.a0, d.a1]), np.concatenate([d.b0, d.b1]))
@@ -147,14 +151,17 @@ class SourceBank:
         dry = (1.0 - shift) * v.TYRE_DRY + shift * np.roll(v.TYRE_DRY, 1)
         return self.noise.unit_power(dry + 1.5 * np.clip(wetness, 0.0, 1.0)[:, None] * v.TYRE_WET)
 
-    def _ambience(self, slots: np.ndarray, d: Drive, kind: str) -> Generated:
-        """Leaves, water, rain, wind: shaped noise swelling in gusts; intensity deepens them."""
-        _bands, tau_s, depth0, depth1 = v.AMBIENCE[kind]
-        g0, g1 = self.gusts.step(slots, self.block / self.rate, tau_s, depth0 + depth1 * d.a1)
-        gains = self._bands[kind]
-        return None, gains * g0[:, None], gains * g1[:, None]
+    def _ambience(self, slots: np.ndarray, intensity: np.ndarray,
+                  kinds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # fmt: skip
+        """Leaves, water, rain, wind: shaped noise swelling in gusts; intensity deepens them.
+        Band gains at the block's start and end."""
+        row = self._ambient.codes[kinds]
+        depth = self._ambient.depth0[row] + self._ambient.depth1[row] * intensity
+        g0, g1 = self.gusts.step(slots, self.block / self.rate, self._ambient.tau_s[row], depth)
+        gains = self._ambient.bands[row]
+        return gains * g0[:, None], gains * g1[:, None]
 
-    def _construction(self, slots: np.ndarray, d: Drive, _kind: str) -> Generated:
+    def _construction(self, slots: np.ndarray, d: Drive) -> Generated:
         """Hammer blows at random intervals (more with intensity) over a machine rumble."""
         since = self._blows(slots, v.BLOWS_HZ[0] + (v.BLOWS_HZ[1] - v.BLOWS_HZ[0]) * d.a1)
         hit_bands = np.tile(self._bands["hit"], (len(slots), 1))
@@ -176,6 +183,17 @@ class SourceBank:
         since = np.minimum(since, self.tables.blow_samples)
         self.since_blow[slots] = np.minimum(since[:, -1] + 1, self.tables.blow_samples)
         return since
+
+
+class _AmbienceTable:
+    """voicing.AMBIENCE as arrays, indexed by a kind's row (codes: kind code → row, or −1)."""
+
+    def __init__(self, noise: NoiseBands) -> None:
+        names = list(v.AMBIENCE)
+        self.codes = np.array([names.index(k) if k in names else -1 for k in v.KINDS])
+        shapes = [v.AMBIENCE[k] for k in names]
+        self.bands = np.concatenate([noise.unit_power(shape[0]) for shape in shapes])
+        self.tau_s, self.depth0, self.depth1 = (np.array([s[i] for s in shapes]) for i in (1, 2, 3))
 
 
 def _siren_hz(t: np.ndarray, pattern: np.ndarray) -> np.ndarray:
