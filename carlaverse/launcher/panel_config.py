@@ -28,7 +28,6 @@ class ConfigEditor:
         self.config_dir = config_dir
         self.draft: ConfigDraft | None = None
         self.errors: list[FieldError] = []
-        self.section_path = ""
         self._build()
 
     def _build(self) -> None:
@@ -95,7 +94,6 @@ class ConfigEditor:
 
     def _show_section(self, path: str) -> None:
         assert self.draft is not None
-        self.section_path = path
         section = next(s for s in self.draft.tree.walk() if s.path == path)
         self.form.clear()
         with self.form:

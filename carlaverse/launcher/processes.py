@@ -125,10 +125,6 @@ class Supervisor:
             stop_children([c for c in children if c.role == role], self.grace_s)
         stop_children(children, self.grace_s)  # a role not named above
 
-    def forget_stopped(self) -> None:
-        with self._lock:
-            self.children = {k: c for k, c in self.children.items() if c.running}
-
 
 def _pump(child: Child, stream: IO[str] | None) -> None:
     if stream is None:

@@ -61,6 +61,7 @@ class ViewSummary:
     frame_ms_p99: float = float("nan")
     gl_renderer: str = ""
     map_lanes: int = 0
+    own_pose_torn_reads: int = 0  # own-pose reads that met the loop mid-write (drawn from the last)
     pid: int = 0  # of the render process (a test can check it is gone)
     error: str = ""
     frame_times_s: list[float] = field(default_factory=list, repr=False)
@@ -135,6 +136,7 @@ def _run(spec: ViewSpec, stop: Any, summary: ViewSummary) -> None:
             summary.gl_renderer = renderer.gl_renderer
             _loop(spec, stop, world, renderer, summary)
     finally:
+        summary.own_pose_torn_reads = world.own.torn_reads if world.own is not None else 0
         world.close()
         session.close()
 

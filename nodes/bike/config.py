@@ -20,13 +20,12 @@ Wind comes from the authority's weather, not from here.
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Annotated, Literal
 
 import msgspec
 from carlaverse_nodes.bike.fork_feel import ForkFeelParams
 
-from carlaverse.config import StrictStruct, load_config, resolve_path
+from carlaverse.config import StrictStruct, resolve_path
 from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.fabric.session import FabricSettings
 from carlaverse.hal import FfbConfig, InputConfig, SpeedSensorConfig, TrainerConfig
@@ -64,10 +63,6 @@ class BikeNodeConfig(StrictStruct):
     ffb: FfbConfig = FfbConfig(backend="sim")
     fork: ForkFeelParams = ForkFeelParams()
     loop: BikeLoopSettings = BikeLoopSettings()
-
-
-def load_bike_config(path: str | Path) -> BikeNodeConfig:
-    return load_config(resolve_path(path), BikeNodeConfig)
 
 
 def resolve_table(config: BikeNodeConfig) -> ResistanceTable:

@@ -153,6 +153,7 @@ class BikeRunner:
             **self.pacer.summary(),
             "ffb_sent": self.ffb_sent,
             "impulses_applied": self.impulses,
+            "impulses_dropped": self.loop.impulses_dropped,  # non-finite or impossible Δv
             "distance_m": round(self.distance_m, 2),
             "resistance_percent": round(float(self.record["resistance_percent"]), 2),
             "trainer": dict(getattr(self.trainer, "counters", {})),

@@ -207,6 +207,7 @@ class _Runner:
             "ffb_sent": self.ffb_sent,
             "motion_sent": self.motion_sent,
             "impulses_applied": self.impulses,
+            "impulses_dropped": self.loop.impulses_dropped,  # non-finite or impossible Δv
             "distance_m": round(self.distance_m, 2),
         }
 

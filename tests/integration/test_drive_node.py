@@ -107,7 +107,7 @@ def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> No
     assert summary["rejected"].get("impulse/duplicate") == 1, summary["rejected"]
     assert summary["impulses_accepted"] == 1
     loop = summary["extra"]["loop"]
-    assert loop["impulses_applied"] == 1
+    assert loop["impulses_applied"] == 1 and loop["impulses_dropped"] == 0
     assert loop["ticks"] > 3000 and loop["distance_m"] > 10
 
 

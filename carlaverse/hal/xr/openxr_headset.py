@@ -20,6 +20,7 @@ No runtime, no headset: opening fails with one line naming what is missing
 
 from __future__ import annotations
 
+import logging
 import math
 import os
 import time
@@ -38,6 +39,8 @@ from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.hal.xr.frames import quaternion_matrix
 from carlaverse.hal.xr.openxr_bindings import ACTIONS, ActionSpec, suggest_bindings
 from carlaverse.hal.xr.openxr_runtime import find_runtime, preflight
+
+log = logging.getLogger(__name__)
 
 SPACES = {"stage": xr.ReferenceSpaceType.STAGE, "local": xr.ReferenceSpaceType.LOCAL}
 ACTION_TYPES = {"vector2f": xr.ActionType.VECTOR2F_INPUT, "boolean": xr.ActionType.BOOLEAN_INPUT,
@@ -146,7 +149,9 @@ class OpenXrHeadset(XrHeadset):
         self.action_set = self._keep(xr.destroy_action_set, xr.create_action_set(
             self.instance, xr.ActionSetCreateInfo("walk", "Walk", 0)))  # fmt: skip
         self.actions = {a.name: self._action(a) for a in ACTIONS}
-        self.refused_profiles = suggest_bindings(xr, self.instance, self.actions)
+        refused = suggest_bindings(xr, self.instance, self.actions)
+        if refused:  # a vendor's profile this runtime does not know: the others still apply
+            log.info("the OpenXR runtime refused the bindings of %s", ", ".join(refused))
         xr.attach_session_action_sets(self.session, xr.SessionActionSetsAttachInfo(
             action_sets=[self.action_set]))  # fmt: skip
         self.hand_space = self._keep(xr.destroy_space, xr.create_action_space(
