@@ -9,6 +9,7 @@ import signal
 import sys
 import threading
 from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any
 
 import msgspec
@@ -167,3 +168,18 @@ def attend(
         session.close()
         raise
     return session, notice
+
+
+@dataclass
+class Companion:
+    """What `join` runs beside a node (its view, HMI or audio), if anything; `report` holds
+    its summary once it has closed, which goes into the node's exit summary as `name`."""
+
+    name: str
+    running: Any = None  # the view or audio process, the HMI server
+    report: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def extra(self) -> dict[str, Any]:
+        """What the node's exit summary gets: {name: report} when it ran."""
+        return {self.name: self.report} if self.report else {}

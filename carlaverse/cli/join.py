@@ -11,6 +11,7 @@ import msgspec
 
 from carlaverse.cli.audio import add_audio_argument, node_audio
 from carlaverse.cli.common import (
+    Companion,
     StopSignal,
     add_fabric_args,
     add_output_args,
@@ -20,7 +21,7 @@ from carlaverse.cli.common import (
     say,
     stop_on_signals,
 )
-from carlaverse.cli.join_hmi import NodeHmi, add_hmi_arguments, node_hmi
+from carlaverse.cli.join_hmi import add_hmi_arguments, node_hmi
 from carlaverse.cli.join_view import add_view_arguments, node_view
 from carlaverse.config import ConfigError, load_config
 from carlaverse.fabric.node_client import JoinRefused, NodeSettings
@@ -102,12 +103,12 @@ def _prepare(args: argparse.Namespace) -> tuple[type, Any, NodeSettings, FabricS
     return kind_cls, config, node_settings, fabric
 
 
-def _show_notice(hmi: NodeHmi, say_line: Callable[[str], None]) -> Callable[[Notice], None]:
+def _show_notice(hmi: Companion, say_line: Callable[[str], None]) -> Callable[[Notice], None]:
     """A scenario's message for this participant: on its HMI when it has one, and a line."""
 
     def show(notice: Notice) -> None:
-        if hmi.server is not None:
-            hmi.server.show_message(notice.text, notice.duration_s)
+        if hmi.running is not None:
+            hmi.running.show_message(notice.text, notice.duration_s)
         say_line(f"scenario message: {notice.text}")
 
     return show

@@ -14,8 +14,9 @@ from __future__ import annotations
 import argparse
 import contextlib
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from typing import Any
+
+from carlaverse.cli.common import Companion
 
 
 def add_hmi_arguments(parser: argparse.ArgumentParser) -> None:
@@ -34,26 +35,14 @@ def add_hmi_arguments(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
 
 
-@dataclass
-class NodeHmi:
-    """The node's running HMI, if any; `extra` goes into the node's exit summary."""
-
-    server: Any = None
-    report: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def extra(self) -> dict[str, Any]:
-        return {"hmi": self.report} if self.report else {}
-
-
 @contextlib.contextmanager
 def node_hmi(
     args: argparse.Namespace, kind: str, node: Any, say: Callable[[str], None]
-) -> Iterator[NodeHmi]:
+) -> Iterator[Companion]:
     """Serve the node's HMI while the block runs, when --hmi was given."""
-    running = NodeHmi()
+    hmi = Companion("hmi")
     if args.hmi is None:
-        yield running
+        yield hmi
         return
     if not 0 <= args.hmi <= 65535:
         raise ValueError(f"--hmi {args.hmi}: not a TCP port (0..65535; 0 picks a free one)")
@@ -65,15 +54,16 @@ def node_hmi(
     loaded = load_hmi_config(args.hmi_config or default_config_name(kind))
     bridge = node.hmi_bridge()
     try:
-        running.server = HmiServer(bridge, loaded, args.hmi_bind, args.hmi).start()
+        server = HmiServer(bridge, loaded, args.hmi_bind, args.hmi).start()
     except ValueError:  # HmiError: the address, in one line
         bridge.close()
         raise
-    say(f"HMI at {running.server.url}{loaded.config.hmi.home} (pages: "
-        f"{', '.join(running.server.site.pages())})")  # fmt: skip
+    hmi.running = server
+    say(f"HMI at {server.url}{loaded.config.hmi.home} (pages: "
+        f"{', '.join(server.site.pages())})")  # fmt: skip
     try:
-        yield running
+        yield hmi
     finally:
-        running.server.close()
-        running.report = running.server.stats()
+        server.close()
+        hmi.report = server.stats()
         bridge.close()

@@ -15,11 +15,11 @@ import argparse
 import contextlib
 import importlib.util
 from collections.abc import Iterator
-from dataclasses import dataclass, field
 from typing import Any
 
 import msgspec
 
+from carlaverse.cli.common import Companion
 from carlaverse.config import ConfigError, load_config
 from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.fabric.session import FabricSettings
@@ -41,34 +41,21 @@ def add_view_arguments(parser: argparse.ArgumentParser) -> None:
                        help="render config with the camera rig (path or shipped name)")  # fmt: skip
 
 
-@dataclass
-class NodeView:
-    """The running view of a node, if any; `report` holds its summary once it has closed."""
-
-    process: Any = None
-    report: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def extra(self) -> dict[str, Any]:
-        """What the node's exit summary gets: {'view': report} when a view ran."""
-        return {"view": self.report} if self.report else {}
-
-
 @contextlib.contextmanager
 def node_view(
     args: argparse.Namespace, node: Any, settings: NodeSettings, fabric: FabricSettings
-) -> Iterator[NodeView]:
+) -> Iterator[Companion]:
     """Run the node's view (when --view) for the duration of the block."""
-    view = NodeView()
+    view = Companion("view")
     if args.view:
-        view.process = _start(args, node, settings, fabric)
+        view.running = _start(args, node, settings, fabric)
     elif args.offscreen or args.view_out or args.view_camera:
         raise ConfigError("--view", "--offscreen, --view-out and --view-camera need --view")
     try:
         yield view
     finally:
-        if view.process is not None:
-            view.report = view.process.close().report()
+        if view.running is not None:
+            view.report = view.running.close().report()
 
 
 def _start(args: argparse.Namespace, node: Any, settings: NodeSettings,
