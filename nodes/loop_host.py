@@ -14,10 +14,13 @@ import queue
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from carlaverse.fabric.node_client import NodeClient
+from carlaverse.fabric.node_client import NodeClient, PoseSource
+from carlaverse.messages import Pose
 from carlaverse.realtime import stop_loop_process
 from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import SharedBlock, block_name
+
+PLANAR = ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")  # pose fields every loop's state has
 
 
 def drain(events: Any) -> Iterator[Any]:
@@ -77,12 +80,24 @@ class LoopHost:
         name = block_name(n.session, n.node_id, "state")
         return OwnPoseBlock(name, self._layouts[0], n.actor_kind, n.extent)
 
-    def _running_state(self) -> Any:
-        """The loop's newest state, or None before the loop runs (no pose to publish yet)."""
-        if self._state is None:
-            return None
-        s = self._state.read()
-        return s if s["running"] else None
+    def pose_source(self) -> PoseSource | None:
+        """The loop's newest pose, read from its state block at the pose rate."""
+
+        def source(t: float) -> Pose | None:
+            if self._state is None:
+                return None
+            s = self._state.read()
+            if not s["running"]:
+                return None  # no pose before the loop's first tick
+            plane = {name: float(s[name]) for name in PLANAR}
+            return Pose(0, **plane, **self._pose_extras(s))
+
+        return source
+
+    def _pose_extras(self, s: Any) -> dict[str, float]:
+        """Pose fields beyond the plane the loop reports too (a bike's lean, a car's yaw rate);
+        none for a walker: the body stands upright, the head's pitch stays local."""
+        return {}
 
     def _place_at_spawn(self, client: NodeClient) -> None:
         """Hand the loop the spawn of the first join; a re-join keeps the node where it is."""

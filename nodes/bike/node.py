@@ -25,7 +25,7 @@ from carlaverse_nodes.loop_host import LoopHost
 
 from carlaverse import messages as m
 from carlaverse.config import ConfigError
-from carlaverse.fabric.node_client import NodeClient, PoseSource
+from carlaverse.fabric.node_client import NodeClient
 from carlaverse.hal import FfbConfig, InputConfig, TrainerConfig
 from carlaverse.hal.input.pursuit import scripted_route
 
@@ -72,15 +72,8 @@ class BikeNode(LoopHost):
         self._hmi = BikeHmiBridge(self.node_settings, lambda: self._state)
         return self._hmi
 
-    def pose_source(self) -> PoseSource | None:
-        def source(t: float) -> m.Pose | None:
-            s = self._running_state()
-            if s is None:
-                return None
-            f = {name: float(s[name]) for name in ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")}
-            return m.Pose(0, **f, roll=float(s["lean"]), wz=float(s["yaw_rate"]))
-
-        return source
+    def _pose_extras(self, s: Any) -> dict[str, float]:
+        return {"roll": float(s["lean"]), "wz": float(s["yaw_rate"])}
 
     def step(self, client: NodeClient, now: float) -> None:
         if self._process is None:

@@ -19,10 +19,10 @@ from carlaverse_nodes.drive.loop_process import LoopSpec, run_loop
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 from carlaverse_nodes.loop_host import LoopHost
 
-from carlaverse.fabric.node_client import NodeClient, PoseSource
+from carlaverse.fabric.node_client import NodeClient
 from carlaverse.hal import FfbConfig, InputConfig, MotionConfig
 from carlaverse.hal.input.pursuit import scripted_route
-from carlaverse.messages import EgoState, Pose
+from carlaverse.messages import EgoState
 from carlaverse.physics.params import VehicleParams
 
 log = logging.getLogger(__name__)
@@ -69,32 +69,8 @@ class DriveNode(LoopHost):
         self._hmi = DriveHmiBridge(self.node_settings, self.vehicle, lambda: self._state)
         return self._hmi
 
-    def pose_source(self) -> PoseSource | None:
-        def source(t: float) -> Pose | None:
-            s = self._running_state()
-            if s is None:
-                return None
-            return Pose(
-                0,
-                float(s["t"]),
-                float(s["x"]),
-                float(s["y"]),
-                0.0,
-                0.0,
-                0.0,
-                float(s["yaw"]),
-                float(s["vx"]),
-                float(s["vy"]),
-                0.0,
-                0.0,
-                0.0,
-                float(s["yaw_rate"]),
-                float(s["ax"]),
-                float(s["ay"]),
-                0.0,
-            )
-
-        return source
+    def _pose_extras(self, s: Any) -> dict[str, float]:
+        return {"wz": float(s["yaw_rate"])}
 
     def step(self, client: NodeClient, now: float) -> None:
         if self._process is None:

@@ -27,7 +27,7 @@ from carlaverse_nodes.walk.shared_state import CONTROL, STATE
 from carlaverse_nodes.walk.walkable import Walkable
 
 from carlaverse import messages as m
-from carlaverse.fabric.node_client import NodeClient, PoseSource
+from carlaverse.fabric.node_client import NodeClient
 from carlaverse.hal import XrConfig, xr
 from carlaverse.hal.errors import HalError
 
@@ -86,16 +86,6 @@ class WalkNode(LoopHost):
     def start(self, session: str, node_id: str, offset: float) -> None:
         spec = functools.partial(WalkLoopSpec, self.config)
         self._start_loop(session, node_id, run_walk_loop, spec, clock_offset=offset)
-
-    def pose_source(self) -> PoseSource | None:
-        def source(t: float) -> m.Pose | None:
-            s = self._running_state()
-            if s is None:
-                return None
-            f = {name: float(s[name]) for name in ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")}
-            return m.Pose(0, **f)  # the body stands upright; the head's pitch stays local
-
-        return source
 
     def step(self, client: NodeClient, now: float) -> None:
         if self._process is None:
