@@ -58,3 +58,20 @@ def test_the_target_is_judged_against_cyclonedds(
     (line,) = report.verdict(rows)
     assert f"= {pose_ms / 1.0:.2f}, {met} ≤ 0.8" in line
     assert "|" in report.table(rows)[2] and "1.00 |" in report.table(rows)[2]
+
+
+def test_py_spy_stacks_are_staged_by_their_method_names(monkeypatch: pytest.MonkeyPatch) -> None:
+    """py-spy names methods with their class; a stack is staged by its innermost known step."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    from collections import Counter
+
+    from peers.profile import hottest, stage_shares
+
+    stacks = Counter({
+        "_send_measured (run.py:80);NodeClient.publish_pose (fabric/node_client.py:200)": 3,
+        "Thread.run (threading.py:1);guarded (guard.py:9);Inbound._on_pose (inbound.py:3)": 1,
+    })  # fmt: skip
+    shares = dict(stage_shares(stacks))
+    assert shares["NodeClient.publish_pose (encode, put)"] == pytest.approx(0.75)
+    assert shares["Zenoh pose callback (key parse, decode, checks, hand-over)"] == 0.25
+    assert hottest(stacks)[0] == ("NodeClient.publish_pose (node_client.py)", 0.75)

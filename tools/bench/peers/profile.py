@@ -95,7 +95,8 @@ def stage_shares(stacks: Counter[str]) -> list[tuple[str, float]]:
     total = sum(stacks.values()) or 1
     by_stage: Counter[str] = Counter()
     for stack, count in stacks.items():
-        functions = {f for f, _ in frames(stack)}
+        # py-spy names methods with their class (`Inbound._on_pose`): compare the last part
+        functions = {f.rpartition(".")[2] for f, _ in frames(stack)}
         stage = next((label for f, label in STAGES if f in functions), "other")
         by_stage[stage] += count
     return [(stage, count / total) for stage, count in by_stage.most_common()]
