@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import psutil
@@ -75,6 +75,17 @@ class Fabric:
         with self._lock:
             return self.states[-1] if self.states else None
 
+    def state_holds(self, check: Callable[[m.EgoState], bool]) -> bool:
+        """Whether the car's newest ego state passes `check` (False before the first)."""
+        state = self.last_state()
+        return state is not None and check(state)
+
+
+def open_touch(page: Page, url: str) -> None:
+    """The touchscreen page, once its first frame and the car's info are in."""
+    page.goto(url + "touch")
+    page.wait_for_function("window.hmi && hmi.frames > 0 && hmi.info", timeout=30000)
+
 
 @pytest.fixture(scope="module")
 def drive(
@@ -108,7 +119,7 @@ def test_the_dashboard_follows_the_scripted_drive(
         page.wait_for_timeout(250)
     fabric.hold_speed(None)
     assert max(shown) - min(shown) >= 15, f"the speed shown hardly changed: {shown}"
-    wait_until(lambda: (fabric.last_state() or m.EgoState(0, 0.0, adas="?")).adas == "", 10,
+    wait_until(lambda: fabric.state_holds(lambda s: s.adas == ""), 10,
                "the car's pedals back with its driver")  # fmt: skip
     state = wait_until(fabric.last_state, 10, "the car's ego state")
     gear = page.locator('[data-readout="gear"]')
@@ -123,15 +134,13 @@ def test_tapping_low_beam_turns_the_lights_on_the_fabric(
 ) -> None:
     cluster, _, url = drive
     fabric = Fabric(cluster, "car")
-    page.goto(url + "touch")
+    open_touch(page, url)
     button = page.locator('button[data-action="low_beam"]')
-    page.wait_for_function("window.hmi && hmi.frames > 0 && hmi.info", timeout=30000)
     assert not page.evaluate("hmi.last.lights") & m.LIGHT_LOW_BEAM
     button.click()
 
     def low_beam_on_fabric() -> bool:
-        state = fabric.last_state()
-        return state is not None and bool(state.lights & m.LIGHT_LOW_BEAM)
+        return fabric.state_holds(lambda s: bool(s.lights & m.LIGHT_LOW_BEAM))
 
     wait_until(low_beam_on_fabric, 10, "EgoState.lights with the low beam on the fabric")
     page.wait_for_function(
@@ -148,13 +157,11 @@ def test_cruise_set_and_cancel_from_the_touchscreen(
 ) -> None:
     cluster, _, url = drive
     fabric = Fabric(cluster, "car")
-    page.goto(url + "touch")
-    page.wait_for_function("window.hmi && hmi.frames > 0 && hmi.info", timeout=30000)
+    open_touch(page, url)
     page.locator('button[data-action="set"]').click()  # hold the speed it has now
 
     def adas_on_fabric() -> bool:
-        state = fabric.last_state()
-        return state is not None and state.adas != ""
+        return fabric.state_holds(lambda s: s.adas != "")
 
     wait_until(adas_on_fabric, 10, "the cruise override in the car's EgoState.adas")
     page.wait_for_function("hmi.last.cruise_active && hmi.last.cruise_speed_mps > 5")
