@@ -74,6 +74,26 @@ class LoopHost:
         )
         self._process.start()
 
+    def _tend_loop(self, client: NodeClient, **control_fields: float) -> None:
+        """The start of every step: start the loop on the first, hand it the session-clock
+        offset (with `control_fields`) and the spawn of a new join."""
+        if self._process is None:
+            self.start(client.settings.session, client.node_id, client.clock.offset)
+        assert self._control is not None
+        self._control.write_fields(clock_offset=client.clock.offset, **control_fields)
+        self._place_at_spawn(client)
+
+    def _forward(self, inbox: Any) -> int:
+        """Move what the fabric queued (impulses, overrides) onto the loop's events; how many."""
+        forwarded = 0
+        while inbox:
+            self._events.put(inbox.popleft())
+            forwarded += 1
+        return forwarded
+
+    def start(self, session: str, node_id: str, offset: float) -> None:
+        raise NotImplementedError  # a node kind starts its own loop through `_start_loop`
+
     def own_pose_block(self) -> OwnPoseBlock:
         """Where a view reads this node's pose without network delay (the loop's state)."""
         n = self.node_settings

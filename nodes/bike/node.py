@@ -76,21 +76,13 @@ class BikeNode(LoopHost):
         return {"roll": float(s["lean"]), "wz": float(s["yaw_rate"])}
 
     def step(self, client: NodeClient, now: float) -> None:
-        if self._process is None:
-            self.start(client.settings.session, client.node_id, client.clock.offset)
-        assert self._control is not None
         weather = client.world.weather
         wind = (weather.wind_speed_mps, weather.wind_direction_deg) if weather else (0.0, 0.0)
-        self._control.write_fields(
-            clock_offset=client.clock.offset, wind_speed_mps=wind[0], wind_from_deg=wind[1]
-        )
+        self._tend_loop(client, wind_speed_mps=wind[0], wind_from_deg=wind[1])
         if self._hmi is not None:
             self._hmi.clock_offset = client.clock.offset
-        self._place_at_spawn(client)
         self._follow_grade(client)
-        while client.impulses:
-            self._events.put(client.impulses.popleft())
-            self._forwarded += 1
+        self._forwarded += self._forward(client.impulses)
         if not self._process.is_alive():
             raise RuntimeError(f"the bike loop process died (exit {self._process.exitcode})")
 

@@ -73,17 +73,9 @@ class DriveNode(LoopHost):
         return {"wz": float(s["yaw_rate"])}
 
     def step(self, client: NodeClient, now: float) -> None:
-        if self._process is None:
-            self.start(client.settings.session, client.node_id, client.clock.offset)
-        assert self._control is not None and self._state is not None
-        self._control.write_fields(clock_offset=client.clock.offset)
-        self._place_at_spawn(client)
-        while client.impulses:
-            self._events.put(client.impulses.popleft())
-            self._forwarded += 1
-        while client.overrides:
-            self._events.put(client.overrides.popleft())
-            self._forwarded += 1
+        self._tend_loop(client)
+        assert self._state is not None
+        self._forwarded += self._forward(client.impulses) + self._forward(client.overrides)
         state = self._state.read()
         if self._hmi is not None:
             self._hmi.clock_offset = client.clock.offset

@@ -88,15 +88,10 @@ class WalkNode(LoopHost):
         self._start_loop(session, node_id, run_walk_loop, spec, clock_offset=offset)
 
     def step(self, client: NodeClient, now: float) -> None:
-        if self._process is None:
-            self.start(client.settings.session, client.node_id, client.clock.offset)
-        assert self._control is not None
-        self._control.write_fields(clock_offset=client.clock.offset)
-        self._place_at_spawn(client)
+        self._tend_loop(client)
         self._follow_lanes(client)
         self._publish_skeleton(client)
-        while client.impulses:
-            self._events.put(client.impulses.popleft())
+        self._forward(client.impulses)
         if not self._process.is_alive():
             raise ValueError(f"the walk loop stopped: {self._loop_error()}")
 
