@@ -7,6 +7,7 @@ so a node id can never widen an ACL rule or collide with another key.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 
@@ -14,6 +15,16 @@ ROOT = "carlaverse"
 AUTHORITY_ID = "authority"
 
 _TOKEN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$")
+
+# Interest management (docs/architecture.md §3): the world is cut into square tiles and the
+# keys of what is spatial -- ego poses, NPC batches -- end in their tile, so a node subscribes
+# to the tiles around it and Zenoh (the router, or a peer's writer-side filter) delivers
+# nothing from elsewhere. The size is part of the protocol: every process must agree on it.
+TILE_SIZE_M = 250.0  # [m]
+_TILE = re.compile(r"^t(-?[0-9]{1,7})_(-?[0-9]{1,7})$")
+# Channels whose keys carry a tile: ego/<id>/pose/<tile>, world/npc/<tile>.
+TILED_EGO_CHANNELS = ("pose",)
+TILED_WORLD_CHANNELS = ("npc",)
 
 # Per-node channels under ego/<node_id>/...
 EGO_CHANNELS = ("pose", "skeleton", "state", "override")
@@ -34,6 +45,24 @@ def check_token(value: str, what: str = "node id") -> str:
             "starting with a letter or digit (e.g. 'tum-drive-1')"
         )
     return value
+
+
+def tile_token(ix: int, iy: int) -> str:
+    """The key chunk of tile (ix, iy): `t<ix>_<iy>`, e.g. `t3_-2`."""
+    return f"t{ix}_{iy}"
+
+
+def tile_of(x: float, y: float) -> tuple[int, int]:
+    """The tile (ix, iy) holding world position (x, y) [m]."""
+    return math.floor(x / TILE_SIZE_M), math.floor(y / TILE_SIZE_M)
+
+
+def tile_index(token: str) -> tuple[int, int]:
+    """(ix, iy) of a tile token; raise KeySpaceError naming it otherwise."""
+    match = _TILE.match(token)
+    if match is None:
+        raise KeySpaceError(f"invalid tile {token!r}: expected t<ix>_<iy>, e.g. 't3_-2'")
+    return int(match[1]), int(match[2])
 
 
 @dataclass(frozen=True, slots=True)
@@ -67,8 +96,24 @@ class Keys:
             raise KeySpaceError(f"unknown ego channel {channel!r}; expected one of {EGO_CHANNELS}")
         return f"{self.prefix}/ego/{check_token(node_id)}/{channel}"
 
-    def pose(self, node_id: str) -> str:
-        return self.ego(node_id, "pose")
+    def pose(self, node_id: str, tile: str) -> str:
+        """Where node `node_id` publishes its pose while it is in `tile`."""
+        tile_index(tile)
+        return f"{self.ego(node_id, 'pose')}/{tile}"
+
+    def poses_of(self, node_id: str) -> str:
+        """Every pose of one node, whichever tile it is in."""
+        return f"{self.ego(node_id, 'pose')}/**"
+
+    def poses_in(self, tile: str) -> str:
+        """Every node's pose published in `tile`."""
+        tile_index(tile)
+        return f"{self.prefix}/ego/*/pose/{tile}"
+
+    def npc_in(self, tile: str) -> str:
+        """The authority's batch of the NPCs in `tile` (`world/npc` carries all of them)."""
+        tile_index(tile)
+        return f"{self.world('npc')}/{tile}"
 
     def state(self, node_id: str) -> str:
         return self.ego(node_id, "state")
@@ -77,8 +122,11 @@ class Keys:
         return self.ego(node_id, "override")
 
     def all_ego(self, channel: str) -> str:
+        """Every node's `channel`; for a tiled channel (pose) in every tile."""
         if channel not in EGO_CHANNELS:
             raise KeySpaceError(f"unknown ego channel {channel!r}; expected one of {EGO_CHANNELS}")
+        if channel in TILED_EGO_CHANNELS:
+            return f"{self.prefix}/ego/*/{channel}/**"
         return f"{self.prefix}/ego/*/{channel}"
 
     # world, written by the authority
@@ -121,15 +169,17 @@ class ParsedKey:
     area: str  # node | ego | world | impulse | audio | authority
     channel: str  # pose/state/... for ego; npc/lights/... for world; query name for authority
     node_id: str
+    tile: str = ""  # tiled channels: the tile the key addresses ("" for the whole world)
 
     @property
     def path(self) -> str:
         """The key after `carlaverse/<session>/`."""
+        suffix = f"/{self.tile}" if self.tile else ""
         if self.area == "ego":
-            return f"ego/{self.node_id}/{self.channel}"
+            return f"ego/{self.node_id}/{self.channel}{suffix}"
         if self.area in ("node", "impulse", "audio"):
             return f"{self.area}/{self.node_id}"
-        return f"{self.area}/{self.channel}"
+        return f"{self.area}/{self.channel}{suffix}"
 
 
 def parse(key: str) -> ParsedKey:
@@ -138,8 +188,17 @@ def parse(key: str) -> ParsedKey:
     if len(parts) < 4 or parts[0] != ROOT or not _TOKEN.match(parts[1]):
         raise KeySpaceError(f"not a carlaverse key: {key!r}")
     session, area, rest = parts[1], parts[2], parts[3:]
+    if area == "ego" and len(rest) == 3 and rest[1] in TILED_EGO_CHANNELS and _tiled(rest):
+        return ParsedKey(session, area, rest[1], rest[0], rest[2])
     if area == "ego" and len(rest) == 2 and rest[1] in EGO_CHANNELS and _TOKEN.match(rest[0]):
         return ParsedKey(session, area, rest[1], rest[0])
+    if (
+        area == "world"
+        and len(rest) == 2
+        and rest[0] in TILED_WORLD_CHANNELS
+        and _TILE.match(rest[1])
+    ):
+        return ParsedKey(session, area, rest[0], "", rest[1])
     if area in ("node", "impulse", "audio") and len(rest) == 1 and _TOKEN.match(rest[0]):
         return ParsedKey(session, area, "", rest[0])
     if area == "world" and len(rest) == 1 and rest[0] in WORLD_CHANNELS:
@@ -147,3 +206,8 @@ def parse(key: str) -> ParsedKey:
     if area == "authority" and len(rest) == 1 and rest[0] in AUTHORITY_QUERIES:
         return ParsedKey(session, area, rest[0], "")
     raise KeySpaceError(f"not a carlaverse key: {key!r}")
+
+
+def _tiled(rest: list[str]) -> bool:
+    """`<id>/<channel>/<tile>` with a valid id and tile."""
+    return bool(_TOKEN.match(rest[0]) and _TILE.match(rest[2]))

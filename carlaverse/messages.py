@@ -28,7 +28,8 @@ import numpy as np
 
 # 2: the snapshot's pose is the 64-byte pose layout; `spawned` carries the actor kind;
 #    the `authority/leave` query; despawn reasons are a closed set.
-SCHEMA_VERSION = 2
+# 3: spatial keys: poses on `ego/<id>/pose/<tile>`, NPC batches also per tile.
+SCHEMA_VERSION = 3
 
 T = TypeVar("T")
 

@@ -23,6 +23,7 @@ import zenoh
 from carlaverse import messages as m
 from carlaverse.config import StrictStruct
 from carlaverse.fabric.clock import MonotonicClock, SessionClock
+from carlaverse.fabric.interest import TiledPublisher
 from carlaverse.keys import Keys, check_token
 from carlaverse.swarm_membership import SwarmMembership
 from carlaverse.swarm_paths import BlockLoops
@@ -81,8 +82,10 @@ class Swarm:
             session, self.keys, self.node_ids, settings.kind, settings.actor_kind, settings.rate_hz
         )
         self._publishers = [
-            session.declare_publisher(
-                self.keys.pose(node_id),
+            TiledPublisher(
+                session,
+                self.keys,
+                node_id,
                 congestion_control=zenoh.CongestionControl.DROP,
                 priority=zenoh.Priority.REAL_TIME,
             )
@@ -169,7 +172,7 @@ class Swarm:
             seq[i] += 1
             payload = pack(version, 0, 0, seq[i] & 0xFFFFFFFF, t, x, y, 0.0, 0.0, 0.0, yaw,
                            vx, vy, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # fmt: skip
-            pubs[i].put(payload)
+            pubs[i].put(payload, x, y)
             self.poses_sent += 1
 
     # ------------------------------------------------------------ membership

@@ -20,10 +20,11 @@ from collections import Counter, deque
 import msgpack
 import zenoh
 
-SCHEMA_VERSION = 2  # docs/protocol.md, "Versions and compatibility"
+SCHEMA_VERSION = 3  # docs/protocol.md, "Versions and compatibility"
 POSE = struct.Struct("<BBHId3f3f3f3e3e")  # the 64-byte pose
 NPC_ROW = struct.Struct("<10fBBH")  # 44 bytes: x y z yaw vx vy yaw_rate l w h, kind, 0, lights
 RATE_HZ = 50.0  # [Hz] pose rate
+TILE_M = 250.0  # [m] map tiles: a pose's key ends in the tile it is in, t<ix>_<iy>
 
 
 def circle_pose(seq: int, t: float) -> bytes:
@@ -52,7 +53,7 @@ class Client:
         self.world: dict[str, object] = {"npcs": 0}  # newest lights, weather, NPC count
         self.count, self.events = Counter(), deque(maxlen=10)  # tallies, last 10 world events
         p = self.prefix
-        self.z.declare_subscriber(f"{p}/ego/*/pose", self.guarded(self.on_pose))
+        self.z.declare_subscriber(f"{p}/ego/*/pose/**", self.guarded(self.on_pose))  # all tiles
         presence = self.guarded(self.on_presence)
         self.z.liveliness().declare_subscriber(f"{p}/node/*", presence, history=True)
 
@@ -152,13 +153,19 @@ class Client:
             self.egos.pop(node_id, None)
 
     def publish(self, stop: threading.Event) -> None:
-        key = f"{self.prefix}/ego/{self.id}/pose"  # best effort: a late pose is a useless pose
-        pub = self.z.declare_publisher(key, congestion_control=zenoh.CongestionControl.DROP)
-        seq, next_t = 0, time.monotonic()
+        seq, next_t, pubs = 0, time.monotonic(), {}  # a publisher per tile we drive through
         while not stop.is_set():
             if self.token is not None:  # only once joined
                 seq += 1
-                pub.put(circle_pose(seq, time.monotonic() + self.offset))  # session time
+                pose = circle_pose(seq, time.monotonic() + self.offset)  # session time
+                x, y = POSE.unpack(pose)[5:7]
+                tile = f"t{math.floor(x / TILE_M)}_{math.floor(y / TILE_M)}"
+                if tile not in pubs:  # best effort: a late pose is a useless pose
+                    key = f"{self.prefix}/ego/{self.id}/pose/{tile}"
+                    pubs[tile] = self.z.declare_publisher(
+                        key, congestion_control=zenoh.CongestionControl.DROP
+                    )
+                pubs[tile].put(pose)
             next_t += 1 / RATE_HZ
             stop.wait(max(0.0, next_t - time.monotonic()))
 

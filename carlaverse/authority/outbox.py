@@ -16,6 +16,7 @@ import itertools
 import zenoh
 
 from carlaverse import messages as m
+from carlaverse.authority.npc_tiles import NpcTilePublisher
 from carlaverse.keys import Keys
 
 
@@ -25,6 +26,7 @@ class ZenohOutbox:
         self._keys = keys
         self._seq = itertools.count(1)
         self.sent: dict[str, int] = {}
+        self.npc_tile_batches = 0  # batches put on `world/npc/<tile>`
         reliable = {
             "congestion_control": zenoh.CongestionControl.BLOCK,
             "reliability": zenoh.Reliability.RELIABLE,
@@ -32,6 +34,7 @@ class ZenohOutbox:
         self._npc = session.declare_publisher(
             keys.world("npc"), congestion_control=zenoh.CongestionControl.DROP
         )
+        self._npc_tiles = NpcTilePublisher(session, keys, session.new_timestamp)
         self._lights = session.declare_publisher(keys.world("lights"), **reliable)
         self._weather = session.declare_publisher(keys.world("weather"), **reliable)
         self._events = session.declare_publisher(
@@ -47,6 +50,7 @@ class ZenohOutbox:
     def npc(self, batch: m.NpcBatch) -> None:
         self._npc.put(m.NPC_BATCH.encode(batch), timestamp=self._session.new_timestamp())
         self._count("npc")
+        self.npc_tile_batches += self._npc_tiles.put(batch)
 
     def lights(self, state: m.LightsState) -> None:
         self._lights.put(m.LIGHTS.encode(state), timestamp=self._session.new_timestamp())

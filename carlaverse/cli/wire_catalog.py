@@ -22,7 +22,14 @@ import msgspec
 import msgspec.inspect as mi
 
 from carlaverse import messages as m
-from carlaverse.keys import AUTHORITY_QUERIES, EGO_CHANNELS, KEY_AREAS, WORLD_CHANNELS
+from carlaverse.keys import (
+    AUTHORITY_QUERIES,
+    EGO_CHANNELS,
+    KEY_AREAS,
+    TILED_EGO_CHANNELS,
+    TILED_WORLD_CHANNELS,
+    WORLD_CHANNELS,
+)
 
 
 @dataclass(frozen=True, slots=True)
@@ -39,11 +46,14 @@ class KeyDoc:
 _KEY_FACTS: tuple[tuple[str, str, str], ...] = (
     ("node/<id>", "every node, and the authority as `node/authority`",
      "liveliness token: PUT when declared, DELETE on undeclare or lease loss"),
-    ("ego/<id>/pose", "the node", "best effort, congestion DROP, priority real-time; 50-120 Hz"),
+    ("ego/<id>/pose/<tile>", "the node; `<tile>` is the map tile it is in (t<ix>_<iy>)",
+     "best effort, congestion DROP, priority real-time; 50-120 Hz"),
     ("ego/<id>/state", "the node", "reliable, congestion BLOCK; on change"),
     ("ego/<id>/skeleton", "walk nodes (none ships yet)", "best effort; ~30 Hz"),
     ("ego/<id>/override", "an ADAS program; the drive node applies it", "reliable"),
     ("world/npc", "authority", "best effort, congestion DROP; scenario `npc_rate_hz` (20 Hz)"),
+    ("world/npc/<tile>", "authority: the NPCs of one map tile (an empty batch when it empties)",
+     "best effort, congestion DROP; with every `world/npc` batch"),
     ("world/lights", "authority", "reliable, congestion BLOCK; on change and at `status_rate_hz`"),
     ("world/weather", "authority", "reliable, congestion BLOCK; on change and at `status_rate_hz`"),
     ("world/events", "authority", "reliable, congestion BLOCK, priority interactive-high"),
@@ -60,7 +70,8 @@ def key_docs() -> list[KeyDoc]:
                for q in AUTHORITY_QUERIES]  # fmt: skip
     for key, writer, delivery in [*_KEY_FACTS, *queries]:
         area, _, rest = key.partition("/")
-        channel = rest.rpartition("/")[2] if area in ("ego", "world", "authority") else ""
+        named = rest.removesuffix("/<tile>")  # a tiled key carries its channel's payload
+        channel = named.rpartition("/")[2] if area in ("ego", "world", "authority") else ""
         codec = m.CHANNEL_CODECS.get((area, channel))
         payload = _type_names(codec.type) if codec is not None else ""
         request = ""
@@ -81,8 +92,10 @@ def _query_struct(query: str, suffix: str) -> str:
 def key_space_paths() -> set[str]:
     """Every key shape `carlaverse.keys` can build, for checking `keys()` is complete."""
     paths = {f"{area}/<id>" for area in ("node", "impulse", "audio")}
-    paths |= {f"ego/<id>/{c}" for c in EGO_CHANNELS}
+    paths |= {f"ego/<id>/{c}" for c in EGO_CHANNELS if c not in TILED_EGO_CHANNELS}
+    paths |= {f"ego/<id>/{c}/<tile>" for c in TILED_EGO_CHANNELS}
     paths |= {f"world/{c}" for c in WORLD_CHANNELS}
+    paths |= {f"world/{c}/<tile>" for c in TILED_WORLD_CHANNELS}
     paths |= {f"authority/{q}" for q in AUTHORITY_QUERIES}
     assert {p.split("/")[0] for p in paths} == set(KEY_AREAS)
     return paths

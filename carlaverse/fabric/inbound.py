@@ -74,14 +74,18 @@ class Inbound:
         self._contact_set: set[tuple[str, int]] = set()
         self._contacts_lock = threading.Lock()
 
-    def subscribe(self, session: zenoh.Session, keys: Keys) -> list[object]:
+    def subscribe(self, session: zenoh.Session, keys: Keys, spatial: bool = True) -> list[object]:
+        """Declare the node's subscriptions. `spatial=False`: poses and NPCs come through
+        an interest area (`spatial_handlers`) instead of from the whole world."""
         g, remote = self.guard, zenoh.Locality.REMOTE
-        world = {"npc": self._on_npc, "lights": self._on_lights, "weather": self._on_weather,
-                 "events": self._on_event}  # fmt: skip
-        entities: list[object] = [
-            session.declare_subscriber(
+        world = {"lights": self._on_lights, "weather": self._on_weather, "events": self._on_event}
+        entities: list[object] = []
+        if spatial:
+            world["npc"] = self._on_npc
+            entities.append(session.declare_subscriber(
                 keys.all_ego("pose"), g.sample("pose", self._on_pose), allowed_origin=remote
-            ),
+            ))  # fmt: skip
+        entities += [
             session.declare_subscriber(keys.all_ego("state"), g.sample("state", self._on_state)),
             session.declare_subscriber(
                 keys.override(self.node_id), g.sample("override", self._on_override)
@@ -97,6 +101,10 @@ class Inbound:
             guarded = g.sample(channel, handler)
             entities.append(session.declare_subscriber(keys.world(channel), guarded))
         return entities
+
+    def spatial_handlers(self) -> tuple[Callable[[zenoh.Sample], None], ...]:
+        """The guarded pose and NPC handlers, for the subscriptions of an interest area."""
+        return self.guard.sample("pose", self._on_pose), self.guard.sample("npc", self._on_npc)
 
     # ------------------------------------------------------------ checks
 
@@ -174,8 +182,14 @@ class Inbound:
     def _on_npc(self, sample: zenoh.Sample) -> None:
         rx_t = self.clock.now()
         batch = self._authority_message(sample, m.NPC_BATCH, "npc")
-        if batch is not None:
-            self.world.push_npc(batch, rx_t)  # type: ignore[arg-type]
+        if batch is None:
+            return
+        try:
+            tile = parse(str(sample.key_expr)).tile  # "" on `world/npc`: the whole world
+        except KeySpaceError:
+            self.dropped.add("npc")
+            return
+        self.world.push_npc(batch, rx_t, tile)  # type: ignore[arg-type]
 
     def _on_lights(self, sample: zenoh.Sample) -> None:
         lights = self._authority_message(sample, m.LIGHTS, "lights")

@@ -22,6 +22,7 @@ import threading
 import uuid
 from collections import deque
 from collections.abc import Callable
+from typing import Annotated
 
 import msgspec
 import zenoh
@@ -32,6 +33,7 @@ from carlaverse.config import StrictStruct
 from carlaverse.fabric.clock import Clock, SessionClock
 from carlaverse.fabric.guard import Tally
 from carlaverse.fabric.inbound import Inbound
+from carlaverse.fabric.interest import InterestArea, TiledPublisher
 from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import AUTHORITY_ID, Keys, check_token
@@ -70,6 +72,9 @@ class NodeSettings(StrictStruct):
     join_timeout_s: float = 2.0
     clock_sync_period_s: float = 2.0
     interpolation: InterpolationSettings = InterpolationSettings()
+    # [m] hear the egos and NPCs within this distance (at least; whole tiles are heard).
+    # 0 hears the whole session; a node without an actor (observer) always does.
+    interest_radius_m: Annotated[float, msgspec.Meta(ge=0)] = 200.0
 
 
 class NodeClient:
@@ -112,8 +117,18 @@ class NodeClient:
         self._token: zenoh.LivelinessToken | None = None
         self._entities: list[object] = []
         self._threads: list[threading.Thread] = []
-        self._pose_pub = session.declare_publisher(
-            self.keys.pose(settings.node_id),
+        self.interest: InterestArea | None = None
+        if settings.interest_radius_m > 0 and settings.actor_kind:
+            on_pose, on_npc = self.inbound.spatial_handlers()
+            self.interest = InterestArea(
+                session, self.keys, settings.interest_radius_m, on_pose, on_npc
+            )
+            self.world.interest = frozenset()  # nothing is in earshot before our first pose
+        self._interest_due = threading.Event()
+        self._pose_pub = TiledPublisher(
+            session,
+            self.keys,
+            settings.node_id,
             congestion_control=zenoh.CongestionControl.DROP,
             priority=zenoh.Priority.REAL_TIME,  # ahead of NPC batches and bulk under load
             # Our own `ego/*/pose` subscriber would otherwise get each put delivered in the
@@ -147,8 +162,11 @@ class NodeClient:
         )
 
     def start(self, pose_source: PoseSource | None = None) -> NodeClient:
-        self._entities += self.inbound.subscribe(self.session, self.keys)
+        spatial = self.interest is None
+        self._entities += self.inbound.subscribe(self.session, self.keys, spatial=spatial)
         self._spawn(self._control_loop, "control")
+        if self.interest is not None:
+            self._spawn(self._interest_loop, "interest")
         if pose_source is not None:
             self._spawn(lambda: self._publish_loop(pose_source), "pose")
         return self
@@ -165,8 +183,12 @@ class NodeClient:
         """Leave the session on purpose (despawn reason `left`), then drop everything."""
         self._stop.set()
         self._wake.set()
+        self._interest_due.set()
         for thread in self._threads:
             thread.join(timeout=3)
+        if self.interest is not None:
+            self.interest.close()
+        self._pose_pub.undeclare()
         if self._token is not None:
             self._leave()
             self._token.undeclare()  # whoever missed the `left` event despawns us now
@@ -187,9 +209,25 @@ class NodeClient:
         if not self.admitted.is_set():
             return False
         self._seq += 1
-        self._pose_pub.put(m.encode_pose(msgspec.structs.replace(pose, seq=self._seq)))
+        self._pose_pub.put(
+            m.encode_pose(msgspec.structs.replace(pose, seq=self._seq)), pose.x, pose.y
+        )
         self.poses_sent += 1
+        if self.interest is not None and self.interest.moved_to(pose.x, pose.y):
+            self._interest_due.set()  # re-subscribing waits on Zenoh: not in this thread
         return True
+
+    def _interest_loop(self) -> None:
+        """Move the interest area's subscriptions after the node, off the pose thread."""
+        area = self.interest
+        assert area is not None
+        while True:
+            self._interest_due.wait()
+            if self._stop.is_set():
+                return
+            self._interest_due.clear()
+            area.refresh()
+            self.world.push_interest(area.tiles)
 
     def publish_state(self, state: m.EgoState) -> None:
         self._state_seq += 1

@@ -14,6 +14,11 @@ despawn, or when it has been silent for the despawn timeout. A removed id is tom
 that samples still in flight cannot resurrect it; its next appearance (token or spawn event)
 lifts the tombstone. Poses count only from present ids, never from the reserved `authority`
 id, and only with a time near session time; state per sender is kept for present ids only.
+
+With an interest area (`carlaverse.fabric.interest`) the view holds only what is near: NPCs
+by tile, egos whose poses arrive; an ego that is out of the area when it falls silent, or
+when the area moves away from it, is removed as `far` (not a loss), and its stream
+statistics restart when it comes back. `interest` is None for a view of the whole world.
 """
 
 from __future__ import annotations
@@ -24,7 +29,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
-from carlaverse.fabric.npc_table import NpcFrame, NpcTable
+from carlaverse.fabric.interest_npcs import WHOLE_WORLD, NpcTiles
+from carlaverse.fabric.npc_table import NpcFrame
 from carlaverse.fabric.remote_actor import (
     ActorView,
     DelaySlew,
@@ -33,7 +39,7 @@ from carlaverse.fabric.remote_actor import (
     RemoteActor,
 )
 from carlaverse.fabric.stats import StreamStats
-from carlaverse.keys import AUTHORITY_ID
+from carlaverse.keys import AUTHORITY_ID, tile_of, tile_token
 from carlaverse.messages import (
     EgoState,
     LightsState,
@@ -68,7 +74,9 @@ class WorldView:
         # scenario messages for this participant, oldest first; the node's loop takes them
         self.notices: deque[Notice] = deque(maxlen=NOTICE_LIMIT)
         self.egos: dict[str, RemoteActor] = {}
-        self.npcs = NpcTable(settings)
+        self.npcs = NpcTiles(settings)
+        # The tiles this view hears (None: the whole world); set by the node's interest area.
+        self.interest: frozenset[str] | None = None
         self.ego_states: dict[str, EgoState] = {}
         self.skeletons: dict[str, Skeleton] = {}  # the newest per present walker
         self.lights: LightsState | None = None
@@ -103,8 +111,11 @@ class WorldView:
         if node_id != self.own_id:
             self.inbox.append(("skeleton", node_id, skeleton))
 
-    def push_npc(self, batch: NpcBatch, rx_t: float) -> None:
-        self.inbox.append(("npc", batch, rx_t))
+    def push_npc(self, batch: NpcBatch, rx_t: float, tile: str = WHOLE_WORLD) -> None:
+        self.inbox.append(("npc", batch, rx_t, tile))
+
+    def push_interest(self, tiles: frozenset[str]) -> None:
+        self.inbox.append(("interest", tiles))
 
     def push_gone(self, node_id: str, reason: str, t: float) -> None:
         self.inbox.append(("gone", node_id, reason, t))
@@ -125,9 +136,8 @@ class WorldView:
             getattr(self, f"_on_{item[0]}")(*item[1:])
         for actor_id, actor in list(self.egos.items()):
             if actor.is_expired(now):
-                self._remove(actor_id, "timeout", now)
-        if self.npcs.is_expired(now):
-            self.npcs.clear()
+                self._remove(actor_id, "timeout" if self.hears(actor.newest) else "far", now)
+        self.npcs.drop_expired(now)
         self._forget_tombstones(now)
 
     def _on_notice(self, notice: Notice) -> None:
@@ -160,14 +170,28 @@ class WorldView:
             if len(self.stats) < STATS_LIMIT:
                 return
 
-    def _on_npc(self, batch: NpcBatch, rx_t: float) -> None:
-        if not self.npcs.add(batch, rx_t):
+    def _on_npc(self, batch: NpcBatch, rx_t: float, tile: str = WHOLE_WORLD) -> None:
+        if not self.npcs.add(batch, rx_t, tile):
             self.rejected["npc_batch"] += 1
+
+    def hears(self, pose: Pose | None) -> bool:
+        """Whether a pose lies in this view's interest area (always, for the whole world)."""
+        if self.interest is None:
+            return True
+        return pose is not None and tile_token(*tile_of(pose.x, pose.y)) in self.interest
+
+    def _on_interest(self, tiles: frozenset[str]) -> None:
+        self.interest = tiles
+        self.npcs.keep_only(tiles)
+        for actor_id, actor in list(self.egos.items()):
+            if not self.hears(actor.newest):
+                self._remove(actor_id, "far", actor.last_rx_t)
 
     def _on_snapshot(self, snapshot: Snapshot, rx_t: float) -> None:
         self.lights = self.lights or snapshot.lights
         self.weather = self.weather or snapshot.weather
-        if snapshot.npc is not None and not self.npcs:
+        # With an interest area the tile batches bring the NPCs near us within a batch period.
+        if snapshot.npc is not None and not self.npcs and self.interest is None:
             self._on_npc(snapshot.npc, rx_t)
         for ego in snapshot.egos:
             node_id = ego.node_id
@@ -176,7 +200,7 @@ class WorldView:
             self.present.add(node_id)
             if ego.state is not None:
                 self.ego_states.setdefault(node_id, ego.state)
-            if ego.pose is not None and node_id not in self.egos:
+            if ego.pose is not None and node_id not in self.egos and self.hears(ego.pose):
                 self._on_pose(node_id, ego.pose, rx_t)
                 if node_id in self.egos:
                     self.egos[node_id].kind = ego.actor_kind
@@ -209,6 +233,8 @@ class WorldView:
         if self.egos.pop(node_id, None) is not None:
             self.despawns.append(Despawn(node_id, reason, t))
             log.info("despawned %s (%s)", node_id, reason)
+        if reason == "far":  # it is alive, only out of earshot: its sequence gap is no loss
+            self.stats.pop(node_id, None)
         self.ego_states.pop(node_id, None)
         self.skeletons.pop(node_id, None)
 

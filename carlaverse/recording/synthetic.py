@@ -21,7 +21,7 @@ import numpy as np
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.keys import Keys
+from carlaverse.keys import Keys, tile_of, tile_token
 
 MAP_HALF_SIZE_M = 100.0  # [m] the synthetic map is a cross of two roads this long each way
 LIGHT_CYCLE_S = 4.0  # [s] per phase
@@ -134,7 +134,8 @@ class SyntheticSession:
         fast = dict(congestion_control=zenoh.CongestionControl.DROP, express=True)
         if self.spec.reliable_state:
             fast = dict(reliable, express=True)
-        keys = {self.keys.pose(ego_id(i)): fast for i in range(self.spec.egos)}
+        self._fast = fast  # for pose keys of tiles the egos drive into later
+        keys = {self._pose_key(i, 0.0): fast for i in range(self.spec.egos)}
         keys[self.keys.world("npc")] = fast
         for channel in ("lights", "weather", "events"):
             keys[self.keys.world(channel)] = reliable
@@ -145,8 +146,16 @@ class SyntheticSession:
         """True once every stream has a subscriber (a recorder or viewer is listening)."""
         return all(p.matching_status.matching for p in self._publishers.values())
 
+    def _pose_key(self, i: int, t: float) -> str:
+        """Ego i's pose key at time t: it ends in the tile the ego is in then."""
+        pose = ego_pose(i, 0, t)
+        return self.keys.pose(ego_id(i), tile_token(*tile_of(pose.x, pose.y)))
+
     def put(self, key: str, payload: bytes) -> None:
-        self._publishers[key].put(payload)
+        publisher = self._publishers.get(key)
+        if publisher is None:  # an ego drove into another tile
+            publisher = self._publishers[key] = self.session.declare_publisher(key, **self._fast)
+        publisher.put(payload)
         self.published[key] += 1
         if self.payloads is not None:
             self.payloads.append((key, payload))
@@ -171,8 +180,8 @@ class SyntheticSession:
         """Publish every stream that is due at session time `t` [s]."""
         if self._is_due("pose", t, self.spec.pose_hz):
             for i in range(self.spec.egos):
-                key = self.keys.pose(ego_id(i))
-                self.put(key, m.POSE.encode(ego_pose(i, self._next_seq(key), t)))
+                seq = self._next_seq(self.keys.ego(ego_id(i), "pose"))  # one scope per ego
+                self.put(self._pose_key(i, t), m.POSE.encode(ego_pose(i, seq, t)))
         if self.spec.npcs and self._is_due("npc", t, self.spec.npc_hz):
             key = self.keys.world("npc")
             ids = [npc_id(i) for i in range(self.spec.npcs)]

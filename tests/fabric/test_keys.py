@@ -20,13 +20,19 @@ def test_every_built_key_parses_back() -> None:
     assert parse(k.impulse("x")).node_id == "x"
     assert parse(k.node("x")).area == "node"
     assert parse(k.authority("join")).channel == "join"
-    for key in (k.pose("n1"), k.world("npc"), k.impulse("n1"), k.authority("clock"), k.node("n")):
+    for key in (
+        k.pose("n1", "t0_0"),
+        k.world("npc"),
+        k.impulse("n1"),
+        k.authority("clock"),
+        k.node("n"),
+    ):
         assert f"{k.prefix}/{parse(key).path}" == key
 
 
 def test_session_rewrite_keeps_the_path() -> None:
     k = Keys("a")
-    assert k.with_session(k.pose("n"), "b") == Keys("b").pose("n")
+    assert k.with_session(k.pose("n", "t0_0"), "b") == Keys("b").pose("n", "t0_0")
 
 
 @pytest.mark.parametrize("bad", ["", "*", "a/b", "a*", "$x", "-lead", "x" * 64, "a b", "**", "é"])

@@ -77,7 +77,7 @@ def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> No
     session = cluster.sessions[0]
     poses: list[m.Pose] = []
     sub = session.declare_subscriber(
-        Keys("t").pose("car"), lambda s: poses.append(m.POSE.decode(s.payload.to_bytes()))
+        Keys("t").poses_of("car"), lambda s: poses.append(m.POSE.decode(s.payload.to_bytes()))
     )
     wait_until(lambda: len(poses) > 50, 30, "the car's poses")  # driving for ~1 s
     here = poses[-1]

@@ -138,7 +138,7 @@ def test_garbage_on_every_subscribed_key_is_counted_and_dropped(cluster: Cluster
     wait_until(lambda: obs.update() and {"a", "b"} <= set(obs.world.stats), 20, "a's and b's poses")
     keys = Keys("t")
     targets = [
-        keys.pose("mallory"),
+        keys.pose("mallory", "t0_0"),
         keys.state("mallory"),
         keys.override("obs"),
         keys.world("npc"),
@@ -146,7 +146,7 @@ def test_garbage_on_every_subscribed_key_is_counted_and_dropped(cluster: Cluster
         keys.world("weather"),
         keys.world("events"),
         keys.impulse("obs"),
-        keys.pose("a"),
+        keys.pose("a", "t0_0"),
     ]
     garbage = [
         b"",
@@ -169,7 +169,7 @@ def test_garbage_on_every_subscribed_key_is_counted_and_dropped(cluster: Cluster
         for key in targets:
             for payload in garbage:
                 session.put(key, payload)
-        session.put(keys.pose("mallory"), bytes(nan_pose))
+        session.put(keys.pose("mallory", "t0_0"), bytes(nan_pose))
         return all(obs.dropped[c] > 0 for c in channels)
 
     wait_until(blast, 10, f"drops on {channels}", poll=0.2)

@@ -105,8 +105,11 @@ def samples(now: float) -> dict[str, tuple[m.Codec, object]]:
     """One well-formed message per subscribed key kind."""
     batch = m.NpcBatch.pack(1, now, ["ghost"], np.zeros(1, dtype=m.NPC_DTYPE))
     return {
-        KEYS.pose("mallory"): (m.POSE, m.Pose(1, now, 5.0, 5.0)),
-        KEYS.pose("a"): (m.POSE, m.Pose(1, now + 3600.0, 5.0, 5.0)),  # a's id, the far future
+        KEYS.pose("mallory", "t0_0"): (m.POSE, m.Pose(1, now, 5.0, 5.0)),
+        KEYS.pose("a", "t0_0"): (
+            m.POSE,
+            m.Pose(1, now + 3600.0, 5.0, 5.0),
+        ),  # a's id, the far future
         KEYS.state("mallory"): (m.EGO_STATE, m.EgoState(1, now)),
         KEYS.override("obs"): (m.OVERRIDE, m.Override(1, now, "evil")),
         KEYS.override("a"): (m.OVERRIDE, m.Override(1, now, "evil")),

@@ -77,7 +77,8 @@ def test_the_key_table_covers_every_key_the_key_space_builds() -> None:
     documented = {k.key for k in wc.key_docs()}
     assert documented == wc.key_space_paths()
     for key in documented:  # and every documented key is one `keys.parse` accepts
-        assert parse(f"{Keys('s').prefix}/{key.replace('<id>', 'n-1')}")
+        concrete = key.replace("<id>", "n-1").replace("<tile>", "t0_-3")
+        assert parse(f"{Keys('s').prefix}/{concrete}")
 
 
 def test_field_types_and_requirements_are_msgspecs_own() -> None:

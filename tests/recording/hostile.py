@@ -35,7 +35,7 @@ def hostile_payloads(
 
     `depth` > ~1,000 already exceeds the decoder's recursion limit; the default goes far past.
     """
-    pose, lights, events = keys.pose("evil"), keys.world("lights"), keys.world("events")
+    pose, lights, events = keys.pose("evil", "t0_0"), keys.world("lights"), keys.world("events")
     garbage = random.Random(seed).randbytes(garbage_bytes)
     return [
         (pose, m.encode_pose(m.Pose(1, math.nan, 0.0, 0.0)), "pose t NaN"),

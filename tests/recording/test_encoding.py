@@ -14,7 +14,7 @@ from carlaverse.recording.encoding import KeyFormat, payload_of, to_view
 
 KEYS = Keys("enc")
 EVERY_KEY = [
-    KEYS.pose("a"), KEYS.state("a"), KEYS.override("a"), KEYS.ego("a", "skeleton"),
+    KEYS.pose("a", "t0_0"), KEYS.state("a"), KEYS.override("a"), KEYS.ego("a", "skeleton"),
     KEYS.world("npc"), KEYS.world("lights"), KEYS.world("weather"), KEYS.world("events"),
     KEYS.impulse("a"), KEYS.authority("map"), KEYS.authority("snapshot"),
     KEYS.authority("configs"), KEYS.authority("scenario"), KEYS.node("a"),
@@ -54,9 +54,9 @@ def test_views_name_fields_and_expand_bulk_rows() -> None:
 
 
 def test_a_pose_envelope_carries_session_time_and_seq() -> None:
-    encoded = KeyFormat(KEYS.pose("a")).encode(m.POSE.encode(m.Pose(42, 12.25, 0.0, 0.0)))
+    encoded = KeyFormat(KEYS.pose("a", "t0_0")).encode(m.POSE.encode(m.Pose(42, 12.25, 0.0, 0.0)))
     assert (encoded.t, encoded.seq, encoded.error) == (12.25, 42, "")
-    bad = KeyFormat(KEYS.pose("a")).encode(b"short")
+    bad = KeyFormat(KEYS.pose("a", "t0_0")).encode(b"short")
     assert bad.error and bad.t is None
-    deleted = KeyFormat(KEYS.pose("a")).encode(b"", kind="delete")
+    deleted = KeyFormat(KEYS.pose("a", "t0_0")).encode(b"", kind="delete")
     assert payload_of(deleted.data) == (b"", "delete")

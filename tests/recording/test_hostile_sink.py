@@ -42,11 +42,11 @@ def test_every_hostile_value_is_kept_raw_between_good_ones(tmp_path: Path) -> No
     sink = _sink(path)
     expected = []
     for i, (key, payload, what) in enumerate(hostile_payloads(K)):
-        for entry in ((K.pose("good"), _good(i)), (key, payload)):
+        for entry in ((K.pose("good", "t0_0"), _good(i)), (key, payload)):
             assert sink.write(*entry, T0_NS + len(expected)), what
             expected.append(entry)
-    assert sink.write(K.pose("good"), _good(99), T0_NS + len(expected))
-    expected.append((K.pose("good"), _good(99)))
+    assert sink.write(K.pose("good", "t0_0"), _good(99), T0_NS + len(expected))
+    expected.append((K.pose("good", "t0_0"), _good(99)))
     sink.close()
 
     samples = list(iter_samples(path))
@@ -60,12 +60,12 @@ def test_every_hostile_value_is_kept_raw_between_good_ones(tmp_path: Path) -> No
 def test_receive_times_outside_mcap_and_keys_past_the_bound_are_rejected(tmp_path: Path) -> None:
     path = tmp_path / "bounds.mcap"
     sink = _sink(path, max_channels=2)
-    assert not sink.write(K.pose("a"), _good(1), -1)
-    assert not sink.write(K.pose("a"), _good(2), 2**64)
-    assert sink.write(K.pose("a"), _good(3), T0_NS)
-    assert sink.write(K.pose("b"), _good(4), T0_NS + 1)
-    assert not sink.write(K.pose("c"), _good(5), T0_NS + 2)  # a third key: over the bound
-    assert sink.write(K.pose("a"), _good(6), T0_NS + 3)  # known keys still go in
+    assert not sink.write(K.pose("a", "t0_0"), _good(1), -1)
+    assert not sink.write(K.pose("a", "t0_0"), _good(2), 2**64)
+    assert sink.write(K.pose("a", "t0_0"), _good(3), T0_NS)
+    assert sink.write(K.pose("b", "t0_0"), _good(4), T0_NS + 1)
+    assert not sink.write(K.pose("c", "t0_0"), _good(5), T0_NS + 2)  # a third key: over the bound
+    assert sink.write(K.pose("a", "t0_0"), _good(6), T0_NS + 3)  # known keys still go in
     sink.close()
     assert sink.stats.rejected == 3
     assert [s.payload for s in iter_samples(path)] == [_good(3), _good(4), _good(6)]
@@ -128,7 +128,7 @@ class _FailingSink(McapSink):
 
 def _put_poses(session: zenoh.Session, count: int, size: int = 0) -> None:
     for i in range(count):
-        session.put(K.pose("a"), _good(i) + b"\x00" * size)
+        session.put(K.pose("a", "t0_0"), _good(i) + b"\x00" * size)
 
 
 def test_a_writer_that_stops_is_reported_not_hidden(tmp_path: Path) -> None:

@@ -125,7 +125,7 @@ def test_writer_loses_nothing_across_batches(world: World, tmp_path: Path) -> No
     session = world.connect()
     sink = GatedSink(path)
     recorder = Recorder(session, Keys("rec"), sink, archive=False)
-    key = Keys("rec").pose("ego-0")
+    key = Keys("rec").pose("ego-0", "t0_0")
     payloads = [messages.POSE.encode(messages.Pose(i, i * 1e-3, 0.0, 0.0)) for i in range(10_000)]
     block = zenoh.CongestionControl.BLOCK
     publisher = world.session.declare_publisher(key, congestion_control=block)

@@ -74,10 +74,10 @@ def test_a_live_recorder_keeps_every_hostile_sample_and_stays_bounded(
     storm = hostile_payloads(K, depth=2_000, garbage_bytes=20_000)
     session = open_session(FabricSettings(connect=[cluster.endpoint]))
     try:
-        pub = Publisher(session, [k for k, _, _ in full] + [K.pose("good")])
+        pub = Publisher(session, [k for k, _, _ in full] + [K.pose("good", "t0_0")])
         wait_until(pub.matched, 20, "the recorder subscribed to every key")
         for i, (key, payload, _) in enumerate(full * 3):
-            pub.put(K.pose("good"), m.encode_pose(m.Pose(i, 1.0 + i, 0.0, 0.0)))
+            pub.put(K.pose("good", "t0_0"), m.encode_pose(m.Pose(i, 1.0 + i, 0.0, 0.0)))
             pub.put(key, payload)
         wait_until(lambda: _written(recorder) >= len(pub.sent), 60, "the hostile set written")
         rss_before = _rss_mib(recorder.proc.pid)
@@ -129,7 +129,7 @@ def test_a_recorder_that_cannot_write_says_so_and_exits_non_zero(
     session = open_session(FabricSettings(connect=[cluster.endpoint]))
     stop = threading.Event()
     try:
-        pub = Publisher(session, [K.pose("a")])
+        pub = Publisher(session, [K.pose("a", "t0_0")])
         wait_until(pub.matched, 20, "the recorder subscribed")
         feeder = threading.Thread(target=_feed, args=(pub, stop), daemon=True)
         feeder.start()
@@ -148,7 +148,7 @@ def test_a_recorder_that_cannot_write_says_so_and_exits_non_zero(
 
 def _feed(pub: Publisher, stop: threading.Event) -> None:
     i = 0
-    publisher = pub.publishers[K.pose("a")]
+    publisher = pub.publishers[K.pose("a", "t0_0")]
     while not stop.is_set():
         publisher.put(m.encode_pose(m.Pose(i, float(i), 0.0, 0.0)) + os.urandom(200))
         i += 1

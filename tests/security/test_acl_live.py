@@ -51,8 +51,8 @@ class Site:
         """Both observers see the victim and the cross-site attacker before any test runs."""
 
         def flowing() -> bool:
-            self.s["a-drive"].put(K.pose("a-drive"), b"hello-a")
-            self.s["b-bike"].put(K.pose("b-bike"), b"hello-b")
+            self.s["a-drive"].put(K.pose("a-drive", "t0_0"), b"hello-a")
+            self.s["b-bike"].put(K.pose("b-bike", "t0_0"), b"hello-b")
             return all(
                 self.inbox[o].has(lambda k, p: p == b"hello-a")
                 and self.inbox[o].has(lambda k, p: p == b"hello-b")
@@ -64,7 +64,7 @@ class Site:
     def marker(self, node: str, text: str) -> bytes:
         """Send a legitimate pose from `node` and wait until both observers have it."""
         payload = f"marker-{text}".encode()
-        self.s[node].put(K.pose(node), payload)
+        self.s[node].put(K.pose(node, "t0_0"), payload)
         for observer in ("a-obs", "b-obs"):
             inbox = self.inbox[observer]
             wait_until(lambda i=inbox: payload in i.payloads(), 10, f"{text} at {observer}")
@@ -87,7 +87,7 @@ def site(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Site]:
 
 @pytest.mark.parametrize("attacker", ["b-bike", "a-walk"])
 def test_forged_pose_is_dropped_by_the_attackers_router(site: Site, attacker: str) -> None:
-    victim_key = K.pose("a-drive")
+    victim_key = K.pose("a-drive", "t0_0")
     for i in range(5):
         site.s[attacker].put(victim_key, f"forged-{i}".encode())
         site.s[attacker].put(K.subtree("ego", "a-drive").replace("**", "state"), b"forged")
@@ -161,7 +161,7 @@ def test_a_node_cannot_serve_authority_queries(site: Site) -> None:
 
 def test_observers_only_read(site: Site) -> None:
     obs = site.s["b-obs"]
-    obs.put(K.pose("b-obs"), b"observer-pose")
+    obs.put(K.pose("b-obs", "t0_0"), b"observer-pose")
     obs.put(K.world("npc"), b"observer-world")
     site.flush_to_authority("b-obs")
     assert not site.inbox["authority"].has(lambda k, p: p.startswith(b"observer-"))

@@ -40,10 +40,10 @@ def lab(tmp_path: Path, request: pytest.FixtureRequest) -> Iterator[Lab]:
 
 def _exchange(sender: zenoh.Session, receiver: zenoh.Session) -> None:
     inbox = Inbox()
-    receiver.declare_subscriber(K.pose("a-drive"), inbox)
+    receiver.declare_subscriber(K.pose("a-drive", "t0_0"), inbox)
 
     def arrived() -> bool:
-        sender.put(K.pose("a-drive"), b"p")
+        sender.put(K.pose("a-drive", "t0_0"), b"p")
         return bool(inbox.items)
 
     wait_until(arrived, 10, "a pose between two joined nodes", poll=0.1)
@@ -118,8 +118,8 @@ def test_usernames_carry_the_access_control(lab: Lab) -> None:
     watcher.declare_subscriber(K.everything, inbox)
 
     def own_pose_arrived() -> bool:
-        bike.put(K.pose("a-drive"), b"forged")
-        bike.put(K.pose("b-bike"), b"own")
+        bike.put(K.pose("a-drive", "t0_0"), b"forged")
+        bike.put(K.pose("b-bike", "t0_0"), b"own")
         return b"own" in inbox.payloads()
 
     wait_until(own_pose_arrived, 10, "the bike's own pose across sites", poll=0.1)
@@ -140,9 +140,9 @@ def test_a_compromised_remote_router_cannot_speak_for_this_site(lab: Lab) -> Non
     watcher.declare_subscriber(K.everything, inbox)
 
     def own_pose_arrived() -> bool:
-        bike.put(K.pose("a-drive"), b"forged")
+        bike.put(K.pose("a-drive", "t0_0"), b"forged")
         bike.put(K.world("npc"), b"forged")
-        bike.put(K.pose("b-bike"), b"own")
+        bike.put(K.pose("b-bike", "t0_0"), b"own")
         return b"own" in inbox.payloads()
 
     wait_until(own_pose_arrived, 10, "the bike's own pose across sites", poll=0.1)
@@ -161,8 +161,8 @@ def test_quic_sites_enforce_the_same_identities_and_rules(tmp_path: Path) -> Non
         watcher.declare_subscriber(K.everything, inbox)
 
         def own_pose_arrived() -> bool:
-            bike.put(K.pose("a-drive"), b"forged")
-            bike.put(K.pose("b-bike"), b"own")
+            bike.put(K.pose("a-drive", "t0_0"), b"forged")
+            bike.put(K.pose("b-bike", "t0_0"), b"own")
             return b"own" in inbox.payloads()
 
         wait_until(own_pose_arrived, 10, "the bike's own pose across QUIC sites", poll=0.1)

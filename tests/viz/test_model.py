@@ -18,7 +18,9 @@ KEYS = Keys("w")
 def test_store_keeps_newest_state_and_every_event() -> None:
     store = SampleStore(events_max=3)
     for i in range(10):
-        store.offer(KEYS.pose("a"), m.POSE.encode(m.Pose(i, i * 0.1, float(i), 0.0)), i * 0.1)
+        store.offer(
+            KEYS.pose("a", "t0_0"), m.POSE.encode(m.Pose(i, i * 0.1, float(i), 0.0)), i * 0.1
+        )
     for i in range(5):
         store.offer(KEYS.world("events"), m.WORLD_EVENT.encode(m.Spawned(i, 0.0, "a", "car")), 1.0)
     store.offer("carlaverse/w/unknown/key", b"x", 1.0)
@@ -31,8 +33,8 @@ def test_store_keeps_newest_state_and_every_event() -> None:
 def test_model_counts_bad_payloads_and_hands_membership_to_the_view() -> None:
     view = WorldView("viewer", InterpolationSettings(render_mode="past"))
     store, world = SampleStore(), WorldModel(view, latency_of=lambda rx, t: rx - t)
-    store.offer(KEYS.pose("a"), b"\x00garbage", 0.0)
-    store.offer(KEYS.pose("b"), m.POSE.encode(m.Pose(1, 1.0, 3.0, 4.0, yaw=0.5)), 1.01)
+    store.offer(KEYS.pose("a", "t0_0"), b"\x00garbage", 0.0)
+    store.offer(KEYS.pose("b", "t0_0"), m.POSE.encode(m.Pose(1, 1.0, 3.0, 4.0, yaw=0.5)), 1.01)
     store.offer(KEYS.node("b"), b"", 1.0)  # b's presence token
     world.apply(store.take())
     assert world.bad["ego/a/pose"] == 1

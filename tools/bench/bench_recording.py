@@ -54,7 +54,9 @@ KEYS = Keys("bench")
 
 def _payloads(kind: str, n: int) -> tuple[str, list[bytes]]:
     if kind == "pose":
-        return KEYS.pose("ego-0"), [m.POSE.encode(ego_pose(0, i, i * 0.01)) for i in range(n)]
+        return KEYS.pose("ego-0", "t0_0"), [
+            m.POSE.encode(ego_pose(0, i, i * 0.01)) for i in range(n)
+        ]
     ids = [f"npc-{i}" for i in range(NPC_ROWS)]
     batches = [m.NpcBatch.pack(i, i * 0.02, ids, npc_rows(NPC_ROWS, i * 0.02)) for i in range(n)]
     return KEYS.world("npc"), [m.NPC_BATCH.encode(b) for b in batches]
@@ -209,7 +211,11 @@ def bench_view(actors: int, seconds: float, rate_hz: float = 20.0) -> dict[str, 
 
 def bench_offer(n: int = 200_000) -> float:
     """µs the viewer's Zenoh callbacks spend on one pose: store it, decode it, push it."""
-    store, key, payload = SampleStore(), KEYS.pose("ego-0"), m.POSE.encode(ego_pose(0, 1, 0.0))
+    store, key, payload = (
+        SampleStore(),
+        KEYS.pose("ego-0", "t0_0"),
+        m.POSE.encode(ego_pose(0, 1, 0.0)),
+    )
     view = WorldView(VIEW_ID, viewer_interpolation())
     feed = ActorFeed(view)
     t0 = time.perf_counter()
