@@ -28,9 +28,16 @@ VIEW_ID = "carlaverse-render"  # never a node id of the session: ids are reserve
 
 def first_pose(path: str | Path) -> RecordedSample | None:
     for sample in iter_samples(path):
-        if sample.key.endswith("/pose") and sample.kind == "put":
+        if sample.kind == "put" and _is_pose(sample.key):
             return sample
     return None
+
+
+def _is_pose(key: str) -> bool:
+    try:
+        return keyspace.parse(key).channel == "pose"
+    except keyspace.KeySpaceError:
+        return False
 
 
 def first_pose_time(path: str | Path) -> float:
@@ -92,7 +99,7 @@ class RecordedWorld:
             view.push_skeleton(key.node_id, m.SKELETON.decode(payload))
         elif key.area == "ego" and key.channel == "state":
             view.inbox.append(("state", key.node_id, m.EGO_STATE.decode(payload)))
-        elif key.area == "world":
+        elif key.area == "world" and not key.tile:  # a tile's NPCs are in the whole batch too
             self._world(key.channel, payload, rx)
         elif key.area == "authority" and key.channel == "snapshot":
             self._snapshot(m.SNAPSHOT.decode(payload), rx)

@@ -96,5 +96,7 @@ def _feed_actor(feed: ActorFeed, key: str, payload: bytes, rx_t: float) -> None:
         parsed = parse(key)
     except KeySpaceError:
         return  # the store counts unknown keys
+    if parsed.area == "world" and parsed.tile:
+        return  # a tile's cut of the NPC batch: the whole batch is in the recording too
     if (parsed.area, parsed.channel) in ACTOR_CHANNELS:
         feed.decoded(parsed.channel, payload, parsed.node_id, rx_t)

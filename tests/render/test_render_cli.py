@@ -34,7 +34,7 @@ def write_recording(path: Path, seconds: float = 2.0) -> None:
         t = k / 50
         at = T0_NS + round(t * 1e9) + LATENCY_NS
         for i in range(2):
-            sink.write(keys.pose(f"ego-{i}"), m.POSE.encode(ego_pose(i, k, t)), at)
+            sink.write(keys.pose(f"ego-{i}", "t0_0"), m.POSE.encode(ego_pose(i, k, t)), at)
         if k % 2 == 0:
             rows = npc_rows(8, t)
             batch = m.NpcBatch.pack(k, t, [f"npc-{j}" for j in range(8)], rows)

@@ -37,7 +37,7 @@ def test_model_counts_bad_payloads_and_hands_membership_to_the_view() -> None:
     store.offer(KEYS.pose("b", "t0_0"), m.POSE.encode(m.Pose(1, 1.0, 3.0, 4.0, yaw=0.5)), 1.01)
     store.offer(KEYS.node("b"), b"", 1.0)  # b's presence token
     world.apply(store.take())
-    assert world.bad["ego/a/pose"] == 1
+    assert world.bad["ego/a/pose/t0_0"] == 1
     assert abs(world.nodes["b"].latency_s - 0.01) < 1e-9
     assert world.newcomers, "an ego of unknown look: ask for a snapshot"
     view.update(1.02)
