@@ -40,6 +40,7 @@ class SwarmSettings(StrictStruct):
     rate_hz: Annotated[float, msgspec.Meta(gt=0, le=1000)] = 50.0  # [Hz] poses per ego
     spread_m: Annotated[float, msgspec.Meta(gt=0)] = 1000.0  # [m] side of the square driven in
     block_m: Annotated[float, msgspec.Meta(gt=0)] = 150.0  # [m] street grid spacing
+    origin: tuple[float, float] = (0.0, 0.0)  # [m] south-west corner of the square
     seed: int = 0
     prefix: str = "swarm"  # ego ids are <prefix>-<index>
     kind: str = "scripted"
@@ -75,8 +76,9 @@ class Swarm:
         self.keys = Keys(settings.session)
         self.clock = SessionClock(MonotonicClock())
         self.node_ids = [f"{settings.prefix}-{i}" for i in range(settings.egos)]
+        rng = np.random.default_rng(settings.seed)
         self.loops = BlockLoops.scattered(
-            settings.egos, settings.spread_m, settings.block_m, np.random.default_rng(settings.seed)
+            settings.egos, settings.spread_m, settings.block_m, rng, settings.origin
         )
         self.members = SwarmMembership(
             session, self.keys, self.node_ids, settings.kind, settings.actor_kind, settings.rate_hz

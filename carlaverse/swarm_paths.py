@@ -54,15 +54,22 @@ class BlockLoops:
 
     @classmethod
     def scattered(
-        cls, count: int, spread_m: float, block_m: float, rng: np.random.Generator
+        cls,
+        count: int,
+        spread_m: float,
+        block_m: float,
+        rng: np.random.Generator,
+        origin: tuple[float, float] = (0.0, 0.0),
     ) -> BlockLoops:
-        """`count` loops on random blocks of a `block_m` grid filling [0, spread_m]²."""
+        """`count` loops on random blocks of a `block_m` grid filling the square of side
+        `spread_m` whose south-west corner is `origin` [m] (put it on a junction of a grid
+        town and the egos drive its streets)."""
         blocks = max(1, int(spread_m // block_m))
         cells = rng.integers(0, blocks, size=(count, 2))
         size = np.full((count, 2), min(block_m, spread_m))
         speed = rng.uniform(MIN_SPEED_MPS, MAX_SPEED_MPS, size=count)
         offset = rng.uniform(0.0, 4 * size[:, 0])
-        return cls(cells * block_m, size, speed, offset)
+        return cls(cells * block_m + np.asarray(origin, dtype=np.float64), size, speed, offset)
 
     def at(self, t: float, which: np.ndarray | slice = slice(None)) -> LoopStates:
         """The states of egos `which` at time `t` [s]."""

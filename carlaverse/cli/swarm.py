@@ -37,10 +37,18 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=1000.0,
         metavar="M",
-        help="side of the square [0, M]² the egos drive in, metres (default 1000)",
+        help="side of the square the egos drive in, metres (default 1000)",
     )
     parser.add_argument(
         "--block", type=float, default=150.0, metavar="M", help="street grid spacing (150 m)"
+    )
+    parser.add_argument(
+        "--origin",
+        type=float,
+        nargs=2,
+        default=(0.0, 0.0),
+        metavar=("X", "Y"),
+        help="south-west corner of the square, metres (a junction of a grid town: default 0 0)",
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the egos' blocks and speeds")
     parser.add_argument("--prefix", default="swarm", help="ego ids are PREFIX-INDEX (swarm)")
@@ -51,7 +59,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def settings_from_args(args: argparse.Namespace) -> SwarmSettings:
     """The swarm's settings; raises ConfigError naming the flag that is out of range."""
     fields = {"session": args.session or "default", "egos": args.egos, "rate_hz": args.rate,
-              "spread_m": args.spread, "block_m": args.block, "seed": args.seed,
+              "spread_m": args.spread, "block_m": args.block, "origin": tuple(args.origin),
+              "seed": args.seed,
               "prefix": args.prefix}  # fmt: skip
     try:
         return msgspec.convert(fields, SwarmSettings)

@@ -41,6 +41,7 @@ from carlaverse.fabric.remote_actor import (
 from carlaverse.fabric.stats import StreamStats
 from carlaverse.keys import AUTHORITY_ID, tile_of, tile_token
 from carlaverse.messages import (
+    EgoInfo,
     EgoState,
     LightsState,
     Notice,
@@ -77,6 +78,7 @@ class WorldView:
         self.npcs = NpcTiles(settings)
         # The tiles this view hears (None: the whole world); set by the node's interest area.
         self.interest: frozenset[str] | None = None
+        self._snapshot_egos: list[tuple[EgoInfo, float]] = []  # until the interest is known
         self.ego_states: dict[str, EgoState] = {}
         self.skeletons: dict[str, Skeleton] = {}  # the newest per present walker
         self.lights: LightsState | None = None
@@ -186,6 +188,11 @@ class WorldView:
         for actor_id, actor in list(self.egos.items()):
             if not self.hears(actor.newest):
                 self._remove(actor_id, "far", actor.last_rx_t)
+        # The snapshot came before we knew where we are: its egos near us count now.
+        pending, self._snapshot_egos = self._snapshot_egos, []
+        for ego, rx_t in pending:
+            if ego.node_id in self.present and ego.node_id not in self.egos:
+                self._snapshot_pose(ego, rx_t)
 
     def _on_snapshot(self, snapshot: Snapshot, rx_t: float) -> None:
         self.lights = self.lights or snapshot.lights
@@ -200,10 +207,17 @@ class WorldView:
             self.present.add(node_id)
             if ego.state is not None:
                 self.ego_states.setdefault(node_id, ego.state)
-            if ego.pose is not None and node_id not in self.egos and self.hears(ego.pose):
-                self._on_pose(node_id, ego.pose, rx_t)
-                if node_id in self.egos:
-                    self.egos[node_id].kind = ego.actor_kind
+            if self.interest is not None and not self.interest:
+                self._snapshot_egos.append((ego, rx_t))  # our place is not known yet
+            elif node_id not in self.egos:
+                self._snapshot_pose(ego, rx_t)
+
+    def _snapshot_pose(self, ego: EgoInfo, rx_t: float) -> None:
+        pose = ego.pose
+        if pose is not None and self.hears(pose):
+            self._on_pose(ego.node_id, pose, rx_t)
+            if ego.node_id in self.egos:
+                self.egos[ego.node_id].kind = ego.actor_kind
 
     def _on_state(self, node_id: str, state: EgoState) -> None:
         if node_id in self.present:
