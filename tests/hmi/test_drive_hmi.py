@@ -41,7 +41,7 @@ class Fabric:
         self.speeds: list[tuple[float, float]] = []  # (pose t [s] session time, speed [km/h])
         self.states: list[m.EgoState] = []
         self._subs = [
-            session.declare_subscriber(keys.pose(node_id), self._on_pose),
+            session.declare_subscriber(keys.poses_of(node_id), self._on_pose),
             session.declare_subscriber(keys.state(node_id), self._on_state),
         ]
 

@@ -36,7 +36,7 @@ def callback_steps() -> list[tuple[str, float]]:
     from carlaverse.fabric.world_view import WorldView
     from carlaverse.keys import Keys, parse
 
-    key = Keys("bench").pose("tx")
+    key = Keys("bench").pose("tx", "t0_0")
     payload = m.encode_pose(m.Pose(1, time.monotonic(), 0.0, 0.0, vx=14.0))
     pose = m.POSE.decode(payload)
     clock = SessionClock(MonotonicClock())
