@@ -13,13 +13,12 @@ import contextlib
 import sys
 import time
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import msgspec
 
-from carlaverse.cli.common import fail, print_json
+from carlaverse.cli.common import Companion, fail, print_json
 
 PROGRESS_EVERY_S = 2.0  # [s] of wall time between progress lines on long renders
 
@@ -90,34 +89,21 @@ def add_audio_argument(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
 
 
-@dataclass
-class NodeAudio:
-    """The running audio of a node, if any; `report` holds its summary once it has closed."""
-
-    process: Any = None
-    report: dict[str, Any] = field(default_factory=dict)
-
-    @property
-    def extra(self) -> dict[str, Any]:
-        """What the node's exit summary gets: {'audio': report} when audio ran."""
-        return {"audio": self.report} if self.report else {}
-
-
 @contextlib.contextmanager
 def node_audio(args: argparse.Namespace, node: Any, node_id: str, session: str,
-               fabric: Any) -> Iterator[NodeAudio]:  # fmt: skip
+               fabric: Any) -> Iterator[Companion]:  # fmt: skip
     """Run the node's audio (when --audio) for the duration of the block; ConfigError (one
     line) when its config is wrong or its output cannot open."""
-    audio = NodeAudio()
+    audio = Companion("audio")
     if args.audio:
-        audio.process = _start_audio(args.audio, node, node_id, session, fabric)
+        audio.running = _start_audio(args.audio, node, node_id, session, fabric)
     try:
         yield audio
     finally:
-        if audio.process is not None:
+        if audio.running is not None:
             from carlaverse.audio.process import audio_report
 
-            audio.report = audio_report(audio.process.close())
+            audio.report = audio_report(audio.running.close())
             if not args.json:
                 print(_audio_line(audio.report), file=sys.stderr)
 
