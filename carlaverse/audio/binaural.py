@@ -51,7 +51,10 @@ class Binaural:
 
     def mix(self, spectra: np.ndarray, state: BinauralState) -> np.ndarray:
         """(2 × F) ear spectra of the emitters' spectra (E × F)."""
+        spread = np.flatnonzero(state.diffuse > 0.0)
+        if spread.size == 0:
+            return np.einsum("ef,ecf->cf", spectra, self._spectra[state.direction])
         point = spectra * (1.0 - state.diffuse)[:, None].astype(np.float32)
         ears = np.einsum("ef,ecf->cf", point, self._spectra[state.direction])
-        spread = (spectra * state.diffuse[:, None].astype(np.float32)).sum(axis=0)
-        return ears + spread[None, :] * self._diffuse[None, :]
+        weights = state.diffuse[spread, None].astype(np.float32)
+        return ears + (spectra[spread] * weights).sum(axis=0)[None, :] * self._diffuse[None, :]

@@ -128,8 +128,11 @@ class Renderer:
         heard = self._heard(live, relative - velocity * tau[:, None], tau)
         spectra = self._spectra(live, delayed)
         old_state = self.spatial.take(self.spatial_state, live)  # type: ignore[attr-defined]
-        old = self._to_time(self.spatial.mix(spectra * self.response[live], old_state))  # type: ignore[attr-defined]
-        new = self._to_time(self.spatial.mix(spectra * heard.response, heard.state))  # type: ignore[attr-defined]
+        mixed = np.stack([
+            self.spatial.mix(spectra * self.response[live], old_state),  # type: ignore[attr-defined]
+            self.spatial.mix(spectra * heard.response, heard.state),  # type: ignore[attr-defined]
+        ])  # fmt: skip
+        old, new = np.fft.irfft(mixed, self.n_fft, axis=-1)[..., -self.block :]
         self._keep(heard)
         return old + (new - old) * self._fade_in[None, :]
 
@@ -153,9 +156,6 @@ class Renderer:
         frames[:, -self.block :] = delayed
         self.frames[live] = frames
         return np.fft.rfft(frames, axis=1).astype(np.complex64)
-
-    def _to_time(self, channel_spectra: np.ndarray) -> np.ndarray:
-        return np.fft.irfft(channel_spectra, self.n_fft, axis=1)[:, -self.block :]
 
     def _keep(self, heard: Heard) -> None:
         """This block's parameters become the next block's old ones; faded slots free."""

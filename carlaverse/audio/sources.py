@@ -50,6 +50,7 @@ class SourceBank:
         self.clock_s = np.zeros(capacity)  # [s] since the emitter appeared: siren patterns
         self.offset = np.zeros(capacity, dtype=np.int64)  # into the noise tables
         self.since_blow = np.zeros(capacity, dtype=np.int64)  # [samples] construction
+        self.blow_variant = np.zeros(capacity, dtype=np.int64)  # which recorded-once blow
         self.cylinders = np.full(capacity, float(v.ENGINE_CYLINDERS))
         self.gusts = Gusts(capacity, self.rng)
         # Band gains of fixed spectra, scaled once to RMS 1.
@@ -64,6 +65,7 @@ class SourceBank:
             "construction": self._construction,
         }  # every other kind is ambience, rendered together
         self._ambient = _AmbienceTable(self.noise)
+        self._blow_table = self._make_blows()
 
     def reset(self, slots: np.ndarray) -> None:
         """Fresh state for emitters that just appeared."""
@@ -163,26 +165,35 @@ class SourceBank:
 
     def _construction(self, slots: np.ndarray, d: Drive) -> Generated:
         """Hammer blows at random intervals (more with intensity) over a machine rumble."""
-        since = self._blows(slots, v.BLOWS_HZ[0] + (v.BLOWS_HZ[1] - v.BLOWS_HZ[0]) * d.a1)
-        hit_bands = np.tile(self._bands["hit"], (len(slots), 1))
-        # The hit noise reads other bands' offsets (shifted by half the table): it must not
-        # be the rumble's noise again.
-        offsets = (self.offset[slots] + self.noise.samples // 2) % self.noise.samples
-        hit = self.noise.read(offsets, hit_bands, hit_bands, self.block)
-        blows = 1.5 * self.tables.hit_envelope[since] * hit + 0.5 * self.tables.clank[since]
+        where = self._blows(slots, v.BLOWS_HZ[0] + (v.BLOWS_HZ[1] - v.BLOWS_HZ[0]) * d.a1)
         rumble = np.tile(0.3 * self._bands["rumble"], (len(slots), 1))
-        return blows, rumble, rumble
+        return self._blow_table.take(where), rumble, rumble
+
+    def _make_blows(self) -> np.ndarray:
+        """BLOW_VARIANTS hammer blows made once (band noise under a fast decay, and the ring
+        of the plate), flattened; a blow plays one of them from its start."""
+        n = self.tables.blow_samples + 1
+        starts = self.rng.integers(0, self.noise.samples - n, v.BLOW_VARIANTS)
+        hit = np.stack([self.noise.tables[s : s + n] @ self._bands["hit"] for s in starts])
+        blows = 1.5 * self.tables.hit_envelope * hit + 0.5 * self.tables.clank
+        blows[:, -1] = 0.0  # the end of a blow, where `since` rests until the next one
+        return blows.astype(np.float32).ravel()
 
     def _blows(self, slots: np.ndarray, rate_hz: np.ndarray) -> np.ndarray:
-        """Samples since the last blow (E × block), capped at the blow table's end; at most
-        one new blow per block."""
+        """Where each sample of the block is in the blow table (E × block): the running
+        blow until a new one starts (at most one per block), which then plays from its start."""
+        length = self.tables.blow_samples + 1
         blow = self.rng.random(len(slots)) < rate_hz * self.block / self.rate
-        at = np.where(blow, self.rng.integers(0, self.block, len(slots)), self.block)
+        at = np.where(blow, self.rng.integers(0, self.block, len(slots)), self.block)[:, None]
+        old = self.blow_variant[slots]
+        new = np.where(blow, self.rng.integers(0, v.BLOW_VARIANTS, len(slots)), old)
         n = np.arange(self.block)[None, :]
-        since = np.where(n >= at[:, None], n - at[:, None], self.since_blow[slots, None] + n)
-        since = np.minimum(since, self.tables.blow_samples)
-        self.since_blow[slots] = np.minimum(since[:, -1] + 1, self.tables.blow_samples)
-        return since
+        since = np.minimum(np.where(n >= at, n - at, self.since_blow[slots, None] + n),
+                           length - 1)  # fmt: skip
+        variant = np.where(n >= at, new[:, None], old[:, None])
+        self.since_blow[slots] = np.minimum(since[:, -1] + 1, length - 1)
+        self.blow_variant[slots] = new
+        return variant * length + since
 
 
 class _AmbienceTable:

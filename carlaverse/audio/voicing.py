@@ -42,3 +42,4 @@ CONSTRUCTION_RUMBLE = np.array([1.0, 0.9, 0.5, 0.25, 0.1, 0.05, 0.0, 0.0])
 BLOWS_HZ = (0.5, 4.0)  # [1/s] hammer blows per second at intensity 0 and 1
 CLANK_HZ = np.array([1320.0, 2170.0, 3460.0])  # a struck steel plate's partials
 HIT_DECAY_S, CLANK_DECAY_S = 0.04, 0.12  # [s] envelope time constants of a blow
+BLOW_VARIANTS = 8  # different blows, made once; each blow plays one at random

@@ -1,11 +1,12 @@
 """Benchmark: the spatial audio renderer's CPU cost and its update-to-ear latency (issue 17).
 
-    python tools/bench/bench_audio.py [--seconds 10] [--latency-seconds 10] [--write]
+    python tools/bench/bench_audio.py [--seconds 6] [--repeats 3] [--latency-seconds 10] [--write]
 
 CPU: a traffic-like scene (cars as engine + tyres pairs, a siren, road works, leaves, water,
 rain, wind: every kind), every emitter moving, updated at 20 Hz like the authority's scenes,
-rendered block by block at 48 kHz for `--seconds` of audio per case; CPU time of this
-process (process_time, one BLAS thread) per second of audio, i.e. the share of a core.
+rendered block by block at 48 kHz for `--seconds` of audio per run; CPU time of this
+process (process_time, one BLAS thread) per second of audio, i.e. the share of a core, the
+least of `--repeats` runs.
 Latency: the live node's render loop (`audio.process`) with the simulated device at real-time
 pace, scenes handed to its inbox as the Zenoh callback does, at random moments; from a
 scene's arrival to the moment the device starts playing the first block rendered with it.
@@ -68,17 +69,26 @@ def scene_at(motions: list[tuple], seq: int, t: float) -> m.AudioScene:
     return m.AudioScene(seq, t, "bench", emitters)
 
 
+def best_share(repeats: int, *args: object) -> float:
+    """The least of `repeats` runs: other work on a shared machine only ever adds CPU time
+    (cache and core contention), so the minimum is the renderer's own cost."""
+    return min(cpu_share(*args) for _ in range(repeats))  # type: ignore[arg-type]
+
+
 def cpu_share(layout: str, count: int, seconds: float, hrirs: object, block: int = 512) -> float:
     """CPU seconds per second of audio for `count` emitters in `layout`."""
     config = AudioConfig(layout=layout, block_size=block)
     renderer = build_renderer(config, hrirs if layout == "binaural" else None)
     motions = scene_motion(count)
     every = round(config.sample_rate_hz / SCENE_HZ / config.block_size) or 1
-    for _ in range(20):  # warm-up: caches, first allocations
-        renderer.render_block()
-    started = time.process_time()
+    # Warm-up: once round the delay lines, so that first touches of their pages (the kernel
+    # zero-fills them on demand) are not counted as rendering.
+    warm_up = renderer.delays.length // config.block_size + 10
     blocks = int(seconds * config.sample_rate_hz / config.block_size)
-    for k in range(blocks):
+    started = 0.0
+    for k in range(warm_up + blocks):
+        if k == warm_up:
+            started = time.process_time()
         if k % every == 0:
             renderer.hear(scene_at(motions, k, renderer.t).emitters, renderer.t)
         renderer.render_block()
@@ -110,7 +120,7 @@ def latency_ms(seconds: float, count: int) -> tuple[list[float], AudioSummary, A
     return [x * 1e3 for x in output.latencies_s], summary, config
 
 
-def body(shares: dict[tuple[str, int], float], seconds: float, lat: list[float],
+def body(shares: dict[tuple[str, int], float], seconds: float, repeats: int, lat: list[float],
          lat_summary: AudioSummary, config: AudioConfig, lat_count: int) -> str:  # fmt: skip
     block_ms = 1e3 * config.block_size / config.sample_rate_hz
     rows = []
@@ -123,7 +133,8 @@ def body(shares: dict[tuple[str, int], float], seconds: float, lat: list[float],
     target, large = shares["binaural", 32], shares["binaural@large", 32]
     return (
         f"CPU time per second of audio (= share of one core), 48 kHz, {seconds:g} s of audio "
-        "per case; a traffic-like scene of every emitter kind, all moving, updated at 20 Hz. "
+        f"per run, the least of {repeats} runs per case; a traffic-like scene of every emitter "
+        "kind, all moving, updated at 20 Hz. "
         f"Target: ≤ {TARGET} of a core at 32 emitters binaural: {target:.3f} with blocks of "
         f"{config.block_size} ({_verdict(target)}), {large:.3f} with blocks of {LARGE_BLOCK} "
         f"({_verdict(large)}; a block more of latency, {1e3 * LARGE_BLOCK / 48_000:.1f} ms). "
@@ -142,21 +153,29 @@ def body(shares: dict[tuple[str, int], float], seconds: float, lat: list[float],
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seconds", type=float, default=10.0, help="of audio per CPU case")
+    parser.add_argument("--seconds", type=float, default=6.0, help="of audio per CPU run")
+    parser.add_argument("--repeats", type=int, default=3, help="runs per case; the least counts")
     parser.add_argument("--latency-seconds", type=float, default=10.0)
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
     args = parser.parse_args(argv)
     run = RunInfo.start()
     from carlaverse.audio.hrtf import load_hrirs
+    from carlaverse.realtime import raise_priority
+
+    # Scheduled as the live audio process is (audio.process): real-time where allowed.
+    priority = raise_priority(AudioConfig().output.realtime_priority)
 
     hrirs = load_hrirs("kemar", 48_000)
-    shares = {(layout, n): cpu_share(layout, n, args.seconds, hrirs)
+    shares = {(layout, n): best_share(args.repeats, layout, n, args.seconds, hrirs)
               for layout in LAYOUTS for n in COUNTS}  # fmt: skip
     for layout in LARGE_BLOCK_LAYOUTS:
         for n in COUNTS:
-            shares[layout + "@large", n] = cpu_share(layout, n, args.seconds, hrirs, LARGE_BLOCK)
+            shares[layout + "@large", n] = best_share(
+                args.repeats, layout, n, args.seconds, hrirs, LARGE_BLOCK
+            )
     lat, lat_summary, config = latency_ms(args.latency_seconds, 32)
-    text = body(shares, args.seconds, lat, lat_summary, config, 32)
+    text = body(shares, args.seconds, args.repeats, lat, lat_summary, config, 32)
+    text += f" The benchmark ran as the live audio process does: {priority}."
     print(text)
     if args.write:
         write_section("Spatial audio", text, command_line(argv), run)
