@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass
+from functools import lru_cache
 
 ROOT = "carlaverse"
 AUTHORITY_ID = "authority"
@@ -206,6 +207,14 @@ def parse(key: str) -> ParsedKey:
     if area == "authority" and len(rest) == 1 and rest[0] in AUTHORITY_QUERIES:
         return ParsedKey(session, area, rest[0], "")
     raise KeySpaceError(f"not a carlaverse key: {key!r}")
+
+
+@lru_cache(maxsize=4096)
+def parse_cached(key: str) -> ParsedKey:
+    """`parse`, remembered: a pose subscriber meets the same few hundred keys thousands of
+    times a second. Bounded, so a flood of new keys costs no more than parsing each; a key
+    that does not parse raises every time (exceptions are not cached)."""
+    return parse(key)
 
 
 def _tiled(rest: list[str]) -> bool:

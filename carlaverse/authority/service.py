@@ -30,7 +30,7 @@ from carlaverse.config import StrictStruct
 from carlaverse.fabric.clock import Clock
 from carlaverse.fabric.guard import HandlerGuard, Tally, reply_err
 from carlaverse.fabric.stats import percentile
-from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse
+from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse, parse_cached
 
 log = logging.getLogger(__name__)
 
@@ -194,7 +194,7 @@ class Authority:
     def _on_pose(self, sample: zenoh.Sample) -> None:
         rx_t = self.clock.now()
         try:
-            node_id = parse(str(sample.key_expr)).node_id
+            node_id = parse_cached(str(sample.key_expr)).node_id
             pose = m.POSE.decode(sample.payload.to_bytes())
         except (KeySpaceError, m.MessageError):
             self.drops.add("pose")

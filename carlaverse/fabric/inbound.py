@@ -31,7 +31,7 @@ from carlaverse import messages as m
 from carlaverse.fabric.clock import SessionClock
 from carlaverse.fabric.guard import HandlerGuard, Tally
 from carlaverse.fabric.world_view import WorldView
-from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse
+from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse, parse_cached
 
 log = logging.getLogger(__name__)
 
@@ -118,7 +118,7 @@ class Inbound:
 
     def _sender(self, sample: zenoh.Sample, channel: str) -> str | None:
         try:
-            return parse(str(sample.key_expr)).node_id
+            return parse_cached(str(sample.key_expr)).node_id
         except KeySpaceError:
             self.dropped.add(channel)
             return None

@@ -97,3 +97,13 @@ def test_npc_tiles_draw_every_tile_together_and_forget_a_tile_left() -> None:
     assert frame is not None and sorted(frame.ids) == ["a", "b"] and len(frame.x) == 2
     view.keep_only(frozenset({"t0_0"}))
     assert list(view) == ["a"]
+
+
+def test_the_remembered_parse_agrees_and_still_refuses() -> None:
+    from carlaverse.keys import parse_cached
+
+    key = K.pose("car-1", "t3_-2")
+    assert parse_cached(key) == parse(key) and parse_cached(key) is parse_cached(key)
+    for _ in range(2):  # a refused key is refused every time, never remembered as good
+        with pytest.raises(KeySpaceError):
+            parse_cached("carlaverse/s/ego/car-1/pose/x")
