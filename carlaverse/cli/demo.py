@@ -35,8 +35,9 @@ from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 DEFAULT_NODES = "scripted,scripted,scripted"
 ERROR_TAIL_LINES = 20  # stderr lines kept per child, to say why it failed
 STOP_GRACE_S = 10.0  # [s] a child stopped by SIGINT is killed after this
-READY_TIMEOUT_S = 60.0  # [s] for the recorder to say it is subscribed (slow on a loaded host)
+READY_TIMEOUT_S = 60.0  # [s] for the recorder or authority to say it is ready (loaded host)
 RECORDER_READY = "recording session "  # what `record` prints once its subscribers are declared
+AUTHORITY_READY = "authority of session "  # what `authority` prints once it ticks
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -266,7 +267,12 @@ def _run_session(
                 ["view", "--session", args.session, "--connect", endpoint, "--save", args.rrd],
             )
         )
-    children.append(_spawn("authority", "authority", authority_argv(args, endpoint)))
+    authority = _spawn("authority", "authority", authority_argv(args, endpoint))
+    children.append(authority)
+    # The nodes once the authority ticks: its start (SUMO, the map) takes seconds, and a node
+    # counts its --duration from its own start, so nodes started with it spent much of a short
+    # demo waiting to be admitted.
+    _await_line(authority, AUTHORITY_READY, READY_TIMEOUT_S, stop)
     ids = []
     for node_id, argv in node_plan(kinds, endpoint, args, tmp):
         children.append(_spawn(node_id, "node", argv))

@@ -90,9 +90,11 @@ def run_tool(name: str, args: Sequence[str], cwd: Path | None = None) -> str:
 
 
 def tool_version(name: str) -> str:
-    """The first line of `<tool> --version` (part of the network cache key)."""
-    out = run_tool(name, ["--version"])
-    return out.strip().splitlines()[0] if out.strip() else name
+    """What identifies the installed tool, for the network cache key: its path, size and
+    modification time (asking `<tool> --version` cost a second at every authority start)."""
+    path = find_tool(name)
+    stat = path.stat()
+    return f"{path}:{stat.st_size}:{stat.st_mtime_ns}"
 
 
 def import_libsumo():
