@@ -28,6 +28,15 @@ from carlaverse.messages import Pose
 WARM_UP = 0x1  # flags bit: a warm-up sample, not measured
 
 
+def module_installed(name: str) -> bool:
+    """Whether `name` (dotted, e.g. `paho.mqtt`) can be imported; find_spec raises instead of
+    answering when a parent package (`paho`) is missing."""
+    try:
+        return importlib.util.find_spec(name) is not None
+    except ModuleNotFoundError:
+        return False
+
+
 class Deliver(Protocol):
     """Where a receiver hands what arrived (`peers.arrivals.Arrivals`)."""
 
@@ -76,7 +85,7 @@ class Transport:
 
     def missing(self) -> str | None:
         """Why this transport cannot run here (one line), or None when it can."""
-        absent = [m for m in self.modules if importlib.util.find_spec(m) is None]
+        absent = [m for m in self.modules if not module_installed(m)]
         absent += [p for p in self.programs if find_program(p) is None]
         if not absent:
             return None
