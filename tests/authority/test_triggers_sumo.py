@@ -19,6 +19,7 @@ from carlaverse.config import ConfigError
 from carlaverse.messages import Extent, Notice, TriggerFired
 from carlaverse.traffic.scenario import load_scenario
 from tests.traffic.helpers import (
+    CROSSING_CONFLICT,
     CROSSING_MAP,
     T0,
     TICK_S,
@@ -30,7 +31,7 @@ from tests.traffic.helpers import (
 )
 
 __all__ = ["net_cache"]  # a fixture, imported for pytest
-CONFLICT = (164.05, 118.35)  # [m] bike lane SC_1 x car lane ZC_2 / :C_22_0
+CONFLICT = CROSSING_CONFLICT
 TARGET_TTC_S = 2.0
 BIKE = Extent(1.8, 0.6, 1.7)
 CAR_LENGTH_M = 4.5  # the `car` NPC type

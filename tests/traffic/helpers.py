@@ -40,6 +40,9 @@ traffic:
 
 
 CAR = Extent(4.5, 1.8, 1.5)  # [m]
+# On the crossing map: where the northbound bike lane SC_1 crosses the eastbound car lane ZC_2
+# (through the junction on :C_22_0), the conflict point of the trigger tests.
+CROSSING_CONFLICT = (164.05, 118.35)  # [m]
 
 
 @pytest.fixture(scope="session")

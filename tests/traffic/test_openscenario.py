@@ -15,6 +15,7 @@ from carlaverse.traffic.openscenario import import_triggers
 from carlaverse.traffic.scenario import load_scenario
 from carlaverse.traffic.trigger_spec import Distance, Message, Release, Speed
 from tests.traffic.helpers import (
+    CROSSING_CONFLICT,
     CROSSING_MAP,
     T0,
     TICK_S,
@@ -26,7 +27,7 @@ from tests.traffic.helpers import (
 )
 
 __all__ = ["net_cache"]  # a fixture, imported for pytest
-CONFLICT = (164.05, 118.35)  # [m] where the bike lane SC_1 crosses the car lane ZC_2
+CONFLICT = CROSSING_CONFLICT
 
 
 def _write(path: Path, *events: xosc.Event) -> Path:
