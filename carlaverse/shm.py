@@ -68,6 +68,11 @@ class SharedBlock:
     def sequence(self) -> int:
         return _SEQ.unpack_from(self._buf, 0)[0]
 
+    def peek(self, field: str) -> object:
+        """One field as it is now, without the sequence lock: a hint that may be mid-write,
+        to decide whether a full (and, for a large record, costly) `read()` is worth it."""
+        return self._record[field].item()
+
     def write(self, values: np.void | np.ndarray) -> None:
         """Publish a whole record (writer side only)."""
         seq = _SEQ.unpack_from(self._buf, 0)[0]

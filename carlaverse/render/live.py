@@ -61,12 +61,14 @@ class OwnPoseBlock:
     `<left|right>_eye_<left|right|up|down>` (a headset's eye frusta [rad], which an `xr` rig
     draws with) and `running` (0 until the loop's first tick) are used when present. The node
     kind names the block and its dtype, so this library never imports a node kind.
+    `eye_images` names the block a headset shows the rendered eyes from (`hal.xr.eye_images`).
     """
 
     name: str
     dtype: np.dtype
     kind: str = "car"
     extent: m.Extent = CAR_EXTENT
+    eye_images: str = ""
 
 
 EYES = ("left_eye", "right_eye")  # a walker's block: `eyes` set, then <eye>_<edge> [rad]

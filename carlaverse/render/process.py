@@ -62,6 +62,8 @@ class ViewSummary:
     gl_renderer: str = ""
     map_lanes: int = 0
     own_pose_torn_reads: int = 0  # own-pose reads that met the loop mid-write (drawn from the last)
+    eye_frames: int = 0  # frames whose eyes went to the node's headset (`eye_images`)
+    eye_frames_resampled: bool = False  # the rig drew another size than the headset shows
     pid: int = 0  # of the render process (a test can check it is gone)
     error: str = ""
     frame_times_s: list[float] = field(default_factory=list, repr=False)
@@ -156,6 +158,7 @@ def _wait_for_map(world: Any, timeout_s: float, stop: Any) -> Any:
 def _loop(spec: ViewSpec, stop: Any, world: Any, renderer: Any, summary: ViewSummary) -> None:
     period = 1.0 / spec.render.max_fps
     dump = FrameDump(spec.out_dir, spec.out_every_s)
+    headset = _eye_writer(spec)
     parent = mp.parent_process()
     first = next_t = time.monotonic()
     while not stop.is_set() and (parent is None or parent.is_alive()):
@@ -170,6 +173,8 @@ def _loop(spec: ViewSpec, stop: Any, world: Any, renderer: Any, summary: ViewSum
         summary.frames += 1
         summary.frame_times_s.append(time.perf_counter() - started)
         summary.written += dump.offer(renderer)
+        if headset is not None and len(renderer.layout.cameras) == 2:
+            summary.eye_frames += headset.offer(renderer.camera_images())
         next_t += period
         delay = next_t - time.monotonic()
         if delay < -period:
@@ -177,6 +182,18 @@ def _loop(spec: ViewSpec, stop: Any, world: Any, renderer: Any, summary: ViewSum
         stop.wait(max(0.0, delay))
     if summary.frames > 1:
         summary.fps = round(summary.frames / (time.monotonic() - first), 1)
+    if headset is not None:
+        summary.eye_frames_resampled = headset.resampled
+        headset.close()
+
+
+def _eye_writer(spec: ViewSpec) -> Any:
+    """Where the eyes go when the node's headset shows them (`OwnPoseBlock.eye_images`)."""
+    if spec.own is None or not spec.own.eye_images:
+        return None
+    from carlaverse.hal.xr.eye_images import EyeImageWriter
+
+    return EyeImageWriter(spec.own.eye_images)
 
 
 def aim(camera: str, frame: Any, own_id: str) -> dict[str, Any]:

@@ -22,6 +22,7 @@ from carlaverse_nodes.walk.walk_control import WalkControl, WalkOutput
 from carlaverse_nodes.walk.walkable import Walkable
 
 from carlaverse.hal import open_input, open_xr
+from carlaverse.hal.xr.eye_images import EyeImageBlock
 from carlaverse.messages import Impulse
 from carlaverse.realtime import Pacer, raise_priority
 from carlaverse.render.live import EDGES, EYES
@@ -38,6 +39,7 @@ class WalkLoopSpec:
     config: WalkNodeConfig
     state_block: str
     control_block: str
+    eye_images: str = ""  # block name for the view's rendered eyes, when the headset shows them
 
 
 def run_walk_loop(spec: WalkLoopSpec, events: Any, results: Any, stop: Any) -> None:
@@ -72,12 +74,26 @@ class WalkRunner:
         except Exception:
             self.headset.close()
             raise
+        self.eyes = self._eye_block(spec.eye_images)
         self.walk = WalkControl(config, self.headset, self.device)
         self.record = new_record(STATE)
         self.pacer = Pacer(config.loop.rate_hz)
         self.spawn_seq = 0
-        self.ticks = self.impulses = 0
+        self.ticks = self.impulses = self.eye_frames = 0
         self.distance_m = 0.0
+
+    def _eye_block(self, name: str) -> EyeImageBlock | None:
+        """The block the view writes the eyes into, at the headset's display size."""
+        size = self.headset.display_size()
+        if not name or size is None:
+            return None
+        try:
+            return EyeImageBlock(name, *size)
+        except Exception:
+            self.headset.close()
+            if self.device is not None:
+                self.device.close()
+            raise
 
     def run(self, stop: Any) -> None:
         rate = self.config.loop.rate_hz
@@ -92,6 +108,8 @@ class WalkRunner:
             self.pacer.wait()
             if self.ticks % event_every == 0:
                 self._drain_events()
+            if self.eyes is not None:
+                self._show_eyes()
             out = self.walk.tick(self.pacer.period_s)
             self.distance_m += out.speed_mps * self.pacer.period_s
             self._publish(out)
@@ -104,6 +122,13 @@ class WalkRunner:
         if int(c["spawn_seq"]) != self.spawn_seq:
             self.spawn_seq = int(c["spawn_seq"])
             self.walk.place(float(c["spawn_x"]), float(c["spawn_y"]), float(c["spawn_yaw"]))
+
+    def _show_eyes(self) -> None:
+        """The view's newest eyes go to the headset before its next frame."""
+        eyes = self.eyes.newest()
+        if eyes is not None:
+            self.headset.present(eyes)
+            self.eye_frames += 1
 
     def _drain_events(self) -> None:
         for event in drain(self.events):
@@ -145,9 +170,13 @@ class WalkRunner:
             "impulses_received": self.impulses,
             "headset": type(self.headset).__name__,
             "eyes_deg": _eyes_deg(self.headset.eye_fovs()),
+            "eye_frames_presented": self.eye_frames if self.eyes is not None else None,
+            **_shown(self.headset),
         }
 
     def close(self) -> None:
+        if self.eyes is not None:
+            self.eyes.close()
         for device in (self.device, self.headset):
             if device is None:
                 continue
@@ -155,6 +184,12 @@ class WalkRunner:
                 device.close()
             except Exception:  # closing must not hide the summary; log it
                 log.exception("closing %s failed", type(device).__name__)
+
+
+def _shown(headset: Any) -> dict[str, Any]:
+    """What the headset's display side reports, when it has one (the sim: what it was shown)."""
+    fields = ("frames_shown", "last_frame", "eye_means", "eyes_differ")
+    return {f"headset_{name}": getattr(headset, name) for name in fields if hasattr(headset, name)}
 
 
 def _eyes_deg(eyes: Any) -> list[list[float]] | None:

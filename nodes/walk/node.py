@@ -11,6 +11,7 @@ authority in a thread), and publishes the body's joints from the skeleton source
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import logging
 import queue
@@ -30,8 +31,12 @@ from carlaverse import messages as m
 from carlaverse.fabric.node_client import NodeClient
 from carlaverse.hal import XrConfig, xr
 from carlaverse.hal.errors import HalError
+from carlaverse.render.live import OwnPoseBlock
+from carlaverse.shm import block_name
 
 log = logging.getLogger(__name__)
+
+EYES_PART = "eyes"  # the block of the view's rendered eyes, for a headset that shows them
 
 SIM_SCRIPT = [  # the headless walker of `--backend sim`: stroll, look around, jog, stop
     {"t": 0.0, "axes": {"move_y": 0.0}},
@@ -40,6 +45,7 @@ SIM_SCRIPT = [  # the headless walker of `--backend sim`: stroll, look around, j
     {"t": 12.0, "axes": {"move_y": 0.6, "move_x": 0.4}, "buttons": {"run": False}},
     {"t": 20.0, "axes": {"move_y": 0.0, "move_x": 0.0}},
 ]
+SIM_DISPLAY = [640, 640]  # [px] per eye: the sim headset takes the view's eyes at this size
 SIM_EYES = {  # what a runtime reports for a typical headset [deg]: wider outwards
     "left": {"left_deg": -52.0, "right_deg": 42.0, "up_deg": 46.0, "down_deg": -50.0},
     "right": {"left_deg": -42.0, "right_deg": 52.0, "up_deg": 46.0, "down_deg": -50.0},
@@ -79,13 +85,20 @@ class WalkNode(LoopHost):
         if backend != "sim":
             raise ValueError(f"--backend {backend!r}: the walk node can force only 'sim'")
         options = {"posture": "standing", "script": SIM_SCRIPT, "yaw_amplitude_rad": 0.3,
-                   "eyes": SIM_EYES}  # fmt: skip
+                   "eyes": SIM_EYES, "display": SIM_DISPLAY}  # fmt: skip
         headset = XrConfig(backend="sim", options=options)
         return msgspec.structs.replace(config, xr=headset, input=None)
 
     def start(self, session: str, node_id: str, offset: float) -> None:
-        spec = functools.partial(WalkLoopSpec, self.config)
+        eyes = block_name(session, node_id, EYES_PART)
+        spec = functools.partial(WalkLoopSpec, self.config, eye_images=eyes)
         self._start_loop(session, node_id, run_walk_loop, spec, clock_offset=offset)
+
+    def own_pose_block(self) -> OwnPoseBlock:
+        """The loop's state, and where the view puts the eyes for a headset that shows them."""
+        n = self.node_settings
+        eyes = block_name(n.session, n.node_id, EYES_PART)
+        return dataclasses.replace(super().own_pose_block(), eye_images=eyes)
 
     def step(self, client: NodeClient, now: float) -> None:
         self._tend_loop(client)

@@ -80,6 +80,11 @@ def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster, tmp_path: Path) 
     assert loop["headset"] == "SimHeadset"
     # the eyes the headset reported (and the view drew with): the sim's typical headset
     assert loop["eyes_deg"] == [[-52.0, 42.0, 46.0, -50.0], [-42.0, 52.0, 46.0, -50.0]]
+    # the eyes the view drew reached the headset through shared memory, each frame once
+    assert view["eye_frames"] >= 20 and view["eye_frames_resampled"]  # 160 px rig, 640 px display
+    assert 10 <= loop["eye_frames_presented"] == loop["headset_frames_shown"] <= view["eye_frames"]
+    assert loop["headset_eyes_differ"]  # two eyes, two viewpoints
+    assert all(40 < level < 230 for level in loop["headset_eye_means"])  # sky and ground, not black
     assert loop["ticks"] > 90 * 5  # 90 Hz for the ≥ 8 s it took to jog
     assert loop["distance_m"] > 8.0
     assert report["skeletons_sent"] == 0  # `body: none`

@@ -15,6 +15,7 @@ import msgspec
 
 from carlaverse.hal.device import Device, DeviceConfig
 from carlaverse.hal.registry import BackendSpec, Registry
+from carlaverse.hal.xr.eye_images import EyeFrame
 from carlaverse.hal.xr.fov import EyeFov
 
 BACKENDS = {
@@ -64,6 +65,15 @@ class XrHeadset(Device):
     def eye_fovs(self) -> tuple[EyeFov, EyeFov] | None:
         """The (left, right) eyes' fields of view, when the headset reports them."""
         return None
+
+    def display_size(self) -> tuple[int, int] | None:
+        """(width, height) [px] of each eye's image when the headset shows rendered images
+        (`present`); None for one that shows nothing (desktop mouse look)."""
+        return None
+
+    def present(self, eyes: EyeFrame) -> None:
+        """Show this frame of both eyes from the next headset frame on."""
+        raise NotImplementedError(f"{type(self).__name__} shows no images (display_size None)")
 
     def _pose(self, now: float) -> tuple[tuple[float, float, float], tuple, bool]:
         raise NotImplementedError

@@ -9,10 +9,13 @@ both eyes (their asymmetric fields of view are `eye_fovs()`, for the renderer's 
 lenses, `carlaverse.render.stereo`, or the symmetric render and crop, `fov`), syncs and
 reads the actions, and ends the frame.
 
-Left for the renderer: drawing the eyes into `swapchains` needs the GL context of this
-process; the walk node's view renders in a process of its own, so until the two share a
-context the frames are ended without a projection layer (the runtime shows its own
-backdrop) while head tracking and controllers work.
+The eyes it shows: the walk node's view renders both eyes in a process of its own and hands
+them over through shared memory (`eye_images`); `present()` keeps the newest, and the next
+frame uploads them into the eyes' swapchain images and ends with a projection layer at the eyes'
+poses and fields of view located for that frame (`openxr_present`). Until the first image
+arrives, frames end without a layer (the runtime shows its own backdrop). The layer names the
+pose of the frame it is shown in, not the one the image was drawn at, so the runtime's
+reprojection cannot hide the view's age (one view frame or less): a known limit.
 
 No runtime, no headset: opening fails with one line naming what is missing
 (`openxr_runtime`); the loader's own error output is silenced unless XR_LOADER_DEBUG is set.
@@ -35,9 +38,11 @@ from carlaverse.config import StrictStruct
 from carlaverse.hal.device import Clock
 from carlaverse.hal.errors import DeviceError
 from carlaverse.hal.xr import XrActions, XrHeadset
+from carlaverse.hal.xr.eye_images import EyeFrame
 from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.hal.xr.frames import quaternion_matrix
 from carlaverse.hal.xr.openxr_bindings import ACTIONS, ActionSpec, suggest_bindings
+from carlaverse.hal.xr.openxr_present import EyeSwapchain, layer_list, projection_layer
 from carlaverse.hal.xr.openxr_runtime import find_runtime, preflight
 
 log = logging.getLogger(__name__)
@@ -84,6 +89,8 @@ class OpenXrHeadset(XrHeadset):
         self.running = False
         self._last = ((0.0, 0.0, 0.0), (1.0, 0.0, 0.0, 0.0), False)
         self._actions_now = XrActions()
+        self._pending: EyeFrame | None = None  # the newest eye images from the view
+        self.frames_shown = 0  # frames ended with the eyes' projection layer
         self._handles: list[tuple[Any, Any]] = []  # (destroy function, handle), newest last
         try:
             self._open(options)
@@ -143,7 +150,7 @@ class OpenXrHeadset(XrHeadset):
                              | xr.SwapchainUsageFlags.COLOR_ATTACHMENT_BIT),
             )  # fmt: skip
             chain = self._keep(xr.destroy_swapchain, xr.create_swapchain(self.session, info))
-            self.swapchains.append((chain, info.width, info.height))
+            self.swapchains.append(EyeSwapchain(chain, info.width, info.height))
 
     def _make_actions(self) -> None:
         self.action_set = self._keep(xr.destroy_action_set, xr.create_action_set(
@@ -165,13 +172,32 @@ class OpenXrHeadset(XrHeadset):
             return self._last[0], self._last[1], False
         frame = xr.wait_frame(self.session)
         xr.begin_frame(self.session)
+        layer = None
         try:
-            self._track(frame.predicted_display_time)
+            views = self._track(frame.predicted_display_time)
+            if frame.should_render and self._pending is not None and len(views) == 2:
+                layer = self._draw(views)
         finally:
             xr.end_frame(self.session, xr.FrameEndInfo(
                 display_time=frame.predicted_display_time,
-                environment_blend_mode=xr.EnvironmentBlendMode.OPAQUE, layers=[]))  # fmt: skip
+                environment_blend_mode=xr.EnvironmentBlendMode.OPAQUE,
+                layers=layer_list(layer) if layer is not None else []))  # fmt: skip
         return self._last
+
+    def display_size(self) -> tuple[int, int] | None:
+        left = self.swapchains[0]
+        return left.width, left.height
+
+    def present(self, eyes: EyeFrame) -> None:
+        self._pending = eyes
+
+    def _draw(self, views: Any) -> Any:
+        """Upload the newest eye images and make the layer that shows them."""
+        eyes = self._pending
+        for chain, image in zip(self.swapchains, (eyes.left, eyes.right), strict=True):
+            chain.draw(image)
+        self.frames_shown += 1
+        return projection_layer(self.space, views, self.swapchains)
 
     def _actions(self, now: float) -> XrActions:
         return self._actions_now
@@ -180,7 +206,8 @@ class OpenXrHeadset(XrHeadset):
         """The runtime's per-eye frusta at the last frame (they may change, e.g. with IPD)."""
         return self._eye_fovs
 
-    def _track(self, display_time: int) -> None:
+    def _track(self, display_time: int) -> Any:
+        """Locate the head and eyes, read the actions; the eyes' views when they are known."""
         head = xr.locate_space(self.head_space, self.space, display_time)
         valid = (
             xr.SpaceLocationFlags.POSITION_VALID_BIT | xr.SpaceLocationFlags.ORIENTATION_VALID_BIT
@@ -191,13 +218,15 @@ class OpenXrHeadset(XrHeadset):
             self._last = ((p.x, p.y, p.z), (q.w, q.x, q.y, q.z), True)
         else:
             self._last = (self._last[0], self._last[1], False)
-        _state, views = xr.locate_views(self.session, xr.ViewLocateInfo(
+        state, views = xr.locate_views(self.session, xr.ViewLocateInfo(
             view_configuration_type=xr.ViewConfigurationType.PRIMARY_STEREO,
             display_time=display_time, space=self.space))  # fmt: skip
         if len(views) == 2:  # primary stereo: left, then right
             self._eye_fovs = tuple(EyeFov(v.fov.angle_left, v.fov.angle_right, v.fov.angle_up,
                                           v.fov.angle_down) for v in views)  # fmt: skip
         self._actions_now = self._read_actions(display_time)
+        oriented = state.view_state_flags & xr.ViewStateFlags.ORIENTATION_VALID_BIT
+        return views if oriented else ()  # no pose to show the eyes at: no layer
 
     def _read_actions(self, display_time: int) -> XrActions:
         xr.sync_actions(self.session, xr.ActionsSyncInfo(

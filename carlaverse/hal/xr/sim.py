@@ -11,6 +11,7 @@ given seed and clock.
           - {t: 0, axes: {move_y: 0.0}}
           - {t: 1, axes: {move_y: 1.0, head_yaw_deg: 0}, buttons: {run: false}}
           - {t: 6, axes: {move_y: 1.0, head_yaw_deg: 90}}
+        display: [640, 640]                # takes the view's rendered eyes, like a headset
 
 Script channels: axes `move_x`, `move_y` (the thumbstick, -1..1), `head_yaw_deg`,
 `head_pitch_deg` (added to the looking-around motion; yaw left positive, pitch up positive),
@@ -26,16 +27,19 @@ import time
 from typing import Annotated, Literal
 
 import msgspec
+import numpy as np
 
 from carlaverse.config import ConfigError, StrictStruct
 from carlaverse.hal.device import Clock
 from carlaverse.hal.input.profile import Keyframe, profile_time, sample_axis, sample_button
 from carlaverse.hal.noise import OrnsteinUhlenbeck
 from carlaverse.hal.xr import XrActions, XrHeadset
+from carlaverse.hal.xr.eye_images import EyeFrame
 from carlaverse.hal.xr.fov import EyeAngles, EyeFov
 
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
 Positive = Annotated[float, msgspec.Meta(gt=0)]
+Pixels = Annotated[int, msgspec.Meta(ge=16, le=8192)]
 
 SCRIPT_AXES = ("move_x", "move_y", "head_yaw_deg", "head_pitch_deg", "hand_yaw_deg")
 SCRIPT_BUTTONS = ("run", "interact")
@@ -60,6 +64,9 @@ class SimHeadsetOptions(StrictStruct):
     script: list[Keyframe] = msgspec.field(default_factory=list)
     loop: bool = False  # repeat the script from its last keyframe's time
     eyes: SimEyes | None = None  # the eyes' fields of view it reports, like a runtime
+    # [width, height] px of each eye's display: the headset then takes the rendered eyes
+    # (`present`) and reports what it was shown, as a runtime's compositor would receive them
+    display: tuple[Pixels, Pixels] | None = None
 
 
 def check_script(script: list[Keyframe]) -> None:
@@ -89,6 +96,9 @@ class SimHeadset(XrHeadset):
         super().__init__(options, clock=clock)
         self.t0 = clock()
         self.noise = OrnsteinUhlenbeck(options.seed, 3, options.step_s, 1.0, 1.0)
+        self.frames_shown = self.last_frame = 0  # the display's side (`present`)
+        self.eye_means: tuple[float, ...] = ()  # [0..255] mean level of each eye last shown
+        self.eyes_differ = False
         self.eye_height_m = (
             options.eye_height_m if options.eye_height_m is not None
             else EYE_HEIGHT_M[options.posture]
@@ -108,6 +118,17 @@ class SimHeadset(XrHeadset):
         pitch = o.pitch_amplitude_rad * math.sin(2 * math.pi * t / o.pitch_period_s)
         pitch += math.radians(sample_axis(o.script, "head_pitch_deg", st))
         return position, yaw_pitch_quaternion(yaw, pitch), True
+
+    def display_size(self) -> tuple[int, int] | None:
+        size = self.options.display
+        return None if size is None else (int(size[0]), int(size[1]))
+
+    def present(self, eyes: EyeFrame) -> None:
+        """Take the frame as the display would: count it, note what the eyes saw."""
+        self.frames_shown += 1
+        self.last_frame = eyes.frame
+        self.eye_means = tuple(float(image.mean()) for image in (eyes.left, eyes.right))
+        self.eyes_differ = not np.array_equal(eyes.left, eyes.right)
 
     def eye_fovs(self) -> tuple[EyeFov, EyeFov] | None:
         eyes = self.options.eyes
