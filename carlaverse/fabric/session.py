@@ -41,6 +41,9 @@ CLIENT_ATTEMPT_MS = 1000
 # paths or device names and are left to Zenoh).
 IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
 OTHER_PROTOCOLS = ("unixsock-stream", "unixpipe", "serial", "vsock")
+# Who opens a peer-to-peer link in low-latency mode: routers are always dialled, between
+# peers only the one with the greater zid dials (see build_config).
+LOWLATENCY_AUTOCONNECT = {"peer": {"to_router": "always", "to_peer": "greater-zid"}}
 _HOST_PORT = re.compile(r"^(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]{1,5})$")
 
 
@@ -56,7 +59,8 @@ class FabricSettings(StrictStruct):
     lease_ms: int = msgspec.field(default=2000)
     keep_alive: int = 4
     # Zenoh's low-latency transport: saves ~20-60 µs a hop; must be on for every process of
-    # a path, and disables QoS priorities.
+    # a path, and disables QoS priorities. It does not fragment: a message over Zenoh's batch
+    # size (64 KiB; a large map or snapshot reply) is lost and the link to that peer closed.
     lowlatency: bool = False
     # Raw Zenoh config entries (json5 path -> value) for what has no field here: TLS files,
     # authentication, access control. Applied last.
@@ -131,6 +135,12 @@ def build_config(settings: FabricSettings) -> zenoh.Config:
     if settings.lowlatency:
         entries["transport/unicast/lowlatency"] = True
         entries["transport/unicast/qos/enabled"] = False
+        # A low-latency transport holds one link. Two peers that learn of each other by
+        # gossip at the same time open to each other at once; each side keeps the link it
+        # opened and closes the other's, and the pair ends with no transport at all (a node
+        # never reaches the authority's join queryable). Only the peer with the greater
+        # zid opens, so there is one link per pair.
+        entries["scouting/gossip/autoconnect_strategy"] = LOWLATENCY_AUTOCONNECT
     entries.update(settings.zenoh)
     config = zenoh.Config()
     for path, value in entries.items():
