@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import logging
 import multiprocessing as mp
+import os
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -117,6 +118,7 @@ def run_pose(config_json: bytes, conn: Any, stop: Any) -> None:
     """Entry point of the pose process."""
     config = msgspec.json.decode(config_json, type=BodyConfig)
     try:
+        pin_cpu(config.cpu)
         camera, landmarker = _open(config)
     except (BodyPoseError, HalError, ValueError) as exc:  # said in one line by the parent
         conn.send(str(exc))
@@ -134,6 +136,18 @@ def run_pose(config_json: bytes, conn: Any, stop: Any) -> None:
         if landmarker is not None:
             landmarker.close()
         conn.close()
+
+
+def pin_cpu(cpu: str | int) -> int | None:
+    """Keep this process on one CPU (`BodyConfig.cpu`); which one, or None for "any"."""
+    if cpu == "any" or not hasattr(os, "sched_setaffinity"):
+        return None
+    allowed = sorted(os.sched_getaffinity(0))
+    chosen = allowed[-1] if cpu == "last" else cpu
+    if chosen not in allowed:
+        raise BodyPoseError(f"body.options.cpu {cpu}: the pose process may run on CPUs {allowed}")
+    os.sched_setaffinity(0, {chosen})
+    return int(chosen)
 
 
 def _open(config: BodyConfig) -> tuple[Any, Any]:

@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping
-from typing import Annotated, Any, Protocol
+from typing import Annotated, Any, Literal, Protocol
 
 import msgspec
 import numpy as np
@@ -50,6 +50,11 @@ class BodyConfig(StrictStruct):
     rate_hz: Annotated[float, msgspec.Meta(gt=0, le=120)] = 30.0  # [1/s]
     min_visibility: Annotated[float, msgspec.Meta(ge=0, le=1)] = 0.5  # per landmark, 0..1
     start_timeout_s: Annotated[float, msgspec.Meta(gt=0)] = 60.0  # [s] camera + model ready
+    # The CPU the pose process runs on: "last" (of those this process may use), a number, or
+    # "any" (the scheduler moves it). MediaPipe's landmarker is one thread busy most of each
+    # frame; moved between cores it refills its caches, which showed as a long latency tail
+    # (tools/bench/bench_body_pose.py measures both).
+    cpu: Literal["last", "any"] | Annotated[int, msgspec.Meta(ge=0)] = "last"
 
 
 class SkeletonSource(Protocol):

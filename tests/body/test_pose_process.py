@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -88,3 +91,29 @@ def test_synthetic_source_is_paced_by_its_clock() -> None:
     assert (second.seq, second.t) == (first.seq + 1, 100.021)
     assert late is not None and after_late is None
     assert joint_angles(first)["right_elbow"] == pytest.approx((0, -0.3, 0), abs=1e-5)
+
+
+def _cpus_of_child(cpu: str | int) -> str:
+    """The CPUs a fresh process may use after `pin_cpu(cpu)` (a child: the test keeps its own)."""
+    code = ("import os; from carlaverse.body.pose_process import pin_cpu; "
+            f"print(pin_cpu({cpu!r}), sorted(os.sched_getaffinity(0)))")  # fmt: skip
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.strip()
+
+
+@pytest.mark.skipif(not hasattr(os, "sched_setaffinity"), reason="no CPU affinity on this OS")
+def test_the_pose_process_stays_on_one_cpu() -> None:
+    allowed = sorted(os.sched_getaffinity(0))
+    assert _cpus_of_child("last") == f"{allowed[-1]} [{allowed[-1]}]"
+    assert _cpus_of_child(allowed[0]) == f"{allowed[0]} [{allowed[0]}]"
+    assert _cpus_of_child("any") == f"None {allowed}"  # left to the scheduler
+
+
+def test_a_cpu_it_may_not_use_fails_at_start_in_one_line() -> None:
+    config = BodyConfig(camera=CameraConfig(backend="sim"), cpu=4096)
+    with pytest.raises(BodyPoseError) as failed:
+        CameraBodySource(config).start()
+    message = str(failed.value)
+    assert message.startswith("body.options.cpu 4096: the pose process may run on CPUs [")
+    assert "\n" not in message

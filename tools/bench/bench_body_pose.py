@@ -65,7 +65,8 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def measure(seconds: float, width: int, height: int, port: int) -> dict[str, object]:
+def measure(seconds: float, width: int, height: int, port: int,
+            cpu: str = "last") -> dict[str, object]:  # fmt: skip
     """Run the pipeline for `seconds` after the warm-up; latencies [s] and counts."""
     photo = {"path": str(grace_hopper()), "width": width, "height": height}
     camera = CameraConfig(backend="still", options=photo)
@@ -75,7 +76,8 @@ def measure(seconds: float, width: int, height: int, port: int) -> dict[str, obj
     key = Keys("bench").ego("walker", "skeleton")
     receiver = Receiver(receiver_session, key)
     publisher = sender.declare_publisher(key)
-    source = CameraBodySource(BodyConfig(camera=camera, model=str(require()))).start()
+    config = BodyConfig(camera=camera, model=str(require()), cpu=cpu)
+    source = CameraBodySource(config).start()
     published_s, infer_s = [], []
     try:
         measuring_from = receiver.since = time.monotonic() + WARMUP_S
@@ -125,7 +127,8 @@ def report(result: dict, width: int, height: int) -> str:
     return "\n".join([
         f"{width}×{height} RGB frames, MediaPipe {metadata.version('mediapipe')} pose landmarker "
         f"(full model, built offline by "
-        f"`carlaverse body build-model`) on the CPU, {result['seconds']:g} s after a "
+        f"`carlaverse body build-model`) on the CPU, the pose process kept on one core "
+        f"(`body.options.cpu: last`), {result['seconds']:g} s after a "
         f"{WARMUP_S:g} s warm-up; {rate:.1f} skeletons/s published (the pose process paces at "
         f"30 Hz). Target: frame → published p50 and p99 ≤ {TARGET_MS:g} ms — {verdict}.",
         "",
@@ -133,6 +136,22 @@ def report(result: dict, width: int, height: int) -> str:
         "",
         "Capture is when the still camera hands the frame over; a webcam's exposure and "
         "driver delay come before it, a walk node's wait for its next step after it.",
+    ])  # fmt: skip
+
+
+def compare_cpu(pinned: dict, free: dict) -> str:
+    """The same run with the pose process left to the scheduler (`body.options.cpu: any`)."""
+    rows = [f"| {name} | {len(r['published'])} | {ms(r['published'], 0.5)} | "
+            f"{ms(r['published'], 0.99)} | {max(r['published']) * 1e3:.1f} |"
+            for name, r in (("`cpu: last` (the default: one CPU)", pinned),
+                            ("`cpu: any` (moved by the scheduler)", free))]  # fmt: skip
+    return "\n".join([
+        "The pose process on one CPU or moved between CPUs (frame → published, the two runs "
+        "back to back):",
+        "",
+        "| pose process | samples | p50 [ms] | p99 [ms] | max [ms] |",
+        "|---|---|---|---|---|",
+        *rows,
     ])  # fmt: skip
 
 
@@ -145,7 +164,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
     args = parser.parse_args(argv)
     result = measure(args.seconds, args.width, args.height, free_port())
-    body = report(result, args.width, args.height)
+    free = measure(args.seconds, args.width, args.height, free_port(), cpu="any")
+    body = report(result, args.width, args.height) + "\n\n" + compare_cpu(result, free)
     print(body)
     if args.write:
         write_section("Body pose", body, command_line(argv), run)
