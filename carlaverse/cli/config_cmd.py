@@ -144,11 +144,17 @@ def _check_audio(path: Path, data: Any, kind: str) -> None:
 
 def _check_node(path: Path, data: Any, kind: str) -> None:
     try:
-        schema = load_node_kind(kind).config_type
+        node_type = load_node_kind(kind)
     except UnknownNodeKind as exc:
         raise ConfigError(str(path), str(exc)) from exc
-    config = convert(data, schema, str(path))
+    config = convert(data, node_type.config_type, str(path))
     _check_fabric(path, config.fabric)
+    check = getattr(node_type, "check_config", None)  # a kind's own checks across fields
+    if check is not None:
+        try:
+            check(config)
+        except ConfigError as exc:
+            raise ConfigError(str(path), str(exc)) from exc
 
 
 def _check_fabric(path: Path, fabric: Any) -> None:

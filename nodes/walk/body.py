@@ -22,12 +22,18 @@ from typing import Any, Protocol
 
 import msgspec
 
-from carlaverse.config import ConfigError, StrictStruct
+from carlaverse.config import ConfigError, StrictStruct, convert
 from carlaverse.messages import Skeleton
 
 SOURCES: dict[str, str] = {  # name -> "module:factory"; "none" is built in
     "camera": "carlaverse.body.sources:camera_source",  # webcam + MediaPipe (carlaverse.body)
     "synthetic": "carlaverse.body.sources:synthetic_source",  # the sim camera's walker
+}
+
+
+OPTIONS: dict[str, str] = {  # name -> "module:Type" of its options, checked with the config
+    "camera": "carlaverse.body.sources:BodyConfig",
+    "synthetic": "carlaverse.body.sources:BodyConfig",
 }
 
 
@@ -51,10 +57,15 @@ def _import_path(source: str) -> str:
 
 
 def check_body(settings: BodySettings) -> None:
+    """The source exists, and a shipped source's options decode (a typo names its field)."""
     if settings.source != "none" and not _import_path(settings.source):
         raise ConfigError("body.source", f"unknown skeleton source {settings.source!r}; "
                                          f"choose one of {source_names()} or give "
                                          "'module:factory'")  # fmt: skip
+    if settings.source in OPTIONS:
+        module_name, _, type_name = OPTIONS[settings.source].partition(":")
+        options_type = getattr(importlib.import_module(module_name), type_name)
+        convert(dict(settings.options), options_type, "body.options")
 
 
 def open_skeleton_source(settings: BodySettings) -> SkeletonSource | None:

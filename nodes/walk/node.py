@@ -79,6 +79,11 @@ class WalkNode(LoopHost):
         self._skeleton_pub: Any = None
         self._skeleton_seq = 0
 
+    @staticmethod
+    def check_config(config: WalkNodeConfig) -> None:
+        """What `config validate` checks beyond the schema: the body source and its options."""
+        check_body(config.body)
+
     @classmethod
     def with_backend(cls, config: WalkNodeConfig, backend: str) -> WalkNodeConfig:
         """Every device simulated: a standing walker strolls, jogs and looks around."""

@@ -103,3 +103,16 @@ def test_a_file_of_no_known_kind_says_how_to_choose(
     assert "pass --kind" in capsys.readouterr().err
     assert main(["config", "validate", "--kind", "vehicle", str(odd)]) == 1
     assert "unknown field `colour`" in capsys.readouterr().err
+
+
+def test_a_walk_configs_body_options_are_checked(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "walk.yaml"
+    config.write_text("node: {kind: walk}\nbody: {source: camera, options: {rate_hz: 0}}\n")
+    assert main(["config", "validate", str(config)]) == 1
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and str(config) in err
+    assert "body.options" in err and "rate_hz" in err
+    config.write_text("node: {kind: walk}\nbody: {source: camera, options: {cpu: any}}\n")
+    assert main(["config", "validate", str(config)]) == 0, capsys.readouterr().err
