@@ -102,7 +102,18 @@ def unit_delays(n_fft: int) -> np.ndarray:
     return np.exp(-2j * np.pi * np.arange(n_fft // 2 + 1) / n_fft).astype(np.complex64)
 
 
-def one_pole_response(pole: np.ndarray, delays: np.ndarray) -> np.ndarray:
-    """Complex response (E × F) of (1 − a) / (1 − a·e^{−jω}); `delays` from unit_delays."""
+def one_pole_response(pole: np.ndarray, delays: np.ndarray,
+                      scale: np.ndarray | float = 1.0) -> np.ndarray:  # fmt: skip
+    """Complex response (E × F) of scale · (1 − a) / (1 − a·e^{−jω}); `delays` from
+    unit_delays. In real arithmetic (a complex division costs more than all the rest):
+    with d = 1 − a·e^{−jω} = (1 − a·cos ω) + j·a·sin ω, 1/d = conj(d) / |d|², |d|² summed
+    from its parts (1 + a² − 2a·cos ω would cancel near DC in float32)."""
     a = np.asarray(pole, dtype=np.float32)[:, None]
-    return (1.0 - a) / (1.0 - a * delays[None, :])
+    k = ((1.0 - a) * np.asarray(scale, dtype=np.float32).reshape(-1, 1)).astype(np.float32)
+    re = 1.0 - a * delays.real
+    im = a * delays.imag  # = −a·sin ω
+    g = k / (re * re + im * im)
+    out = np.empty((a.shape[0], delays.size), dtype=np.complex64)
+    np.multiply(g, re, out=out.real)
+    np.multiply(g, im, out=out.imag)
+    return out

@@ -10,8 +10,6 @@ diffuse-field response: the mean magnitude over all directions, the same for bot
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from carlaverse.audio.hrtf import HrirSet
@@ -19,15 +17,12 @@ from carlaverse.audio.hrtf import HrirSet
 DIFFUSE_DELAY_SAMPLES = 40  # the diffuse response's bulk delay: about the HRIRs' onset
 
 
-@dataclass(frozen=True)
-class BinauralState:
-    """Per emitter: the measured direction used and how diffuse the sound is (0..1)."""
-
-    direction: np.ndarray  # (E,) index into the HRIR set
-    diffuse: np.ndarray  # (E,)
-
-
 class Binaural:
+    """The spatialiser for headphones. Its per-emitter weights are the emitter's two ear
+    filters (E × 2 × F): gain and absorption times the HRTF of its direction, blended towards
+    the diffuse response; the renderer keeps them, so a block's old filters are the previous
+    block's new ones and only the new are computed."""
+
     channels = 2
     channel_names = ("left", "right")
 
@@ -39,22 +34,27 @@ class Binaural:
         w = np.pi * np.arange(magnitude.size) / (magnitude.size - 1)
         self._diffuse = (magnitude * np.exp(-1j * w * DIFFUSE_DELAY_SAMPLES)).astype(np.complex64)
 
-    def state(self, directions: np.ndarray, diffuse: np.ndarray) -> BinauralState:
-        """For head-frame unit directions (E × 3: x forward, y left, z up)."""
-        return BinauralState(np.argmax(directions @ self._units.T, axis=1), diffuse)
+    def weights(self, response: np.ndarray, directions: np.ndarray,
+                diffuse: np.ndarray) -> np.ndarray:  # fmt: skip
+        """(E × 2 × F) ear filters for responses (E × F), head-frame unit directions (E × 3:
+        x forward, y left, z up) and how diffuse each sound is (E,) 0..1: the nearest
+        measured direction's HRTF."""
+        nearest = np.argmax(directions @ self._units.T, axis=1)
+        ears = self._spectra.take(nearest, axis=0)
+        spread = np.flatnonzero(diffuse > 0.0)
+        if spread.size:
+            d = diffuse[spread, None, None].astype(np.float32)
+            ears[spread] = (1.0 - d) * ears[spread] + d * self._diffuse[None, None, :]
+        ears *= response[:, None, :]
+        return ears
 
-    def silent(self, n: int) -> BinauralState:
-        return BinauralState(np.zeros(n, dtype=np.int64), np.zeros(n))
+    def silent(self, n: int, bins: int) -> np.ndarray:
+        return np.zeros((n, 2, bins), dtype=np.complex64)
 
-    def take(self, state: BinauralState, sel: np.ndarray) -> BinauralState:
-        return BinauralState(state.direction[sel], state.diffuse[sel])
+    def take(self, weights: np.ndarray, sel: np.ndarray) -> np.ndarray:
+        return weights.take(sel, axis=0)
 
-    def mix(self, spectra: np.ndarray, state: BinauralState) -> np.ndarray:
-        """(2 × F) ear spectra of the emitters' spectra (E × F)."""
-        spread = np.flatnonzero(state.diffuse > 0.0)
-        if spread.size == 0:
-            return np.einsum("ef,ecf->cf", spectra, self._spectra[state.direction])
-        point = spectra * (1.0 - state.diffuse)[:, None].astype(np.float32)
-        ears = np.einsum("ef,ecf->cf", point, self._spectra[state.direction])
-        weights = state.diffuse[spread, None].astype(np.float32)
-        return ears + (spectra[spread] * weights).sum(axis=0)[None, :] * self._diffuse[None, :]
+    def mix(self, spectra: np.ndarray, weights: np.ndarray) -> np.ndarray:
+        """(2 × F) ear spectra of the emitters' spectra (E × F) through their filters (a
+        product and a sum: numpy's einsum is slower for this shape)."""
+        return (spectra[:, None, :] * weights).sum(axis=0)

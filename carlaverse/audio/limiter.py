@@ -24,11 +24,13 @@ class Limiter:
     def process(self, block: np.ndarray) -> np.ndarray:
         """(samples × channels) float32 scaled by the limiter gain; within ±CEILING."""
         recovered = 1.0 - (1.0 - self.gain) * self.release
-        peak = float(np.max(np.abs(block))) if block.size else 0.0
+        peak = max(float(block.max()), -float(block.min())) if block.size else 0.0
         gain = min(recovered, CEILING / peak) if peak > 0.0 else recovered
         if gain < recovered:
             self.blocks_limited += 1
         start, self.gain = self.gain, gain
+        if start == gain == 1.0:  # the usual case: untouched
+            return np.ascontiguousarray(block, dtype=np.float32)
         ramp = np.linspace(start, gain, block.shape[0], dtype=np.float32)
         if gain < start:
             ramp[:] = gain  # a fall is immediate: no sample of this block may overshoot

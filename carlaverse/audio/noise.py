@@ -9,6 +9,7 @@ alike) and mixes them with its own band gains: a gather and a multiply-add per b
 from __future__ import annotations
 
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 BAND_CENTRES_HZ = (63.0, 125.0, 250.0, 500.0, 1000.0, 2000.0, 4000.0, 8000.0)
 TABLE_SAMPLES = 1 << 18  # [samples] 5.5 s at 48 kHz: longer than any repetition one notices
@@ -29,23 +30,31 @@ class NoiseBands:
         looped = np.concatenate([tables, np.asarray(tables)[:, :MAX_BLOCK]], axis=1)
         self.tables = np.ascontiguousarray(looped.T, dtype=np.float32)
         self.samples = TABLE_SAMPLES
+        self._window_view: np.ndarray | None = None
         # Adjacent bands overlap, so their mix has more power than the sum of theirs.
         self.covariance = np.asarray(tables) @ np.asarray(tables).T / TABLE_SAMPLES
 
     def unit_power(self, gains: np.ndarray) -> np.ndarray:
         """Band gains (… × bands) scaled so that their mix has RMS 1."""
         gains = np.atleast_2d(gains)
-        power = np.einsum("ek,kl,el->e", gains, self.covariance, gains)
+        power = np.sum((gains @ self.covariance) * gains, axis=1)
         return gains / np.sqrt(np.maximum(power, 1e-24))[:, None]
 
     def read(self, offsets: np.ndarray, gains0: np.ndarray, gains1: np.ndarray,
              block: int) -> np.ndarray:  # fmt: skip
         """(E × block) noise: band gains (E × bands) ramped from gains0 to gains1; offsets
         in [0, TABLE_SAMPLES), block ≤ MAX_BLOCK."""
-        bands = np.stack([self.tables[o : o + block] for o in offsets])  # E × block × bands
-        start = np.matmul(bands, gains0.astype(np.float32)[:, :, None])[..., 0]
-        delta = np.matmul(bands, (gains1 - gains0).astype(np.float32)[:, :, None])[..., 0]
-        return start + delta * ramp(block)[None, :]
+        bands = self._windows(block)[offsets]  # E × bands × block, one gather
+        # Start value and slope of each emitter's block in one product (E × 2 × block).
+        ends = np.stack([gains0, gains1 - gains0], axis=1).astype(np.float32)
+        start_delta = np.matmul(ends, bands)
+        return start_delta[:, 0] + start_delta[:, 1] * ramp(block)[None, :]
+
+    def _windows(self, block: int) -> np.ndarray:
+        """Every block-long window of the tables, as a view (no copy): windows × bands × block."""
+        if self._window_view is None or self._window_view.shape[-1] != block:
+            self._window_view = sliding_window_view(self.tables, block, axis=0)
+        return self._window_view
 
 
 def _band_weight(octaves: np.ndarray, k: int, centre: float) -> np.ndarray:

@@ -53,6 +53,9 @@ class Vbap:
         angles = np.radians([azimuths_deg[i] for i in self.speakers])
         self._vectors = np.stack([np.cos(angles), np.sin(angles)], axis=1)  # S × 2
         self._pairs = self._adjacent_pairs(angles)
+        # The pairs as arrays, for all sources at once: P × 2 channels, P × 2 × 2 inverses.
+        self._pair_channels = np.array([pair.channels for pair in self._pairs], dtype=np.int64)
+        self._inverses = np.array([pair.inverse for pair in self._pairs]).reshape(-1, 2, 2)
 
     def _adjacent_pairs(self, angles: np.ndarray) -> list[SpeakerPair]:
         order = np.argsort(np.mod(angles, 2 * np.pi))
@@ -71,15 +74,23 @@ class Vbap:
         p = directions[:, :2]
         p = p / np.maximum(np.linalg.norm(p, axis=1, keepdims=True), 1e-9)
         g = self._nearest(p)
-        for pair in self._pairs:
-            pair_gains = p @ pair.inverse.T  # E × 2
-            inside = np.all(pair_gains >= -1e-9, axis=1)
-            g[inside] = 0.0
-            g[np.ix_(inside, pair.channels)] = np.maximum(pair_gains[inside], 0.0)
+        if self._pairs:
+            self._between_pair(p, g)
         g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
         out = np.zeros((len(p), self.channels))
         out[:, self.speakers] = g
         return out
+
+    def _between_pair(self, p: np.ndarray, g: np.ndarray) -> None:
+        """Into `g`: the gains of each source inside a pair's arc (on a shared speaker,
+        the later pair of the ring order), from every pair's solution at once."""
+        pair_gains = np.einsum("ej,pkj->epk", p, self._inverses)  # E × P × 2
+        inside = np.all(pair_gains >= -1e-9, axis=2)
+        held = np.flatnonzero(inside.any(axis=1))
+        last = len(self._pairs) - 1 - np.argmax(inside[held, ::-1], axis=1)
+        g[held] = 0.0
+        for side in (0, 1):
+            g[held, self._pair_channels[last, side]] = np.maximum(pair_gains[held, last, side], 0)
 
     def _nearest(self, p: np.ndarray) -> np.ndarray:
         g = np.zeros((len(p), len(self.speakers)))
@@ -93,25 +104,38 @@ class Vbap:
         return out
 
 
+@dataclass(frozen=True)
+class PannedWeights:
+    """Per emitter: its response (gain × absorption, E × F) and its speaker gains (E × C)."""
+
+    response: np.ndarray
+    gains: np.ndarray
+
+
 class Panned:
-    """Speaker output with the renderer's spatialiser interface: the state is the gains."""
+    """Speaker output with the renderer's spatialiser interface: each emitter's weights are
+    its response and its speaker gains, kept apart (a product per speaker would cost C times
+    the work of the mix, which is one matrix product per block)."""
 
     def __init__(self, layout: str) -> None:
         self.layout = layout
         self.vbap = Vbap(layout_azimuths(layout))
         self.channels = self.vbap.channels
 
-    def state(self, directions: np.ndarray, diffuse: np.ndarray) -> np.ndarray:
-        """(E × channels) gains for head-frame unit directions, blended towards diffuse."""
+    def weights(self, response: np.ndarray, directions: np.ndarray,
+                diffuse: np.ndarray) -> PannedWeights:  # fmt: skip
+        """Gains for head-frame unit directions (E × 3), blended towards diffuse (E,) 0..1."""
         d = diffuse[:, None]
-        return (1.0 - d) * self.vbap.gains(directions) + d * self.vbap.diffuse()[None, :]
+        gains = (1.0 - d) * self.vbap.gains(directions) + d * self.vbap.diffuse()[None, :]
+        return PannedWeights(response, gains.astype(np.float32))
 
-    def silent(self, n: int) -> np.ndarray:
-        return np.zeros((n, self.channels))
+    def silent(self, n: int, bins: int) -> PannedWeights:
+        return PannedWeights(np.zeros((n, bins), dtype=np.complex64),
+                             np.zeros((n, self.channels), dtype=np.float32))  # fmt: skip
 
-    def take(self, state: np.ndarray, sel: np.ndarray) -> np.ndarray:
-        return state[sel]
+    def take(self, weights: PannedWeights, sel: np.ndarray) -> PannedWeights:
+        return PannedWeights(weights.response[sel], weights.gains[sel])
 
-    def mix(self, spectra: np.ndarray, state: np.ndarray) -> np.ndarray:
+    def mix(self, spectra: np.ndarray, weights: PannedWeights) -> np.ndarray:
         """(channels × F) speaker spectra of the emitters' spectra (E × F)."""
-        return state.T.astype(np.float32) @ spectra
+        return weights.gains.T @ (spectra * weights.response)

@@ -27,16 +27,22 @@ def travel_time_s(relative_m: np.ndarray, velocity_mps: np.ndarray, c_mps: float
 
 
 class DelayLines:
-    """One ring buffer per emitter slot, written with the source's signal, read late."""
+    """One ring buffer per emitter slot, written with the source's signal, read late.
+
+    Each row holds one guard sample past the ring's end, a copy of its first, so that the
+    sample after any read position is the next in memory: one gather finds both samples
+    the interpolation needs, with no wrap-around arithmetic."""
 
     def __init__(self, capacity: int, max_delay_s: float, sample_rate_hz: int, block: int):
         needed = int(max_delay_s * sample_rate_hz) + 2 * block + 4
         self.length = 1 << int(np.ceil(np.log2(needed)))  # a power of two: index & mask
         self.rate = float(sample_rate_hz)
         self.block = block
-        self.buffer = np.zeros((capacity, self.length), dtype=np.float32)
+        self.buffer = np.zeros((capacity, self.length + 1), dtype=np.float32)  # + guard
         self.written = 0  # [samples] written so far into every line (they advance together)
         self.max_delay_samples = self.length - 2 * block - 4
+        self._ramp = np.arange(1, block + 1) / block  # weight of the end delay per sample
+        self._offsets = np.arange(block, dtype=np.float64)
 
     def clear(self, slots: np.ndarray) -> None:
         self.buffer[slots] = 0.0
@@ -48,20 +54,25 @@ class DelayLines:
         start = self.written
         self._write(slots, signal, start & (self.length - 1))
         self.written += self.block
-        n = np.arange(1, self.block + 1) / self.block
-        delay = (delay0_s[:, None] + (delay1_s - delay0_s)[:, None] * n[None, :]) * self.rate
-        delay = np.clip(delay, 1.0, self.max_delay_samples)
-        position = start + np.arange(self.block)[None, :] - delay
-        whole = np.floor(position)
+        # Clipping the ends clips the whole ramp: it is linear in between.
+        d0, d1 = (np.clip(d * self.rate, 1.0, self.max_delay_samples) for d in (delay0_s, delay1_s))
+        delay = np.outer(d1 - d0, self._ramp)
+        delay += d0[:, None]  # [samples]
+        # Positions relative to the ring's start, made positive (a whole number of rings
+        # on, which & mask removes); truncation then is the floor.
+        position = (self._offsets + float((start & (self.length - 1)) + self.length)) - delay
+        whole = position.astype(np.int64)
         frac = (position - whole).astype(np.float32)
-        flat = (slots[:, None] * self.length) + (whole.astype(np.int64) & (self.length - 1))
-        nxt = (slots[:, None] * self.length) + ((whole.astype(np.int64) + 1) & (self.length - 1))
+        whole &= self.length - 1
+        whole += (slots * (self.length + 1))[:, None]
         lines = self.buffer.ravel()
-        here = lines.take(flat)
-        return here + (lines.take(nxt) - here) * frac
+        here = lines.take(whole)
+        return here + (lines.take(whole + 1) - here) * frac
 
     def _write(self, slots: np.ndarray, signal: np.ndarray, column: int) -> None:
         first = min(self.block, self.length - column)  # up to the ring's end, then from 0
         self.buffer[slots, column : column + first] = signal[:, :first]
         if first < self.block:
             self.buffer[slots, : self.block - first] = signal[:, first:]
+        if column == 0 or first < self.block:  # the first sample changed: so does its guard
+            self.buffer[slots, self.length] = self.buffer[slots, 0]

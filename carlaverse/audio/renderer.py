@@ -6,18 +6,19 @@ Per block (all emitters at once, as numpy arrays):
     left the source; 1/r spreading and ISO 9613-1 air absorption (`air`) for that distance;
  3. each source renders a block (`sources`), goes through its delay line read at t − τ(t),
     ramped over the block (the Doppler shift);
- 4. overlap-save spectra of every emitter, times its gain and absorption, mixed into the
-    output channels by the spatialiser (HRTF or VBAP), twice: with the block's old and new
-    parameters; back to time and crossfaded over the block, so a change of direction, level
-    or filter never clicks;
+ 4. overlap-save spectra of every emitter (one real FFT over all of them) go through their
+    weights (gain × absorption × HRTF, or × speaker gains) into the output channels, twice:
+    with the block's old weights (kept from the previous block) and its new ones; back to
+    time and crossfaded over the block, so a change of direction, level or filter never
+    clicks;
  5. a master limiter keeps peaks under full scale.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 
@@ -27,6 +28,8 @@ from carlaverse.audio.air import (
     speed_of_sound_mps,
     unit_delays,
 )
+from carlaverse.audio.blockfft import OverlapSave
+from carlaverse.audio.blockfft import fft_size as _fft_size
 from carlaverse.audio.config import AudioConfig
 from carlaverse.audio.hrtf import TAPS, HrirSet
 from carlaverse.audio.limiter import Limiter
@@ -38,26 +41,42 @@ from carlaverse.audio.sources import Drive, SourceBank
 POLE_TAIL = 256  # [samples] FFT history kept for the absorption pole's decay (≤ 0.97^256)
 
 
+class Spatialiser(Protocol):
+    """binaural.Binaural or panning.Panned: how emitters' spectra reach the output channels.
+    Weights are per emitter (an array or a dataclass of arrays, first axis the emitter)."""
+
+    channels: int
+
+    def weights(self, response: np.ndarray, directions: np.ndarray,
+                diffuse: np.ndarray) -> object: ...  # fmt: skip
+
+    def silent(self, n: int, bins: int) -> object: ...
+
+    def take(self, weights: object, sel: np.ndarray) -> object: ...
+
+    def mix(self, spectra: np.ndarray, weights: object) -> np.ndarray: ...
+
+
 @dataclass(frozen=True)
 class Heard:
-    """Per live emitter this block: what the spatialiser and the gains were made from."""
+    """Per live emitter this block: the spatialiser's weights for it."""
 
     slots: np.ndarray
-    response: np.ndarray  # (E × F) complex: gain × absorption
-    state: object  # the spatialiser's per-emitter state
+    weights: object
 
 
 def fft_size(block: int) -> int:
-    return 1 << math.ceil(math.log2(block + TAPS + POLE_TAIL))
+    """The renderer's FFT: a block, an HRIR and the absorption pole's tail."""
+    return _fft_size(block, TAPS + POLE_TAIL)
 
 
 class Renderer:
     """Renders blocks for one listener; `spatialiser` is binaural.Binaural or panning.Panned."""
 
-    def __init__(self, config: AudioConfig, spatialiser: object) -> None:
+    def __init__(self, config: AudioConfig, spatialiser: Spatialiser) -> None:
         self.config = config
         self.spatial = spatialiser
-        self.channels: int = spatialiser.channels  # type: ignore[attr-defined]
+        self.channels = spatialiser.channels
         self.block = config.block_size
         self.rate = config.sample_rate_hz
         self.c_mps = speed_of_sound_mps(config.air)
@@ -69,10 +88,10 @@ class Renderer:
                                  self.block)  # fmt: skip
         self.air = AirAbsorption(config.air, self.rate, config.max_distance_m)
         self._delays = unit_delays(self.n_fft)
-        self.frames = np.zeros((capacity, self.n_fft), dtype=np.float32)
+        self.convolver = OverlapSave(capacity, self.block, self.n_fft)
         self.tau_s = np.zeros(capacity)
-        self.response = np.zeros((capacity, self.n_fft // 2 + 1), dtype=np.complex64)
-        self.spatial_state = spatialiser.silent(capacity)  # type: ignore[attr-defined]
+        self.bins = self.convolver.bins
+        self.weights = spatialiser.silent(capacity, self.bins)
         self.listener = ListenerPose()
         self.limiter = Limiter(self.rate, self.block)
         self.t = 0.0  # [s] render time of the next block's first sample
@@ -109,8 +128,9 @@ class Renderer:
             return
         self.sources.reset(fresh)
         self.delays.clear(fresh)
-        self.frames[fresh] = 0.0
-        self.response[fresh] = 0.0  # fades in from silence over its first block
+        self.convolver.clear(fresh)
+        # Fades in from silence over its first block.
+        _assign(self.weights, fresh, self.spatial.silent(fresh.size, self.bins))
         relative, velocity = self._geometry(fresh, self.t)
         self.tau_s[fresh] = travel_time_s(relative, velocity, self.c_mps)
 
@@ -126,13 +146,10 @@ class Renderer:
         delayed = self.delays.process(live, signal, self.tau_s[live], tau)
         self.tau_s[live] = tau
         heard = self._heard(live, relative - velocity * tau[:, None], tau)
-        spectra = self._spectra(live, delayed)
-        old_state = self.spatial.take(self.spatial_state, live)  # type: ignore[attr-defined]
-        mixed = np.stack([
-            self.spatial.mix(spectra * self.response[live], old_state),  # type: ignore[attr-defined]
-            self.spatial.mix(spectra * heard.response, heard.state),  # type: ignore[attr-defined]
-        ])  # fmt: skip
-        old, new = np.fft.irfft(mixed, self.n_fft, axis=-1)[..., -self.block :]
+        spectra = self.convolver.spectra(live, delayed)
+        old = self.spatial.take(self.weights, live)
+        mixed = np.stack([self.spatial.mix(spectra, old), self.spatial.mix(spectra, heard.weights)])
+        old, new = self.convolver.blocks(mixed)
         self._keep(heard)
         return old + (new - old) * self._fade_in[None, :]
 
@@ -143,24 +160,15 @@ class Renderer:
         gain = amplitude / np.maximum(distance, MIN_DISTANCE_M)
         gain[(self.slots.state[live] == FADING) | (distance > self.config.max_distance_m)] = 0.0
         flat, pole = self.air.at(distance)
-        response = one_pole_response(pole, self._delays) * (gain * flat)[:, None].astype(np.float32)
+        response = one_pole_response(pole, self._delays, gain * flat)
         head = (emitted_from / distance[:, None]) @ self.listener.rotation  # world → head
         extent = self.slots.extent_m[live]
         diffuse = np.where(extent > 0.0, extent / (extent + distance), 0.0)
-        return Heard(live, response, self.spatial.state(head, diffuse))  # type: ignore[attr-defined]
-
-    def _spectra(self, live: np.ndarray, delayed: np.ndarray) -> np.ndarray:
-        """Overlap-save: each slot's last n_fft samples, shifted on by one block."""
-        frames = self.frames[live]
-        frames[:, : -self.block] = frames[:, self.block :]
-        frames[:, -self.block :] = delayed
-        self.frames[live] = frames
-        return np.fft.rfft(frames, axis=1).astype(np.complex64)
+        return Heard(live, self.spatial.weights(response, head, diffuse))
 
     def _keep(self, heard: Heard) -> None:
         """This block's parameters become the next block's old ones; faded slots free."""
-        self.response[heard.slots] = heard.response
-        _assign(self.spatial_state, heard.slots, heard.state)
+        _assign(self.weights, heard.slots, heard.weights)
         faded = heard.slots[self.slots.state[heard.slots] == FADING]
         if faded.size:
             self.slots.release(faded)

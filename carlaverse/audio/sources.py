@@ -15,13 +15,27 @@ import numpy as np
 
 from carlaverse.audio import voicing as v
 from carlaverse.audio.noise import BAND_CENTRES_HZ, Gusts, NoiseBands
-from carlaverse.audio.wavetables import Wavetables
+from carlaverse.audio.wavetables import SIREN_ROW, Wavetables, engine_row
 
 TWO_PI = 2.0 * np.pi
 NOISE_BANDS = len(BAND_CENTRES_HZ)
-# What a generator returns: its tonal part (E × block, or None) and its noise band gains
-# (E × bands) at the block's start and end.
-Generated = tuple[np.ndarray | None, np.ndarray, np.ndarray]
+
+
+@dataclass(frozen=True)
+class Voice:
+    """A tone of the wavetables, per emitter of one batch: its frequency at the block's start
+    and end, the table row and the blend to the next row, and its amplitude."""
+
+    hz0: np.ndarray
+    hz1: np.ndarray
+    row: np.ndarray
+    frac: np.ndarray
+    amplitude: np.ndarray
+
+
+# What a generator returns: its tonal part (a Voice, samples E × block, or None) and its
+# noise band gains (E × bands) at the block's start and end.
+Generated = tuple[Voice | np.ndarray | None, np.ndarray, np.ndarray]
 
 
 @dataclass(frozen=True)
@@ -66,6 +80,10 @@ class SourceBank:
         }  # every other kind is ambience, rendered together
         self._ambient = _AmbienceTable(self.noise)
         self._blow_table = self._make_blows()
+        self._sample_index = np.arange(block)
+        self._tyre_dry_shifted = np.roll(v.TYRE_DRY, 1)  # one octave up
+        n = np.arange(1, block + 1, dtype=np.float32)
+        self._phase_steps = (n, (n * (n + 1) / (2 * block)).astype(np.float32))
 
     def reset(self, slots: np.ndarray) -> None:
         """Fresh state for emitters that just appeared."""
@@ -81,17 +99,23 @@ class SourceBank:
         """(E × block) float32, one row per slot in `slots`; `kinds` index voicing.KINDS.
 
         Each generator returns its tonal part (or None) and its noise band gains at the
-        block's start and end; the noise of all emitters is then read in one go."""
+        block's start and end; the tones of all engines and sirens are then read in one go,
+        and so is the noise of all emitters."""
         n = len(slots)
         tone = np.zeros((n, self.block), dtype=np.float32)
         gains0, gains1 = np.zeros((n, NOISE_BANDS)), np.zeros((n, NOISE_BANDS))
+        voices: list[tuple[np.ndarray, Voice]] = []
         ambient = self._ambient.codes[kinds] >= 0
         for code in np.flatnonzero(np.bincount(kinds[~ambient], minlength=len(v.KINDS))):
             sel = np.flatnonzero(kinds == code)
             kind = v.KINDS[code]
             part, gains0[sel], gains1[sel] = self._generators[kind](slots[sel], drive.part(sel))
-            if part is not None:
+            if isinstance(part, Voice):
+                voices.append((sel, part))
+            elif part is not None:
                 tone[sel] = part
+        if voices:
+            self._voice(slots, voices, tone)
         if ambient.any():
             sel = np.flatnonzero(ambient)
             gains0[sel], gains1[sel] = self._ambience(slots[sel], drive.a1[sel], kinds[sel])
@@ -102,32 +126,43 @@ class SourceBank:
 
     # ------------------------------------------------------------------ tones
 
+    def _voice(self, slots: np.ndarray, voices: list[tuple[np.ndarray, Voice]],
+               tone: np.ndarray) -> None:  # fmt: skip
+        """Every tonal emitter's block, in one table lookup, into its rows of `tone`."""
+        sel = np.concatenate([s for s, _ in voices])
+        part = {name: np.concatenate([getattr(voice, name) for _, voice in voices])
+                for name in Voice.__dataclass_fields__}  # fmt: skip
+        phase = self._tone_phase(slots[sel], part["hz0"], part["hz1"])
+        amplitude = part["amplitude"].astype(np.float32)[:, None]
+        tone[sel] = self.tables.tone(phase, part["row"], part["frac"]) * amplitude
+
     def _tone_phase(self, slots: np.ndarray, hz0: np.ndarray, hz1: np.ndarray) -> np.ndarray:
-        """Running phase (E × block) [rad, 0..4π] of a frequency ramped from hz0 to hz1 (E,)
-        over the block: the sum of the ramp in closed form, no cumulative sum."""
-        n = np.arange(1, self.block + 1, dtype=np.float32)
+        """Running phase (E × block) [rad, from the carried phase in 0..4π on, unwrapped: the
+        table lookup wraps it] of a frequency ramped from hz0 to hz1 (E,) over the block:
+        the sum of the ramp in closed form, no cumulative sum."""
+        n, rise = self._phase_steps
         step = np.float32(TWO_PI / self.rate)
-        rise = (n * (n + 1) / (2 * self.block)).astype(np.float32)
         start = ((hz0 * step).astype(np.float32), ((hz1 - hz0) * step).astype(np.float32))
-        phase = np.outer(start[0], n) + np.outer(start[1], rise)
+        phase = np.outer(start[0], n)
+        phase += np.outer(start[1], rise)
         phase += self.phase[slots, None].astype(np.float32)
         # The block's end in double precision: the phase carried on never drifts.
         end = self.phase[slots] + TWO_PI / self.rate * (
             hz0 * self.block + (hz1 - hz0) * (self.block + 1) / 2
         )
         self.phase[slots] = np.mod(end, 2 * TWO_PI)
-        return np.mod(phase, np.float32(2 * TWO_PI))
+        return phase
 
     def _engine(self, slots: np.ndarray, d: Drive) -> Generated:
         """Harmonics of the firing frequency (rpm/60 · cylinders/2), brighter under load,
         with intake and exhaust hiss."""
         per_rpm = self.cylinders[slots] / 120.0  # firing frequency per rpm [Hz]
-        phase = self._tone_phase(slots, d.a0 * per_rpm, d.a1 * per_rpm)
         load = np.clip(0.5 * (d.b0 + d.b1), 0.0, 1.0)
         share = v.ENGINE_NOISE_SHARE * (0.2 + load)
         norm = 1.0 / np.sqrt(1.0 + share**2)
         hiss = self._bands["engine"] * (share * norm)[:, None]
-        return self.tables.engine(phase, load) * norm[:, None].astype(np.float32), hiss, hiss
+        row, frac = engine_row(load)
+        return Voice(d.a0 * per_rpm, d.a1 * per_rpm, row, frac, norm), hiss, hiss
 
     def _siren(self, slots: np.ndarray, d: Drive) -> Generated:
         """wail / yelp: a triangle sweep; hi-lo: two alternating tones (each glides into the
@@ -136,8 +171,10 @@ class SourceBank:
         pattern = np.rint(d.a1).astype(int)
         hz0 = _siren_hz(t0, pattern)
         hz1 = _siren_hz(t0 + self.block / self.rate, pattern)
-        silent = np.zeros((len(slots), NOISE_BANDS))
-        return self.tables.siren(self._tone_phase(slots, hz0, hz1)), silent, silent
+        n = len(slots)
+        silent = np.zeros((n, NOISE_BANDS))
+        row = np.full(n, SIREN_ROW)
+        return Voice(hz0, hz1, row, np.zeros(n), np.ones(n)), silent, silent
 
     # ------------------------------------------------------------------ noise
 
@@ -150,7 +187,7 @@ class SourceBank:
     def _tyre_bands(self, speed_mps: np.ndarray, wetness: np.ndarray) -> np.ndarray:
         low, high = v.TYRE_SHIFT_MPS
         shift = np.clip((speed_mps - low) / (high - low), 0.0, 1.0)[:, None]
-        dry = (1.0 - shift) * v.TYRE_DRY + shift * np.roll(v.TYRE_DRY, 1)
+        dry = (1.0 - shift) * v.TYRE_DRY + shift * self._tyre_dry_shifted
         return self.noise.unit_power(dry + 1.5 * np.clip(wetness, 0.0, 1.0)[:, None] * v.TYRE_WET)
 
     def _ambience(self, slots: np.ndarray, intensity: np.ndarray,
@@ -187,10 +224,11 @@ class SourceBank:
         at = np.where(blow, self.rng.integers(0, self.block, len(slots)), self.block)[:, None]
         old = self.blow_variant[slots]
         new = np.where(blow, self.rng.integers(0, v.BLOW_VARIANTS, len(slots)), old)
-        n = np.arange(self.block)[None, :]
-        since = np.minimum(np.where(n >= at, n - at, self.since_blow[slots, None] + n),
-                           length - 1)  # fmt: skip
-        variant = np.where(n >= at, new[:, None], old[:, None])
+        n = self._sample_index
+        since = np.minimum(self.since_blow[slots, None] + n, length - 1)  # the running blow
+        if blow.any():  # most blocks start none: a sample index per blow ahead (≥ 0.25 s)
+            since = np.where(n >= at, np.minimum(n - at, length - 1), since)
+        variant = np.where(n >= at, new[:, None], old[:, None]) if blow.any() else old[:, None]
         self.since_blow[slots] = np.minimum(since[:, -1] + 1, length - 1)
         self.blow_variant[slots] = new
         return variant * length + since
