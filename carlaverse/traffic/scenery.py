@@ -75,38 +75,51 @@ def scenery(
 def _taken(grid: Grid, lanes: Sequence[MapLane], junctions: Sequence[MapArea]) -> np.ndarray:
     """Cells within clearance of a lane's surface or a junction's outline (ny, nx)."""
     cx, cy = grid.centres()
-    half_cell = CELL_M * np.sqrt(0.5)  # a cell is taken if any part of it is too close
     taken = np.zeros(cx.shape, dtype=bool)
+    half_cell = CELL_M * np.sqrt(0.5)  # a cell is taken if any part of it is too close
     for lane in lanes:
         reach = lane.width / 2 + CLEARANCE_M + half_cell
-        taken |= _near_polyline(cx, cy, lane.centerline, reach)
+        _mark_near_polyline(grid, cx, cy, taken, lane.centerline, reach)
     for area in junctions:
         outline = [*area.polygon, area.polygon[0]]
-        taken |= _near_polyline(cx, cy, outline, CLEARANCE_M + half_cell)
-        taken |= _inside(cx, cy, area.polygon)
+        _mark_near_polyline(grid, cx, cy, taken, outline, CLEARANCE_M + half_cell)
+        window = _window(grid, *_grown_box(area.polygon, 0.0))
+        if window is not None:
+            taken[window] |= _inside(cx[window], cy[window], area.polygon)
     return taken
 
 
-def _near_polyline(cx: np.ndarray, cy: np.ndarray, line: Sequence[tuple[float, float]],
-                   reach: float) -> np.ndarray:  # fmt: skip
-    near = np.zeros(cx.shape, dtype=bool)
+def _mark_near_polyline(grid: Grid, cx: np.ndarray, cy: np.ndarray, taken: np.ndarray,
+                        line: Sequence[tuple[float, float]], reach: float) -> None:  # fmt: skip
+    """Mark the cells within `reach` of the polyline. Each segment looks only at the cells of
+    its own box grown by `reach`: a town's thousands of segments each touch a few cells, and
+    computing every segment over the whole grid made large maps take minutes."""
     for (ax, ay), (bx, by) in itertools.pairwise(line):
-        if _far_from_box(cx, cy, (ax, ay), (bx, by), reach):
+        window = _window(grid, *_grown_box(((ax, ay), (bx, by)), reach))
+        if window is None:
             continue
+        x, y = cx[window], cy[window]
         dx, dy = bx - ax, by - ay
         length2 = dx * dx + dy * dy or 1e-12
-        s = np.clip(((cx - ax) * dx + (cy - ay) * dy) / length2, 0.0, 1.0)
-        near |= (cx - ax - s * dx) ** 2 + (cy - ay - s * dy) ** 2 <= reach * reach
-    return near
+        s = np.clip(((x - ax) * dx + (y - ay) * dy) / length2, 0.0, 1.0)
+        taken[window] |= (x - ax - s * dx) ** 2 + (y - ay - s * dy) ** 2 <= reach * reach
 
 
-def _far_from_box(cx: np.ndarray, cy: np.ndarray, a: tuple[float, float],
-                  b: tuple[float, float], reach: float) -> bool:  # fmt: skip
-    """Cheap test first: the segment's box, grown by `reach`, misses the grid entirely."""
-    return (
-        min(a[0], b[0]) - reach > cx[0, -1] or max(a[0], b[0]) + reach < cx[0, 0]
-        or min(a[1], b[1]) - reach > cy[-1, 0] or max(a[1], b[1]) + reach < cy[0, 0]
-    )  # fmt: skip
+def _grown_box(points: Sequence[tuple[float, float]], reach: float) -> Rect:
+    xs, ys = [p[0] for p in points], [p[1] for p in points]
+    return min(xs) - reach, min(ys) - reach, max(xs) + reach, max(ys) + reach
+
+
+def _window(grid: Grid, xmin: float, ymin: float, xmax: float,
+            ymax: float) -> tuple[slice, slice] | None:  # fmt: skip
+    """The (rows, columns) of the cells whose centres may lie in the box; None if none do."""
+    ix0 = max(0, int(np.floor((xmin - grid.x0) / CELL_M - 0.5)))
+    ix1 = min(grid.nx, int(np.ceil((xmax - grid.x0) / CELL_M - 0.5)) + 1)
+    iy0 = max(0, int(np.floor((ymin - grid.y0) / CELL_M - 0.5)))
+    iy1 = min(grid.ny, int(np.ceil((ymax - grid.y0) / CELL_M - 0.5)) + 1)
+    if ix0 >= ix1 or iy0 >= iy1:
+        return None
+    return slice(iy0, iy1), slice(ix0, ix1)
 
 
 def _inside(cx: np.ndarray, cy: np.ndarray, polygon: Sequence[tuple[float, float]]) -> np.ndarray:

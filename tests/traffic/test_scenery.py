@@ -78,3 +78,48 @@ def test_areas_keep_clear_of_a_lane_by_the_clearance() -> None:
         ys = [y for _, y in area.polygon]
         nearest = min(abs(y) for y in ys) if min(ys) * max(ys) > 0 else 0.0
         assert nearest >= 3.5 / 2 + CLEARANCE_M, (area.id, ys)
+
+
+def _taken_everywhere(grid, lanes, junctions):
+    """The reference: every segment and polygon over the whole grid (slow, plainly right)."""
+    import numpy as np
+
+    from carlaverse.traffic.scenery import CELL_M, _inside
+
+    cx, cy = grid.centres()
+    taken = np.zeros(cx.shape, dtype=bool)
+    lines = [(lane.centerline, lane.width / 2) for lane in lanes]
+    lines += [([*a.polygon, a.polygon[0]], 0.0) for a in junctions]
+    for line, half_width in lines:
+        reach = half_width + CLEARANCE_M + CELL_M * np.sqrt(0.5)
+        for (ax, ay), (bx, by) in itertools.pairwise(line):
+            dx, dy = bx - ax, by - ay
+            s = np.clip(((cx - ax) * dx + (cy - ay) * dy) / (dx * dx + dy * dy or 1e-12), 0, 1)
+            taken |= (cx - ax - s * dx) ** 2 + (cy - ay - s * dy) ** 2 <= reach * reach
+    for area in junctions:
+        taken |= _inside(cx, cy, area.polygon)
+    return taken
+
+
+def test_cells_are_taken_as_if_every_segment_looked_at_the_whole_grid() -> None:
+    import numpy as np
+
+    from carlaverse.traffic.scenery import Grid, _taken
+
+    rng = np.random.default_rng(7)
+    grid = Grid(-203.0, -151.0, 110, 90)  # 440 × 360 m, cell centres off any round number
+    lanes = [
+        MapLane(
+            f"l{i}",
+            "road",
+            float(rng.uniform(1.5, 4.0)),
+            [tuple(p) for p in rng.uniform(-260, 260, (int(rng.integers(2, 6)), 2))],
+        )
+        for i in range(40)
+    ]  # fmt: skip  (some reach past the grid's edges)
+    junctions = [MapArea(f"j{i}", "junction",
+                         [tuple(c + p) for p in rng.uniform(-12, 12, (5, 2))])
+                 for i, c in enumerate(rng.uniform(-220, 220, (12, 2)))]  # fmt: skip
+    expected = _taken_everywhere(grid, lanes, junctions)
+    assert 0.05 < expected.mean() < 0.95  # a mix of taken and free cells to compare
+    assert np.array_equal(_taken(grid, lanes, junctions), expected)
