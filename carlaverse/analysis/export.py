@@ -20,11 +20,9 @@ import pyarrow as pa
 import pyarrow.csv as pa_csv
 import pyarrow.parquet as pq
 
-from carlaverse import keys as keyspace
 from carlaverse import messages as m
 from carlaverse.analysis.surrogate import Conflict, PairMeasures
 from carlaverse.analysis.tracks import Tracks
-from carlaverse.recording.reading import iter_samples
 
 
 def trajectory_table(tracks: Tracks) -> pa.Table:
@@ -59,22 +57,14 @@ def record_table(records: Iterable[Any]) -> pa.Table:
     return pa.Table.from_pylist(rows) if rows else pa.table({})
 
 
-def events_table(path: Path) -> pa.Table:
-    """Every `world/events` message: its time, type and the rest of its fields as JSON."""
+def events_table(events: Iterable[m.WorldEvent]) -> pa.Table:
+    """The `world/events` messages: time, type and the rest of each one's fields as JSON."""
     out: dict[str, list[Any]] = {"t": [], "type": [], "actor": [], "fields": []}
-    for sample in iter_samples(path):
-        try:
-            key = keyspace.parse(sample.key)
-            if key.area != "world" or key.channel != "events" or sample.kind != "put":
-                continue
-            event = m.WORLD_EVENT.decode(sample.payload)
-        except (keyspace.KeySpaceError, m.MessageError):
-            continue
-        fields = msgspec.to_builtins(event)
+    for event in events:
         out["t"].append(event.t)
         out["type"].append(type(event).__struct_config__.tag)
         out["actor"].append(getattr(event, "node_id", "") or getattr(event, "a", ""))
-        out["fields"].append(json.dumps(fields, separators=(",", ":")))
+        out["fields"].append(json.dumps(msgspec.to_builtins(event), separators=(",", ":")))
     return pa.table(out)
 
 

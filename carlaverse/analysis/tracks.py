@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from collections import defaultdict
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -52,6 +52,15 @@ class Tracks:
         return next(i for i, a in enumerate(self.actors) if a.id == actor_id)
 
 
+@dataclass(frozen=True)
+class Recording:
+    """What one pass over a recording gives the analysis."""
+
+    tracks: Tracks
+    events: list[m.WorldEvent]  # every `world/events` message, in recorded order
+    road_map: m.MapReply | None  # the first map reply kept, if any
+
+
 @dataclass
 class _Raw:
     """What one pass over the recording collected, before resampling."""
@@ -60,6 +69,8 @@ class _Raw:
     kinds: dict[str, str]
     extents: dict[str, m.Extent]
     humans: set[str]
+    events: list[m.WorldEvent] = field(default_factory=list)
+    road_map: m.MapReply | None = None
     read: int = 0
     skipped: int = 0
 
@@ -71,7 +82,21 @@ def read_tracks(
     progress: Progress | None = None,
 ) -> Tracks:
     """The recording's road users on a `rate_hz` grid spanning their samples."""
+    return read_recording(path, rate_hz, max_gap_s, progress).tracks
+
+
+def read_recording(
+    path: str | Path,
+    rate_hz: float = 10.0,
+    max_gap_s: float = 0.5,
+    progress: Progress | None = None,
+) -> Recording:
+    """Tracks, events and map of a recording, in one pass over it (recordings run to GBs)."""
     raw = _collect(Path(path), progress)
+    return Recording(_tracks(raw, rate_hz, max_gap_s), raw.events, raw.road_map)
+
+
+def _tracks(raw: _Raw, rate_hz: float, max_gap_s: float) -> Tracks:
     series = {k: _sorted_rows(v) for k, v in raw.samples.items() if v}
     if not series:
         return Tracks(np.zeros(0), [], *(np.zeros((0, 0)) for _ in range(5)))
@@ -108,8 +133,11 @@ def _take(raw: _Raw, key: keyspace.ParsedKey, payload: bytes) -> None:
         _take_batch(raw, m.NPC_BATCH.decode(payload))
     elif key.area == "world" and key.channel == "events":
         event = m.WORLD_EVENT.decode(payload)
+        raw.events.append(event)
         if isinstance(event, m.Spawned) and event.actor_kind:
             raw.kinds[event.node_id] = event.actor_kind
+    elif key.area == "authority" and key.channel == "map" and raw.road_map is None:
+        raw.road_map = m.MAP.decode(payload)
     elif key.area == "authority" and key.channel == "snapshot":
         for ego in m.SNAPSHOT.decode(payload).egos:
             raw.kinds[ego.node_id] = ego.actor_kind or raw.kinds.get(ego.node_id, "other")

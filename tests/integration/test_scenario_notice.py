@@ -6,6 +6,7 @@ import json
 from pathlib import Path
 
 from carlaverse.analysis.export import events_table
+from carlaverse.analysis.tracks import read_recording
 from tests.support import Cluster, wait_until
 from tests.traffic.helpers import CROSSING_MAP, write_scenario
 
@@ -45,7 +46,7 @@ def test_a_notice_reaches_the_node_it_names_and_the_firing_is_recorded(tmp_path:
         assert recorder.stop() == 0
     finally:
         cluster.close()
-    events = events_table(mcap).to_pylist()
+    events = events_table(read_recording(mcap).events).to_pylist()
     (fired,) = [e for e in events if e["type"] == "trigger"]
     assert json.loads(fired["fields"])["actions"] == [
         "message to scripted-1",
