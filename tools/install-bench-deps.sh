@@ -6,15 +6,5 @@
 set -euo pipefail
 need=()
 command -v mosquitto >/dev/null 2>&1 || [ -x /usr/sbin/mosquitto ] || need+=(mosquitto)
-if [ ${#need[@]} -eq 0 ]; then
-  echo "install-bench-deps: nothing to install"
-  exit 0
-fi
-if [ "$(id -u)" -ne 0 ] || ! command -v apt-get >/dev/null 2>&1; then
-  echo "install-bench-deps: not root or no apt-get; skipping ${need[*]} (the MQTT run will skip)"
-  exit 0
-fi
-echo "install-bench-deps: installing ${need[*]}"
-export DEBIAN_FRONTEND=noninteractive
-apt-get update -qq
-apt-get install -y -qq --no-install-recommends "${need[@]}" >/dev/null
+. "$(dirname "$0")/lib/apt-install-missing.sh"
+apt_install_missing install-bench-deps "${need[@]}"

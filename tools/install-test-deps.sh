@@ -12,15 +12,5 @@ command -v chromium >/dev/null 2>&1 || need+=(chromium)
 command -v ip >/dev/null 2>&1 || need+=(iproute2)
 ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' || need+=(libegl1)
 [ -n "$(ls /usr/lib/*/dri/swrast_dri.so 2>/dev/null)" ] || need+=(libgl1-mesa-dri)
-if [ ${#need[@]} -eq 0 ]; then
-  echo "install-test-deps: nothing to install"
-  exit 0
-fi
-if [ "$(id -u)" -ne 0 ] || ! command -v apt-get >/dev/null 2>&1; then
-  echo "install-test-deps: not root or no apt-get; skipping ${need[*]} (their tests will skip)"
-  exit 0
-fi
-echo "install-test-deps: installing ${need[*]}"
-export DEBIAN_FRONTEND=noninteractive
-apt-get update -qq
-apt-get install -y -qq --no-install-recommends "${need[@]}" >/dev/null
+. "$(dirname "$0")/lib/apt-install-missing.sh"
+apt_install_missing install-test-deps "${need[@]}"
