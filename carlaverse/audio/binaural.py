@@ -54,6 +54,10 @@ class Binaural:
     def take(self, weights: np.ndarray, sel: np.ndarray) -> np.ndarray:
         return weights.take(sel, axis=0)
 
+    def finish(self, block: np.ndarray) -> np.ndarray:
+        """The rendered block (2 × samples) as it is: headphones have no filtered channel."""
+        return block
+
     def mix(self, spectra: np.ndarray, weights: np.ndarray) -> np.ndarray:
         """(2 × F) ear spectra of the emitters' spectra (E × F) through their filters (a
         product and a sum: numpy's einsum is slower for this shape)."""

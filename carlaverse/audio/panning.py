@@ -8,6 +8,11 @@ the same signal at a different gain, with no delay between them.
 Azimuths in degrees counter-clockwise from the front (90° = left), as in the HRTF sets.
 Channel order is the WAV/SMPTE order (5.1: FL FR FC LFE BL BR). `ringN` puts speaker k at
 k·360/N degrees, counter-clockwise from the front.
+
+The low-frequency effects channel has no direction: it carries the sum of every emitter
+(gain and absorption, no panning), low-passed at LFE_CUTOFF_HZ by a 4th-order Butterworth
+filter run on the block in time, its state carried from block to block (as a receiver's
+bass management would feed a subwoofer; its +10 dB playback gain is the receiver's).
 """
 
 from __future__ import annotations
@@ -15,8 +20,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.signal import butter, sosfilt
 
-LFE = None  # a channel without a direction: the low-frequency effects channel stays silent
+LFE = None  # a channel without a direction: the low-frequency effects channel
+LFE_CUTOFF_HZ = 120.0  # [Hz] the LFE channel's low-pass (−3 dB)
+LFE_ORDER = 4  # −24 dB per octave above the cutoff
 LAYOUT_AZIMUTHS: dict[str, tuple[float | None, ...]] = {
     "stereo": (30.0, -30.0),
     "quad": (45.0, -45.0, 135.0, -135.0),
@@ -117,16 +125,21 @@ class Panned:
     its response and its speaker gains, kept apart (a product per speaker would cost C times
     the work of the mix, which is one matrix product per block)."""
 
-    def __init__(self, layout: str) -> None:
+    def __init__(self, layout: str, sample_rate_hz: int) -> None:
         self.layout = layout
-        self.vbap = Vbap(layout_azimuths(layout))
+        azimuths = layout_azimuths(layout)
+        self.vbap = Vbap(azimuths)
         self.channels = self.vbap.channels
+        self.lfe = LowFrequencyEffects([i for i, az in enumerate(azimuths) if az is LFE],
+                                       sample_rate_hz)  # fmt: skip
 
     def weights(self, response: np.ndarray, directions: np.ndarray,
                 diffuse: np.ndarray) -> PannedWeights:  # fmt: skip
-        """Gains for head-frame unit directions (E × 3), blended towards diffuse (E,) 0..1."""
+        """Gains for head-frame unit directions (E × 3), blended towards diffuse (E,) 0..1;
+        every emitter at unit gain into the LFE channel."""
         d = diffuse[:, None]
         gains = (1.0 - d) * self.vbap.gains(directions) + d * self.vbap.diffuse()[None, :]
+        gains[:, self.lfe.channels] = 1.0
         return PannedWeights(response, gains.astype(np.float32))
 
     def silent(self, n: int, bins: int) -> PannedWeights:
@@ -139,3 +152,24 @@ class Panned:
     def mix(self, spectra: np.ndarray, weights: PannedWeights) -> np.ndarray:
         """(channels × F) speaker spectra of the emitters' spectra (E × F)."""
         return weights.gains.T @ (spectra * weights.response)
+
+    def finish(self, block: np.ndarray) -> np.ndarray:
+        """The rendered block (channels × samples) with its LFE channel low-passed."""
+        return self.lfe.process(block)
+
+
+class LowFrequencyEffects:
+    """The LFE channels' low-pass, with its state between blocks."""
+
+    def __init__(self, channels: list[int], sample_rate_hz: int) -> None:
+        self.channels = channels
+        self._sos = butter(LFE_ORDER, LFE_CUTOFF_HZ, fs=sample_rate_hz, output="sos")
+        # Sections × channels × 2, at rest: a filter that has only heard silence.
+        self._state = np.zeros((self._sos.shape[0], len(channels), 2))
+
+    def process(self, block: np.ndarray) -> np.ndarray:
+        if not self.channels:
+            return block
+        low, self._state = sosfilt(self._sos, block[self.channels], axis=-1, zi=self._state)
+        block[self.channels] = low
+        return block

@@ -56,6 +56,8 @@ class Spatialiser(Protocol):
 
     def mix(self, spectra: np.ndarray, weights: object) -> np.ndarray: ...
 
+    def finish(self, block: np.ndarray) -> np.ndarray: ...
+
 
 @dataclass(frozen=True)
 class Heard:
@@ -118,6 +120,7 @@ class Renderer:
         out = np.zeros((self.channels, self.block), dtype=np.float32)
         if live.size:
             out = self._render_live(live, t_end)
+        out = self.spatial.finish(out)  # the LFE's filter runs on silence too: its tail
         self.t = t_end
         self.blocks += 1
         return self.limiter.process(out.T)
@@ -194,7 +197,7 @@ def build_renderer(config: AudioConfig, hrirs: HrirSet | None = None) -> Rendere
         return Renderer(config, Binaural(hrirs, fft_size(config.block_size)))
     from carlaverse.audio.panning import Panned
 
-    return Renderer(config, Panned(config.layout))
+    return Renderer(config, Panned(config.layout, config.sample_rate_hz))
 
 
 def layout_channels(layout: str) -> int:
