@@ -85,8 +85,36 @@ class Exchange(NamedTuple):
     local_t: float  # [s] local time of the exchange's midpoint
 
 
+class _Anchor(NamedTuple):
+    """The applied offset at one local time, with what moves it from there (see `_offset_at`)."""
+
+    applied: float  # [s] offset applied at local time `at`
+    at: float  # [s] local time
+    skew: float  # [s/s]
+    target: float  # [s] the estimated offset at local time `target_at`
+    target_at: float  # [s]
+    max_slew: float  # [s/s]
+
+
+def _offset_at(a: _Anchor, t: float) -> float:
+    """The offset applied at local time `t` [s]: it follows the skew and slews toward the
+    estimate at most `max_slew` s/s (for t before the anchor: the anchor's offset)."""
+    applied, at, skew, target, target_at, max_slew = a  # unpacked: cheaper than attributes
+    dt = t - at
+    if dt <= 0:
+        return applied
+    predicted = applied + skew * dt
+    error = target + skew * (t - target_at) - predicted
+    bound = max_slew * dt
+    return predicted + (bound if error > bound else -bound if error < -bound else error)
+
+
 class SessionClock:
-    """Session time for a node: its local clock plus a disciplined offset to the authority."""
+    """Session time for a node: its local clock plus a disciplined offset to the authority.
+
+    Reading it takes no lock (Zenoh's callbacks stamp arrivals with it): writers, under the
+    lock, publish an immutable `_Anchor` that readers evaluate at their own local time.
+    """
 
     def __init__(
         self,
@@ -111,19 +139,22 @@ class SessionClock:
         self.synced = False
         self._new_timeline = True  # the next exchange may step (first sync, or after reset)
         self.steps = 0
+        self._anchor = self._make_anchor()
 
     def now(self) -> float:
-        with self._lock:
-            t = self.local.now()
-            self._advance(t)
-            return t + self._applied
+        t = self.local.now()
+        return t + _offset_at(self._anchor, t)
 
     @property
     def offset(self) -> float:
         """The offset applied now [s]: session time − local time."""
-        with self._lock:
-            self._advance(self.local.now())
-            return self._applied
+        return _offset_at(self._anchor, self.local.now())
+
+    def _make_anchor(self) -> _Anchor:
+        est = self._estimate
+        return _Anchor(
+            self._applied, self._applied_at, self.skew, est.offset, est.local_t, self.max_slew
+        )
 
     @property
     def uncertainty_s(self) -> float:
@@ -151,6 +182,7 @@ class SessionClock:
             self.skew = _skew(self._history, self.skew)
             self._discipline(self.local.now())
             self.synced = True
+            self._anchor = self._make_anchor()
 
     def reset(self) -> None:
         """Forget the window: a new authority may bring a new timeline (a step is allowed)."""
@@ -171,14 +203,9 @@ class SessionClock:
 
     def _advance(self, t: float) -> None:
         """Move the applied offset to local time `t`: follow the skew, slew toward the target."""
-        dt = t - self._applied_at
-        if dt <= 0:
-            return
-        predicted = self._applied + self.skew * dt
-        error = self.target(t) - predicted
-        bound = self.max_slew * dt
-        self._applied = predicted + max(-bound, min(bound, error))
-        self._applied_at = t
+        if t > self._applied_at:
+            self._applied = _offset_at(self._make_anchor(), t)
+            self._applied_at = t
 
     def _discipline(self, t: float) -> None:
         self._advance(t)

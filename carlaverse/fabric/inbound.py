@@ -53,8 +53,12 @@ class Inbound:
         clock: SessionClock,
         lost: Callable[[], None],
         appeared: Callable[[], None],
+        direct_poses: bool = False,
     ) -> None:
         self.node_id = node_id
+        # Pose callbacks on Zenoh's network thread (one thread hand-off fewer, see
+        # `pose_handler`) instead of zenoh-python's own callback thread.
+        self.direct_poses = direct_poses
         self.world = world
         self.clock = clock
         self._lost = lost
@@ -83,7 +87,7 @@ class Inbound:
         if spatial:
             world["npc"] = self._on_npc
             entities.append(session.declare_subscriber(
-                keys.all_ego("pose"), g.sample("pose", self._on_pose), allowed_origin=remote
+                keys.all_ego("pose"), self.pose_handler(), allowed_origin=remote
             ))  # fmt: skip
         entities += [
             session.declare_subscriber(keys.all_ego("state"), g.sample("state", self._on_state)),
@@ -102,9 +106,20 @@ class Inbound:
             entities.append(session.declare_subscriber(keys.world(channel), guarded))
         return entities
 
-    def spatial_handlers(self) -> tuple[Callable[[zenoh.Sample], None], ...]:
+    def spatial_handlers(self) -> tuple[zenoh.handlers.Callback, Callable[[zenoh.Sample], None]]:
         """The guarded pose and NPC handlers, for the subscriptions of an interest area."""
-        return self.guard.sample("pose", self._on_pose), self.guard.sample("npc", self._on_npc)
+        return self.pose_handler(), self.guard.sample("npc", self._on_npc)
+
+    def pose_handler(self) -> zenoh.handlers.Callback:
+        """The guarded pose callback, on the thread `direct_poses` chooses.
+
+        Direct, it runs on Zenoh's network thread: it decodes, checks and appends to a deque
+        and waits on no lock of ours, but it does take the GIL there, which a busy Python
+        thread holds for up to `sys.getswitchinterval()` (5 ms), and zenoh-python then
+        builds a Python thread state per sample (more CPU per pose than its callback thread).
+        """
+        guarded = self.guard.sample("pose", self._on_pose)
+        return zenoh.handlers.Callback(guarded, indirect=not self.direct_poses)
 
     # ------------------------------------------------------------ checks
 
@@ -144,11 +159,16 @@ class Inbound:
     # ------------------------------------------------------------ egos
 
     def _on_pose(self, sample: zenoh.Sample) -> None:
+        # The hottest path of a node (every pose of every ego it hears): the checks of
+        # `_sender` and `_decode`, inlined. The clock is read without a lock.
         rx_t = self.clock.now()
-        node_id = self._sender(sample, "pose")
-        pose = self._decode(sample, m.POSE, "pose")
-        if node_id is not None and pose is not None:
-            self.world.push_pose(node_id, pose, rx_t)  # type: ignore[arg-type]
+        try:
+            node_id = parse_cached(str(sample.key_expr)).node_id
+            pose = m.decode_pose(sample.payload.to_bytes())
+        except (KeySpaceError, m.MessageError):
+            self.dropped.add("pose")
+            return
+        self.world.push_pose(node_id, pose, rx_t)
 
     def _on_state(self, sample: zenoh.Sample) -> None:
         node_id = self._sender(sample, "state")

@@ -24,7 +24,7 @@ from carlaverse.keys import TILE_SIZE_M, Keys, tile_of, tile_token
 
 TILE_HYSTERESIS_M = 25.0  # [m] how far into a new tile a point must be to count as in it
 
-SampleHandler = Callable[[zenoh.Sample], None]
+SampleHandler = Callable[[zenoh.Sample], None] | zenoh.handlers.Callback
 
 
 class TileTracker:

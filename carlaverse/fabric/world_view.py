@@ -93,6 +93,12 @@ class WorldView:
         self.rejected: Counter[str] = Counter()
         self._delay = DelaySlew(settings)
         self._render: tuple[float, float] | None = None  # (now, render time) last computed
+        # inbox tag -> what applies it (looked up once per item: a pose is most of them)
+        self._handlers = {
+            "pose": self._on_pose, "skeleton": self._on_skeleton, "npc": self._on_npc,
+            "interest": self._on_interest, "gone": self._on_gone, "present": self._on_present,
+            "notice": self._on_notice, "state": self._on_state, "snapshot": self._on_snapshot,
+        }  # fmt: skip
 
     @property
     def render_mode(self) -> str:
@@ -132,10 +138,10 @@ class WorldView:
 
     def update(self, now: float) -> None:
         """Apply everything received so far, then expire silent actors."""
-        inbox = self.inbox
+        inbox, handlers = self.inbox, self._handlers
         while inbox:
             item = inbox.popleft()
-            getattr(self, f"_on_{item[0]}")(*item[1:])
+            handlers[item[0]](*item[1:])
         for actor_id, actor in list(self.egos.items()):
             if actor.is_expired(now):
                 self._remove(actor_id, "timeout" if self.hears(actor.newest) else "far", now)
