@@ -1,5 +1,8 @@
 """The actors of one tick: egos dead-reckoned to the tick time, and the engine's NPCs.
 
+All egos are moved at once, as columns (`EgoColumns`): the tick's work per ego is a few array
+operations, not a Python object per ego and stage.
+
 An ego's latest pose sample was taken at `pose.t`, a little before the tick; it is moved on
 by its velocity and yaw rate to the tick time (at most `max_extrapolation_s`, then held), so
 the collision matrix and the traffic engine see where the human is now, not where they were.
@@ -8,14 +11,14 @@ the collision matrix and the traffic engine see where the human is now, not wher
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from carlaverse.authority.collisions import Actors
 from carlaverse.authority.domain import EgoTrack
-from carlaverse.messages import ACTOR_KINDS
+from carlaverse.messages import ACTOR_KINDS, EgoInfo, Pose
 from carlaverse.traffic.engine import EgoPlacement, NpcFrame, kind_code
 from carlaverse.traffic.scenario import CollisionSpec
 
@@ -55,67 +58,120 @@ class EgoNow:
         )
 
 
+EGO_COLUMNS = ("x", "y", "z", "yaw", "vx", "vy", "length", "width", "height", "mass_kg")
+
+
+@dataclass(frozen=True, slots=True)
+class EgoColumns(Sequence[EgoNow]):
+    """The egos of one tick as columns, one entry per ego (the fields of `EgoNow`).
+
+    Reads as a sequence of `EgoNow` where one ego at a time is wanted (triggers, tests); the
+    per-tick work over all egos (placements, the collision matrix, audio) uses the columns.
+    """
+
+    ids: list[str]
+    actor_kinds: list[str]
+    x: np.ndarray  # [m]
+    y: np.ndarray  # [m]
+    z: np.ndarray  # [m]
+    yaw: np.ndarray  # [rad]
+    vx: np.ndarray  # [m/s]
+    vy: np.ndarray  # [m/s]
+    length: np.ndarray  # [m]
+    width: np.ndarray  # [m]
+    height: np.ndarray  # [m]
+    mass_kg: np.ndarray  # [kg], 0 = use the kind's mass
+
+    @classmethod
+    def of(cls, egos: Sequence[EgoNow]) -> EgoColumns:
+        """Columns of a list of egos (or the columns themselves)."""
+        if isinstance(egos, EgoColumns):
+            return egos
+        values = np.array([[getattr(e, f) for f in EGO_COLUMNS] for e in egos], dtype=np.float64)
+        values = values.reshape(len(egos), len(EGO_COLUMNS))
+        return cls([e.node_id for e in egos], [e.actor_kind for e in egos], *values.T)
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def __getitem__(self, i: int) -> EgoNow:  # type: ignore[override]
+        if not -len(self.ids) <= i < len(self.ids):
+            raise IndexError(f"ego {i} of {len(self.ids)}")
+        values = (float(getattr(self, f)[i]) for f in EGO_COLUMNS)
+        return EgoNow(self.ids[i], self.actor_kinds[i], *values)
+
+    def kind_codes(self) -> np.ndarray:
+        return np.array([kind_code(k) for k in self.actor_kinds], dtype=np.intp)
+
+    def placements(self) -> list[EgoPlacement]:
+        """Where the engine carries each ego: `EgoNow.placement` for all at once."""
+        speed = self.vx * np.cos(self.yaw) + self.vy * np.sin(self.yaw)  # [m/s] along heading
+        columns = (self.x, self.y, self.z, self.yaw, speed, self.length, self.width, self.height)
+        rows = zip(self.ids, self.actor_kinds, *(c.tolist() for c in columns), strict=True)
+        return [EgoPlacement(*row) for row in rows]
+
+
 def has_actor(track: EgoTrack) -> bool:
     return track.info.kind not in NO_ACTOR_KINDS and track.info.actor_kind in ACTOR_KINDS
 
 
-def egos_at(t: float, egos: Mapping[str, EgoTrack], max_extrapolation_s: float) -> list[EgoNow]:
+def egos_at(t: float, egos: Mapping[str, EgoTrack], max_extrapolation_s: float) -> EgoColumns:
     """Every embodied ego with a pose, dead-reckoned to `t`, in node-id order."""
-    out = []
-    for node_id in sorted(egos):
-        track = egos[node_id]
-        pose = track.last_pose
-        if pose is None or not has_actor(track):
-            continue
-        dt = min(max(t - pose.t, 0.0), max_extrapolation_s)  # [s]
-        e = track.info.extent
-        out.append(
-            EgoNow(
-                node_id,
-                track.info.actor_kind,
-                pose.x + pose.vx * dt,
-                pose.y + pose.vy * dt,
-                pose.z + pose.vz * dt,
-                pose.yaw + pose.wz * dt,
-                pose.vx,
-                pose.vy,
-                e.length,
-                e.width,
-                e.height,
-                track.info.mass_kg,
-            )
-        )
-    return out
+    keyed = [(n, egos[n]) for n in sorted(egos)]
+    keyed = [(n, k) for n, k in keyed if k.last_pose is not None and has_actor(k)]
+    chosen = [k for _, k in keyed]
+    motion = np.array([_motion(k.last_pose) for k in chosen], dtype=np.float64)  # type: ignore[arg-type]
+    pt, x, y, z, yaw, vx, vy, vz, wz = motion.reshape(len(chosen), 9).T
+    shape = np.array([_shape(k.info) for k in chosen], dtype=np.float64).reshape(len(chosen), 4)
+    dt = np.minimum(np.maximum(t - pt, 0.0), max_extrapolation_s)  # [s]
+    return EgoColumns(
+        [n for n, _ in keyed],
+        [k.info.actor_kind for k in chosen],
+        x + vx * dt,
+        y + vy * dt,
+        z + vz * dt,
+        yaw + wz * dt,
+        vx,
+        vy,
+        *shape.T,
+    )
 
 
-def build_actors(egos: list[EgoNow], frame: NpcFrame, spec: CollisionSpec) -> Actors:
+def _motion(p: Pose) -> tuple[float, ...]:
+    return (p.t, p.x, p.y, p.z, p.yaw, p.vx, p.vy, p.vz, p.wz)
+
+
+def _shape(info: EgoInfo) -> tuple[float, float, float, float]:
+    e = info.extent
+    return (e.length, e.width, e.height, info.mass_kg)
+
+
+def build_actors(egos: Sequence[EgoNow], frame: NpcFrame, spec: CollisionSpec) -> Actors:
     """Egos first, then NPCs, as the columns the collision matrix works on."""
+    e = EgoColumns.of(egos)
     rows = frame.rows
     mass_of = np.array([spec.physics(k).mass_kg for k in ACTOR_KINDS])  # [kg] by kind code
     bounce_of = np.array([spec.physics(k).restitution for k in ACTOR_KINDS])
-    ego_kind = np.array([kind_code(e.actor_kind) for e in egos], dtype=np.intp)
+    ego_kind = e.kind_codes()
     kind = np.concatenate([ego_kind, rows["kind"].astype(np.intp)])
-    ego_mass = np.array([e.mass_kg for e in egos], dtype=np.float64)
-    ego_mass = np.where(ego_mass > 0, ego_mass, mass_of[ego_kind])
+    ego_mass = np.where(e.mass_kg > 0, e.mass_kg, mass_of[ego_kind])
 
-    def column(attr: str, npc: np.ndarray) -> np.ndarray:
-        return np.concatenate(
-            [np.array([getattr(e, attr) for e in egos], dtype=np.float64), npc.astype(np.float64)]
-        )
+    def column(ego: np.ndarray, npc: str) -> np.ndarray:
+        return np.concatenate([ego, rows[npc].astype(np.float64)])
 
     return Actors(
-        ids=[e.node_id for e in egos] + frame.ids,
+        ids=e.ids + frame.ids,
         kind=kind,
-        is_ego=np.arange(len(kind)) < len(egos),
-        x=column("x", rows["x"]),
-        y=column("y", rows["y"]),
-        z=column("z", rows["z"]),
-        yaw=column("yaw", rows["yaw"]),
-        hl=column("length", rows["length"]) / 2,
-        hw=column("width", rows["width"]) / 2,
-        h=column("height", rows["height"]),
-        vx=column("vx", rows["vx"]),
-        vy=column("vy", rows["vy"]),
-        mass=np.concatenate([ego_mass, mass_of[kind[len(egos) :]]]),
+        is_ego=np.arange(len(kind)) < len(e),
+        x=column(e.x, "x"),
+        y=column(e.y, "y"),
+        z=column(e.z, "z"),
+        yaw=column(e.yaw, "yaw"),
+        hl=column(e.length, "length") / 2,
+        hw=column(e.width, "width") / 2,
+        h=column(e.height, "height"),
+        vx=column(e.vx, "vx"),
+        vy=column(e.vy, "vy"),
+        mass=np.concatenate([ego_mass, mass_of[kind[len(e) :]]]),
         restitution=bounce_of[kind],
     )

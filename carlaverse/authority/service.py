@@ -1,7 +1,8 @@
 """The authority process: presence, joins, the session clock, despawns and the world tick.
 
 Queries are answered in Zenoh's callbacks (they only read or update the roster under a short
-lock, and never publish); poses are queued and applied by the tick thread, which also
+lock, and never publish); poses wait in Zenoh's ring, without a Python callback, and are
+decoded in batches and applied by the tick thread (`pose_intake`), which also
 announces spawns and despawns, runs the global domain and publishes what it decided. The tick
 runs at a fixed rate and measures itself. No callback raises into Zenoh: a bad payload is
 counted in `drops` under its key, a well-formed but refused one in `rejected`, anything
@@ -26,11 +27,12 @@ from carlaverse import messages as m
 from carlaverse.authority.domain import EgoTrack, GlobalDomain
 from carlaverse.authority.membership import Roster
 from carlaverse.authority.outbox import ZenohOutbox
+from carlaverse.authority.pose_intake import RING_CAPACITY, PoseIntake
 from carlaverse.config import StrictStruct
 from carlaverse.fabric.clock import Clock
 from carlaverse.fabric.guard import HandlerGuard, Tally, reply_err
 from carlaverse.fabric.stats import percentile
-from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse, parse_cached
+from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse
 
 log = logging.getLogger(__name__)
 
@@ -76,7 +78,7 @@ class Authority:
         self.ticks = 0
         self.overruns = 0
         self._lock = threading.Lock()
-        self._poses: deque[tuple[str, m.Pose, float]] = deque(maxlen=100_000)
+        self._intake: PoseIntake | None = None  # declared by start()
         self._gone: deque[tuple[str, str]] = deque()  # (node id, reason) for the tick
         # Spawns and despawns decided in callbacks, announced by the tick: a callback never
         # publishes (a reliable put may block under congestion).
@@ -101,8 +103,10 @@ class Authority:
         }
         for name, handler in queries.items():
             self._entities.append(s.declare_queryable(k.authority(name), g.query(name, handler)))
-        pose, state = g.sample("pose", self._on_pose), g.sample("state", self._on_state)
-        self._entities.append(s.declare_subscriber(k.all_ego("pose"), pose))
+        poses = s.declare_subscriber(k.all_ego("pose"), zenoh.handlers.RingChannel(RING_CAPACITY))
+        self._entities.append(poses)
+        self._intake = PoseIntake(poses, self.drops)
+        state = g.sample("state", self._on_state)
         self._entities.append(s.declare_subscriber(k.all_ego("state"), state))
         presence = g.sample("presence", self._on_presence)
         self._entities.append(
@@ -163,8 +167,10 @@ class Authority:
     def tick(self, t: float) -> None:
         """One step of the world at session time t."""
         self.ticks += 1
+        poses = self._intake.drain() if self._intake is not None else []
+        rx_t = self.clock.now()
         with self._lock:
-            self._apply_poses()
+            self._apply_poses(poses, rx_t)
             gone = _drain(self._gone)
             gone += [(n, "timeout") for n in self.roster.expired(t)]
             for node_id, reason in gone:
@@ -174,9 +180,9 @@ class Authority:
             self.outbox.event(msgspec.structs.replace(event, seq=self.outbox.next_seq(), t=t))
         self.domain.tick(t, tracks, self.outbox)
 
-    def _apply_poses(self) -> None:
-        while self._poses:
-            refused = self.roster.pose(*self._poses.popleft())
+    def _apply_poses(self, poses: list[tuple[str, m.Pose]], rx_t: float) -> None:
+        for node_id, pose in poses:
+            refused = self.roster.pose(node_id, pose, rx_t)
             if refused:
                 self.rejected.add(f"pose/{refused}")
 
@@ -190,16 +196,6 @@ class Authority:
         self.outbox.event(m.Despawned(self.outbox.next_seq(), t, node_id, reason))
 
     # ------------------------------------------------------------ subscriptions
-
-    def _on_pose(self, sample: zenoh.Sample) -> None:
-        rx_t = self.clock.now()
-        try:
-            node_id = parse_cached(str(sample.key_expr)).node_id
-            pose = m.POSE.decode(sample.payload.to_bytes())
-        except (KeySpaceError, m.MessageError):
-            self.drops.add("pose")
-            return
-        self._poses.append((node_id, pose, rx_t))
 
     def _on_state(self, sample: zenoh.Sample) -> None:
         try:

@@ -26,11 +26,24 @@ MIN_DISTANCE_M = 1.0  # [m] levels are given at 1 m; nearer counts as 1 m
 class Heard:
     """The chosen rows, grouped by listener, loudest first within each group."""
 
-    sources: SoundSources
+    pool: SoundSources  # every source considered: the shared ones, then the listeners' own
+    rows: np.ndarray  # the chosen rows of `pool`
     bounds: np.ndarray  # (listeners + 1,): listener l's rows are bounds[l]:bounds[l + 1]
+
+    @property
+    def sources(self) -> SoundSources:
+        return self.pool.take(self.rows)
 
     def of(self, listener: int) -> slice:
         return slice(int(self.bounds[listener]), int(self.bounds[listener + 1]))
+
+    def emitters(self) -> list[AudioEmitter]:
+        """`emitters(self.sources)`, each source made once however many listeners hear it
+        (frozen messages, shared between scenes): a car in earshot of a hundred listeners is
+        one object, not a hundred."""
+        unique, inverse = np.unique(self.rows, return_inverse=True)
+        made = emitters(self.pool.take(unique))
+        return list(map(made.__getitem__, inverse.ravel().tolist()))
 
 
 def audible(
@@ -52,7 +65,7 @@ def audible(
     first = np.searchsorted(who, np.arange(len(ears)))
     keep = np.arange(len(who)) - first[who] < cap
     bounds = np.searchsorted(who[keep], np.arange(len(ears) + 1))
-    return Heard(SoundSources.concat([shared, own]).take(row[keep]), bounds)
+    return Heard(SoundSources.concat([shared, own]), row[keep], bounds)
 
 
 def _loudest_shared(

@@ -14,10 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from carlaverse.authority.actors import EgoNow
+from carlaverse.authority.actors import EgoColumns, EgoNow
 from carlaverse.authority.domain import Outbox
 from carlaverse.authority.sound_areas import ListenerAreas
-from carlaverse.authority.sound_audibility import audible, emitters
+from carlaverse.authority.sound_audibility import audible
 from carlaverse.authority.sound_sources import ActorSounds, actor_columns
 from carlaverse.messages import AudioScene, MapArea, Weather
 from carlaverse.traffic.engine import NpcFrame
@@ -70,12 +70,13 @@ class SoundPublisher:
         spec = self._spec
         wetness = weather.wetness if weather is not None else 0.0
         # Egos come first among the actors, so an ego's index is its sources' owner index.
-        on_actors = self._actors.sources(t, actor_columns(egos, frame), wetness)
-        ears = np.array([(e.x, e.y, e.z) for e in egos], dtype=np.float64).reshape(-1, 3)
+        listeners = EgoColumns.of(egos)
+        on_actors = self._actors.sources(t, actor_columns(listeners, frame), wetness)
+        ears = np.stack([listeners.x, listeners.y, listeners.z], axis=1).reshape(-1, 3)
         around = self._areas.sources(ears, weather, spec.threshold_db)
         heard = audible(ears, on_actors, around, spec.threshold_db, spec.max_emitters)
-        chosen = emitters(heard.sources)
+        chosen = heard.emitters()
         return [
-            AudioScene(next_seq() if next_seq else 0, t, e.node_id, chosen[heard.of(i)])
-            for i, e in enumerate(egos)
+            AudioScene(next_seq() if next_seq else 0, t, node_id, chosen[heard.of(i)])
+            for i, node_id in enumerate(listeners.ids)
         ]

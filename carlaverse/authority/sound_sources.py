@@ -15,10 +15,10 @@ from operator import add
 
 import numpy as np
 
-from carlaverse.authority.actors import EgoNow
+from carlaverse.authority.actors import EgoColumns, EgoNow
 from carlaverse.authority.sound_models import MIN_ROLLING_MPS, EngineBank, TyreBank
 from carlaverse.messages import AUDIO_KINDS, SIREN_PATTERNS
-from carlaverse.traffic.engine import NpcFrame, kind_code
+from carlaverse.traffic.engine import NpcFrame
 from carlaverse.traffic.soundscape import SirenSpec
 
 KIND_INDEX = {kind: i for i, kind in enumerate(AUDIO_KINDS)}
@@ -39,15 +39,14 @@ class ActorColumns:
 
 
 def actor_columns(egos: Sequence[EgoNow], frame: NpcFrame) -> ActorColumns:
-    rows = frame.rows
-    ego_pos = np.array([(e.x, e.y, e.z) for e in egos], dtype=np.float64).reshape(-1, 3)
-    ego_vel = np.array([(e.vx, e.vy, 0.0) for e in egos], dtype=np.float64).reshape(-1, 3)
+    e, rows = EgoColumns.of(egos), frame.rows
+    ego_pos = np.stack([e.x, e.y, e.z], axis=1).reshape(-1, 3)
+    ego_vel = np.stack([e.vx, e.vy, np.zeros(len(e))], axis=1).reshape(-1, 3)
     npc_pos = np.stack([rows["x"], rows["y"], rows["z"]], axis=1).astype(np.float64)
     npc_vel = np.stack([rows["vx"], rows["vy"], np.zeros(len(rows))], axis=1).astype(np.float64)
-    ego_kind = np.array([kind_code(e.actor_kind) for e in egos], dtype=np.intp)
     return ActorColumns(
-        ids=[e.node_id for e in egos] + frame.ids,
-        kind=np.concatenate([ego_kind, rows["kind"].astype(np.intp)]),
+        ids=e.ids + frame.ids,
+        kind=np.concatenate([e.kind_codes(), rows["kind"].astype(np.intp)]),
         pos=np.concatenate([ego_pos, npc_pos]),
         vel=np.concatenate([ego_vel, npc_vel]),
     )

@@ -114,7 +114,7 @@ class TrafficDomain:
     def tick(self, t: float, egos: Mapping[str, EgoTrack], out: Outbox) -> None:
         self.stats.ticks += 1
         now = egos_at(t, egos, self._spec.collisions.max_extrapolation_s)
-        placements = [e.placement() for e in now]
+        placements = now.placements()
         self._advance(t, placements)
         self._triggers.tick(t, t - (self._offset_s or 0.0), now, self._engine.npcs(), out)
         actors = build_actors(now, self._engine.npcs(), self._spec.collisions)

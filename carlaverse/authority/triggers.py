@@ -14,13 +14,13 @@ from __future__ import annotations
 
 import logging
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from carlaverse.analysis.footprints import time_to_contact
-from carlaverse.authority.actors import EgoNow
+from carlaverse.authority.actors import EgoColumns, EgoNow
 from carlaverse.authority.domain import Outbox
 from carlaverse.authority.weather import WeatherPublisher
 from carlaverse.expr import compile_condition
@@ -59,14 +59,19 @@ class Body:
 class World:
     """Who is where this tick, looked up by id (egos and NPCs alike)."""
 
-    def __init__(self, egos: list[EgoNow], frame: NpcFrame) -> None:
-        self._egos = {e.node_id: e for e in egos}
+    def __init__(self, egos: Sequence[EgoNow], frame: NpcFrame) -> None:
+        self._egos = egos
         self._frame = frame
+        # Built on the first look-up: a scenario without triggers pays nothing per ego.
+        self._ego_index: dict[str, int] | None = None
         self._npc_index: dict[str, int] | None = None
 
     def body(self, actor: str) -> Body | None:
-        ego = self._egos.get(actor)
-        if ego is not None:
+        if self._ego_index is None:
+            self._ego_index = {e: i for i, e in enumerate(EgoColumns.of(self._egos).ids)}
+        k = self._ego_index.get(actor)
+        if k is not None:
+            ego = self._egos[k]
             return Body(ego.x, ego.y, ego.yaw, ego.vx, ego.vy, ego.length, ego.width)
         if self._npc_index is None:
             self._npc_index = {npc: i for i, npc in enumerate(self._frame.ids)}
@@ -146,7 +151,7 @@ class TriggerRunner:
         self.fired = 0
 
     def tick(
-        self, t: float, scenario_s: float, egos: list[EgoNow], frame: NpcFrame, out: Outbox
+        self, t: float, scenario_s: float, egos: Sequence[EgoNow], frame: NpcFrame, out: Outbox
     ) -> None:
         world = World(egos, frame)
         counts = {f"fired_{tr.spec.id}": float(tr.fired) for tr in self._triggers}

@@ -40,6 +40,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+import scale_profile
 from benchdoc import RunInfo, command_line, write_section
 
 SESSION = "scale"
@@ -286,7 +287,8 @@ def _py_spy(pid: int, seconds: float, out: Path) -> subprocess.Popen | None:
         print("--profile needs py-spy: pip install py-spy", file=sys.stderr)
         return None
     cmd = ["py-spy", "record", "--pid", str(pid), "--duration", str(int(seconds)), "--format",
-           "raw", "--output", str(out), "--nonblocking"]  # fmt: skip
+           "raw", "--output", str(out), "--nonblocking",
+           "--rate", str(scale_profile.SAMPLE_RATE_HZ)]  # fmt: skip
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
@@ -419,15 +421,36 @@ def section(runs: dict[int, dict[str, Any]], base: dict[str, Any], profile: str)
     return "\n".join(parts)
 
 
-def profile_text(raw: Path, egos: int) -> str:
+def profile_text(raw: Path, egos: int, seconds: float, before: dict | None) -> str:
     if not raw.exists():
         return ""
+    shares = scale_profile.split(raw, seconds)
     rows = ["| function (file:line) | share of samples |", "|---|---|"]
     rows += [f"| `{frame}` | {share:.0%} |" for frame, share in top_functions(raw)]
-    return (
-        f"Where the authority's time went at N = {egos} (py-spy, inclusive; all threads: "
-        "the tick and Zenoh's callbacks):\n\n" + "\n".join(rows)
+    compared = (
+        f" beside the same split recorded by this script before ({before['label']}, "
+        f"N = {before['egos']})"
+        if before
+        else ""
     )
+    return (
+        f"Where the authority's time went at N = {egos} (py-spy at "
+        f"{scale_profile.SAMPLE_RATE_HZ} Hz, all threads: the tick and Zenoh's), split into the "
+        f"parts of its work as shares of one core{compared}:\n\n"
+        + scale_profile.table(shares, before)
+        + "\n\nTop functions (inclusive, share of samples):\n\n"
+        + "\n".join(rows)
+    )
+
+
+def _profile(raw: Path, egos: int, args: argparse.Namespace) -> str:
+    """The profile's text; saves its split when asked (the 'before' of a later run)."""
+    before = json.loads(args.profile_before.read_text()) if args.profile_before else None
+    if raw.exists() and args.profile_out:
+        shares = scale_profile.split(raw, args.seconds)
+        scale_profile.save(shares, egos, args.profile_label, args.profile_out)
+        shutil.copyfile(raw, args.profile_out.with_suffix(".raw.txt"))  # for a closer look
+    return profile_text(raw, egos, args.seconds, before)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -437,6 +460,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=15.0)
     parser.add_argument("--fill", type=float, default=FILL_S, help="seconds for NPCs to insert")
     parser.add_argument("--profile", action="store_true", help="py-spy the authority")
+    parser.add_argument("--profile-out", type=Path, help="save the largest N's split (JSON)")
+    parser.add_argument("--profile-label", default="", help="what the saved split measured")
+    parser.add_argument("--profile-before", type=Path, help="a saved split to compare with")
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md")
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
@@ -449,7 +475,7 @@ def main(argv: list[str] | None = None) -> int:
                 raw = Path(tmp) / f"spy-{n}.txt"
                 runs[n] = bench.run_swarm(n, raw if args.profile and n == max(args.egos) else None)
                 print(json.dumps({n: runs[n]}, default=str), file=sys.stderr)
-            profile = profile_text(Path(tmp) / f"spy-{max(args.egos)}.txt", max(args.egos))
+            profile = _profile(Path(tmp) / f"spy-{max(args.egos)}.txt", max(args.egos), args)
         finally:
             bench.close()
     body = section(runs, base, profile)

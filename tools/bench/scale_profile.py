@@ -1,0 +1,106 @@
+"""Where the authority's time goes: a py-spy recording split into the parts of its work.
+
+`bench_scale.py --profile` records the authority with py-spy (raw format: one line per
+distinct stack, `frame;frame;…;frame count`, root first, a frame being
+`function (file:line)`). Each stack is given to the first part whose function it finds,
+walking from the leaf towards the root, so SUMO's own step inside `SumoEngine.step` counts
+as SUMO's, and the rest of `SumoEngine.step` as ours. Shares are of one core: samples over
+(rate × seconds), so parts add up to the process's CPU, all threads together.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+SAMPLE_RATE_HZ = 100  # py-spy's --rate, set explicitly by the benchmark
+
+# (part, [(function name, file name)]): a frame matches when both match.
+PARTS: list[tuple[str, list[tuple[str, str]]]] = [
+    ("SUMO's own step (libsumo simulationStep)", [("simulationStep", ""), ("step", "libsumo.py")]),
+    ("NPC read-back from SUMO", [("read", "sumo_reader.py")]),
+    ("NPC demand top-up", [("_top_up", "sumo_engine.py")]),
+    ("egos carried in SUMO (moveToXY)", [("place", "sumo_egos.py"), ("place_egos", "")]),
+    ("pose intake (callback, decode, roster)",
+     [("_on_pose", "service.py"), ("_apply_poses", "service.py"), ("drain", "pose_intake.py")]),
+    ("egos dead-reckoned to the tick", [("egos_at", "actors.py"), ("ego_columns", "actors.py")]),
+    ("collision matrix", [("build_actors", "actors.py"), ("step", "collisions.py")]),
+    ("triggers", [("tick", "triggers.py")]),
+    ("audio scenes", [("tick", "sound_publisher.py")]),
+    ("NPC batches, lights, weather", [("_publish_world", "traffic_domain.py")]),
+    ("rest of the tick", [("tick", "service.py")]),
+    ("queries and presence (callbacks)",
+     [("_on_join", ""), ("_on_clock", ""), ("_on_presence", ""), ("_on_state", ""),
+      ("_on_snapshot", ""), ("_on_leave", "")]),
+]  # fmt: skip
+OTHER = "other (interpreter, Zenoh threads, idle loop)"
+
+
+def _frame_parts(frame: str) -> tuple[str, str]:
+    """(function, file name) of a py-spy frame `Class.function (path/file.py:line)`."""
+    name, _, where = frame.partition(" (")
+    return name.rsplit(".", 1)[-1], where.rsplit(":", 1)[0].rsplit("/", 1)[-1]
+
+
+def part_of(stack: list[str]) -> str:
+    for frame in reversed(stack):
+        name, file = _frame_parts(frame)
+        for part, patterns in PARTS:
+            if any(name == n and (not f or file == f) for n, f in patterns):
+                return part
+    return OTHER
+
+
+def split(raw: Path, seconds: float) -> dict[str, float]:
+    """Share of one core per part (0.25 = a quarter of a core), largest first."""
+    samples: dict[str, int] = {}
+    for line in raw.read_text().splitlines():
+        stack, _, count = line.rpartition(" ")
+        if not stack or not count.isdigit():
+            continue
+        part = part_of(stack.split(";"))
+        samples[part] = samples.get(part, 0) + int(count)
+    total = SAMPLE_RATE_HZ * seconds
+    return dict(sorted(((p, n / total) for p, n in samples.items()), key=lambda kv: -kv[1]))
+
+
+def save(shares: dict[str, float], egos: int, label: str, out: Path) -> None:
+    out.write_text(json.dumps({"egos": egos, "label": label, "shares": shares}, indent=1))
+
+
+def table(after: dict[str, float], before: dict | None) -> str:
+    """Markdown: share of a core per part, this run beside a recorded earlier one."""
+    if before is None:
+        rows = ["| part of the authority's work | share of one core |", "|---|---|"]
+        rows += [f"| {part} | {share:.1%} |" for part, share in after.items()]
+        return "\n".join(rows)
+    old = before["shares"]
+    rows = [
+        f"| part of the authority's work | before ({before['label']}) | after (this run) |",
+        "|---|---|---|",
+    ]
+    for part in list(dict.fromkeys([*old, *after])):
+        rows.append(f"| {part} | {old.get(part, 0.0):.1%} | {after.get(part, 0.0):.1%} |")
+    rows.append(f"| total | {sum(old.values()):.1%} | {sum(after.values()):.1%} |")
+    return "\n".join(rows)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Split a raw recording again (e.g. after a new part was named) and save it."""
+    import argparse
+
+    parser = argparse.ArgumentParser(description=main.__doc__)
+    parser.add_argument("raw", type=Path)
+    parser.add_argument("--seconds", type=float, required=True, help="the recording's length")
+    parser.add_argument("--egos", type=int, required=True)
+    parser.add_argument("--label", required=True)
+    parser.add_argument("--out", type=Path, required=True)
+    args = parser.parse_args(argv)
+    shares = split(args.raw, args.seconds)
+    save(shares, args.egos, args.label, args.out)
+    print(table(shares, None))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
