@@ -40,6 +40,9 @@ class ZenohOutbox:
         self._events = session.declare_publisher(
             keys.world("events"), priority=zenoh.Priority.INTERACTIVE_HIGH, **reliable
         )
+        # One declared publisher per listener: a put on a declared key skips resolving the
+        # key expression, which was most of a scene's cost with hundreds of listeners.
+        self._audio: dict[str, zenoh.Publisher] = {}
 
     def next_seq(self) -> int:
         return next(self._seq)
@@ -75,11 +78,17 @@ class ZenohOutbox:
         self._count("impulse")
 
     def audio(self, node_id: str, scene: m.AudioScene) -> None:
-        # Best effort like NPC batches: the next scene, one audio period later, supersedes it.
-        self._session.put(
-            self._keys.audio(node_id),
-            m.AUDIO_SCENE.encode(scene),
-            congestion_control=zenoh.CongestionControl.DROP,
-            timestamp=self._session.new_timestamp(),
-        )
+        publisher = self._audio.get(node_id)
+        if publisher is None:
+            # Best effort like NPC batches: the next scene, one audio period later, supersedes it.
+            publisher = self._audio[node_id] = self._session.declare_publisher(
+                self._keys.audio(node_id), congestion_control=zenoh.CongestionControl.DROP
+            )
+        publisher.put(m.AUDIO_SCENE.encode(scene), timestamp=self._session.new_timestamp())
         self._count("audio")
+
+    def forget(self, node_id: str) -> None:
+        """A node left: drop what was declared for it."""
+        publisher = self._audio.pop(node_id, None)
+        if publisher is not None:
+            publisher.undeclare()

@@ -193,6 +193,7 @@ class Authority:
         del self.despawned[:-DESPAWN_LOG]
         log.info("despawn %s (%s)", node_id, reason)
         self.domain.ego_left(node_id)
+        self.outbox.forget(node_id)
         self.outbox.event(m.Despawned(self.outbox.next_seq(), t, node_id, reason))
 
     # ------------------------------------------------------------ subscriptions

@@ -80,8 +80,11 @@ def _loudest_shared(
         return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp), np.zeros(0)
     # |e − p|² = |e|² + |p|² − 2 e·p: one matrix product instead of three broadcasts
     pos = sources.pos
-    d2 = (ears * ears).sum(1)[:, None] + (pos * pos).sum(1)[None, :] - 2.0 * ears @ pos.T  # [m²]
-    quietness = np.maximum(d2, MIN_DISTANCE_M**2) * np.power(10.0, -sources.level_db / 10.0)
+    # (in place: the matrix is listeners × sources, hundreds by thousands)
+    quietness = np.add.outer((ears * ears).sum(1), (pos * pos).sum(1))
+    quietness -= 2.0 * ears @ pos.T  # [m²]
+    np.maximum(quietness, MIN_DISTANCE_M**2, out=quietness)
+    quietness *= np.power(10.0, -sources.level_db / 10.0)
     on_a_listener = (sources.owner >= 0) & (sources.owner < len(ears))
     quietness[sources.owner[on_a_listener], np.flatnonzero(on_a_listener)] = np.inf
     if cap < n:

@@ -45,6 +45,10 @@ class EgoCarrier:
         self._carried: dict[str, bool] = {}  # node id -> is a person
         self._retry_at: dict[str, float] = {}  # node id -> engine time of the next attempt [s]
         self.failures = 0
+        # The compiled call behind `vehicle.moveToXY` (its Python wrapper only forwards): a
+        # frame less per ego and tick, hundreds of times a tick with a swarm.
+        raw = getattr(ls, "_libsumo", None)
+        self._move_vehicle = getattr(raw, "vehicle_moveToXY", None) or ls.vehicle.moveToXY
 
     @property
     def carrying(self) -> bool:
@@ -127,7 +131,7 @@ class EgoCarrier:
         half = ego.length / 2.0
         front_x = ego.x + half * math.cos(ego.yaw)
         front_y = ego.y + half * math.sin(ego.yaw)
-        self._ls.vehicle.moveToXY(
+        self._move_vehicle(
             sid, "", -1, front_x, front_y, angle, KEEP_ROUTE_ANYWHERE, self._radius_m
         )
 
