@@ -83,10 +83,13 @@ class Pose(msgspec.Struct, frozen=True, array_like=True):
     flags: int = 0
 
 
-def encode_pose(p: Pose) -> bytes:
+def encode_pose(p: Pose, seq: int | None = None) -> bytes:
+    """The 64-byte wire form of `p`, with `seq` instead of `p.seq` when given (a publisher
+    numbering its samples saves building a second Pose)."""
+    seq = p.seq if seq is None else seq
     try:
         return POSE_LAYOUT.pack(
-            POSE_LAYOUT_VERSION, p.flags, 0, p.seq & 0xFFFFFFFF, p.t,
+            POSE_LAYOUT_VERSION, p.flags, 0, seq & 0xFFFFFFFF, p.t,
             p.x, p.y, p.z, p.roll, p.pitch, p.yaw, p.vx, p.vy, p.vz,
             p.wx, p.wy, p.wz, p.ax, p.ay, p.az,
         )  # fmt: skip

@@ -214,9 +214,7 @@ class NodeClient:
         if not self.admitted.is_set():
             return False
         self._seq += 1
-        self._pose_pub.put(
-            m.encode_pose(msgspec.structs.replace(pose, seq=self._seq)), pose.x, pose.y
-        )
+        self._pose_pub.put(m.encode_pose(pose, self._seq), pose.x, pose.y)
         self.poses_sent += 1
         if self.interest is not None and self.interest.moved_to(pose.x, pose.y):
             self._interest_due.set()  # re-subscribing waits on Zenoh: not in this thread

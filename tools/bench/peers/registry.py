@@ -11,6 +11,7 @@ TRANSPORTS = {
     "pose-ll": ("peers.pose_path", "PosePathLowLatency"),
     "zenoh": ("peers.zenoh_bare", "BareZenoh"),
     "zenoh-direct": ("peers.zenoh_bare", "BareZenohDirect"),
+    "zenoh-ll": ("peers.zenoh_bare", "BareZenohLowLatency"),
     "zenoh-pose-options": ("peers.zenoh_bare", "BareZenohPoseOptions"),
     "pose-no-loop": ("peers.pose_path", "PosePathNoNodeLoop"),
     "dds": ("peers.dds", "CycloneDds"),
@@ -19,7 +20,7 @@ TRANSPORTS = {
     "udp": ("peers.udp", "Udp"),
 }
 # The comparison the issue asks for, and variants that take the pose path apart (--diagnose).
-COMPARED = ("pose", "pose-ll", "zenoh", "dds", "zmq", "mqtt", "udp")
+COMPARED = ("pose", "pose-ll", "zenoh", "zenoh-ll", "dds", "zmq", "mqtt", "udp")
 DIAGNOSTIC = ("pose", "zenoh", "zenoh-direct", "zenoh-pose-options", "pose-no-loop")
 REFERENCE = "pose"  # the path every other one is compared with
 LOW_LATENCY = "pose-ll"  # the same path in the fabric's low-latency configuration

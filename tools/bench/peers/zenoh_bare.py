@@ -34,23 +34,30 @@ def zenoh_router(plan: Plan, lowlatency: bool = False) -> ChildProcess:
     return ChildProcess("zenoh router", run_router, router_endpoint(plan), lowlatency)
 
 
-def _open_peer(plan: Plan) -> Any:
+def _open_peer(plan: Plan, lowlatency: bool = False) -> Any:
     import zenoh
 
-    config = zenoh.Config()
-    for path, value in {
+    from carlaverse.fabric.session import LOWLATENCY_AUTOCONNECT
+
+    entries: dict[str, Any] = {
         "mode": "peer",
         "connect/endpoints": [router_endpoint(plan)],
         "listen/endpoints": ["tcp/127.0.0.1:0"],
         "scouting/multicast/enabled": False,
-    }.items():
+    }
+    if lowlatency:  # Zenoh's low-latency transport, as the fabric's `lowlatency` sets it
+        entries["transport/unicast/lowlatency"] = True
+        entries["transport/unicast/qos/enabled"] = False
+        entries["scouting/gossip/autoconnect_strategy"] = LOWLATENCY_AUTOCONNECT
+    config = zenoh.Config()
+    for path, value in entries.items():
         config.insert_json5(path, json.dumps(value))
     return zenoh.open(config)
 
 
 class ZenohSender:
-    def __init__(self, plan: Plan, options: dict[str, Any]) -> None:
-        self._session = _open_peer(plan)
+    def __init__(self, plan: Plan, options: dict[str, Any], lowlatency: bool = False) -> None:
+        self._session = _open_peer(plan, lowlatency)
         self._publisher = self._session.declare_publisher(KEY, **options)
 
     def send(self, pose: Pose) -> None:
@@ -62,10 +69,10 @@ class ZenohSender:
 
 
 class ZenohReceiver(NoPoll):
-    def __init__(self, plan: Plan, deliver: Deliver, indirect: bool) -> None:
+    def __init__(self, plan: Plan, deliver: Deliver, indirect: bool, lowlatency: bool) -> None:
         import zenoh
 
-        self._session = _open_peer(plan)
+        self._session = _open_peer(plan, lowlatency)
 
         def on_sample(sample: zenoh.Sample) -> None:
             deliver.payload(sample.payload.to_bytes())
@@ -84,19 +91,20 @@ class BareZenoh(Transport):
     # zenoh-python runs a callback on a Python thread of its own by default (`indirect`): the
     # network thread hands each sample over. `False` runs it on the network thread itself.
     indirect = True
+    lowlatency = False  # Zenoh's low-latency transport in every process of the run
 
     def infrastructure(self, plan: Plan) -> list[ChildProcess]:
-        return [zenoh_router(plan)]
+        return [zenoh_router(plan, self.lowlatency)]
 
     def publisher_options(self) -> dict[str, Any]:
         """`declare_publisher` options: Zenoh's defaults."""
         return {}
 
     def open_sender(self, plan: Plan) -> ZenohSender:
-        return ZenohSender(plan, self.publisher_options())
+        return ZenohSender(plan, self.publisher_options(), self.lowlatency)
 
     def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> ZenohReceiver:
-        return ZenohReceiver(plan, deliver, self.indirect)
+        return ZenohReceiver(plan, deliver, self.indirect, self.lowlatency)
 
 
 class BareZenohDirect(BareZenoh):
@@ -104,6 +112,15 @@ class BareZenohDirect(BareZenoh):
 
     label = "bare Zenoh, direct callback"
     indirect = False
+
+
+class BareZenohLowLatency(BareZenoh):
+    """Bare Zenoh in the pose path's low-latency set-up: the low-latency transport in every
+    process and the callback on the network thread (the floor under 'pose path, lowlatency')."""
+
+    label = "bare Zenoh, lowlatency, direct callback"
+    indirect = False
+    lowlatency = True
 
 
 class BareZenohPoseOptions(BareZenoh):
