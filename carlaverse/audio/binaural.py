@@ -51,8 +51,8 @@ class Binaural:
     def silent(self, n: int, bins: int) -> np.ndarray:
         return np.zeros((n, 2, bins), dtype=np.complex64)
 
-    def take(self, weights: np.ndarray, sel: np.ndarray) -> np.ndarray:
-        return weights.take(sel, axis=0)
+    def take(self, weights: np.ndarray, sel: np.ndarray | slice) -> np.ndarray:
+        return weights[sel]
 
     def finish(self, block: np.ndarray) -> np.ndarray:
         """The rendered block (2 × samples) as it is: headphones have no filtered channel."""

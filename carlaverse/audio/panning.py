@@ -146,7 +146,7 @@ class Panned:
         return PannedWeights(np.zeros((n, bins), dtype=np.complex64),
                              np.zeros((n, self.channels), dtype=np.float32))  # fmt: skip
 
-    def take(self, weights: PannedWeights, sel: np.ndarray) -> PannedWeights:
+    def take(self, weights: PannedWeights, sel: np.ndarray | slice) -> PannedWeights:
         return PannedWeights(weights.response[sel], weights.gains[sel])
 
     def mix(self, spectra: np.ndarray, weights: PannedWeights) -> np.ndarray:

@@ -52,7 +52,7 @@ class Spatialiser(Protocol):
 
     def silent(self, n: int, bins: int) -> object: ...
 
-    def take(self, weights: object, sel: np.ndarray) -> object: ...
+    def take(self, weights: object, sel: np.ndarray | slice) -> object: ...
 
     def mix(self, spectra: np.ndarray, weights: object) -> np.ndarray: ...
 
@@ -150,7 +150,7 @@ class Renderer:
         self.tau_s[live] = tau
         heard = self._heard(live, relative - velocity * tau[:, None], tau)
         spectra = self.convolver.spectra(live, delayed)
-        old = self.spatial.take(self.weights, live)
+        old = self.spatial.take(self.weights, _rows(live))
         mixed = np.stack([self.spatial.mix(spectra, old), self.spatial.mix(spectra, heard.weights)])
         old, new = self.convolver.blocks(mixed)
         self._keep(heard)
@@ -171,13 +171,22 @@ class Renderer:
 
     def _keep(self, heard: Heard) -> None:
         """This block's parameters become the next block's old ones; faded slots free."""
-        _assign(self.weights, heard.slots, heard.weights)
+        _assign(self.weights, _rows(heard.slots), heard.weights)
         faded = heard.slots[self.slots.state[heard.slots] == FADING]
         if faded.size:
             self.slots.release(faded)
 
 
-def _assign(state: object, slots: np.ndarray, new: object) -> None:
+def _rows(slots: np.ndarray) -> np.ndarray | slice:
+    """Sorted slots as a slice when they are consecutive (the usual case: slots are taken
+    from the lowest free), so per-slot state is read as a view and written without a
+    gather; else the slots themselves."""
+    if slots.size and slots[-1] - slots[0] + 1 == slots.size:
+        return slice(int(slots[0]), int(slots[-1]) + 1)
+    return slots
+
+
+def _assign(state: object, slots: np.ndarray | slice, new: object) -> None:
     """Store per-emitter spatialiser state (an array, or a dataclass of arrays) at slots."""
     if isinstance(state, np.ndarray):
         state[slots] = new

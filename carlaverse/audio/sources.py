@@ -102,9 +102,9 @@ class SourceBank:
         block's start and end; the tones of all engines and sirens are then read in one go,
         and so is the noise of all emitters."""
         n = len(slots)
-        tone = np.zeros((n, self.block), dtype=np.float32)
         gains0, gains1 = np.zeros((n, NOISE_BANDS)), np.zeros((n, NOISE_BANDS))
         voices: list[tuple[np.ndarray, Voice]] = []
+        samples: list[tuple[np.ndarray, np.ndarray]] = []
         ambient = self._ambient.codes[kinds] >= 0
         for code in np.flatnonzero(np.bincount(kinds[~ambient], minlength=len(v.KINDS))):
             sel = np.flatnonzero(kinds == code)
@@ -113,28 +113,31 @@ class SourceBank:
             if isinstance(part, Voice):
                 voices.append((sel, part))
             elif part is not None:
-                tone[sel] = part
-        if voices:
-            self._voice(slots, voices, tone)
+                samples.append((sel, part))
         if ambient.any():
             sel = np.flatnonzero(ambient)
             gains0[sel], gains1[sel] = self._ambience(slots[sel], drive.a1[sel], kinds[sel])
-        out = tone + self.noise.read(self.offset[slots], gains0, gains1, self.block)
+        out = self.noise.read(self.offset[slots], gains0, gains1, self.block)
+        if voices:
+            samples.append(self._voice(slots, voices))
+        for sel, part in samples:
+            out[sel] += part
         self.offset[slots] = (self.offset[slots] + self.block) % self.noise.samples
         self.clock_s[slots] += self.block / self.rate
         return out
 
     # ------------------------------------------------------------------ tones
 
-    def _voice(self, slots: np.ndarray, voices: list[tuple[np.ndarray, Voice]],
-               tone: np.ndarray) -> None:  # fmt: skip
-        """Every tonal emitter's block, in one table lookup, into its rows of `tone`."""
+    def _voice(
+        self, slots: np.ndarray, voices: list[tuple[np.ndarray, Voice]]
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Every tonal emitter's block, in one table lookup: (rows, E × block samples)."""
         sel = np.concatenate([s for s, _ in voices])
         part = {name: np.concatenate([getattr(voice, name) for _, voice in voices])
                 for name in Voice.__dataclass_fields__}  # fmt: skip
         phase = self._tone_phase(slots[sel], part["hz0"], part["hz1"])
         amplitude = part["amplitude"].astype(np.float32)[:, None]
-        tone[sel] = self.tables.tone(phase, part["row"], part["frac"]) * amplitude
+        return sel, self.tables.tone(phase, part["row"], part["frac"]) * amplitude
 
     def _tone_phase(self, slots: np.ndarray, hz0: np.ndarray, hz1: np.ndarray) -> np.ndarray:
         """Running phase (E × block) [rad, from the carried phase in 0..4π on, unwrapped: the
@@ -167,11 +170,11 @@ class SourceBank:
     def _siren(self, slots: np.ndarray, d: Drive) -> Generated:
         """wail / yelp: a triangle sweep; hi-lo: two alternating tones (each glides into the
         other over one block, as a real two-tone horn does)."""
+        n = len(slots)
         t0 = self.clock_s[slots]
         pattern = np.rint(d.a1).astype(int)
-        hz0 = _siren_hz(t0, pattern)
-        hz1 = _siren_hz(t0 + self.block / self.rate, pattern)
-        n = len(slots)
+        hz = _siren_hz(np.concatenate([t0, t0 + self.block / self.rate]), np.tile(pattern, 2))
+        hz0, hz1 = hz[:n], hz[n:]
         silent = np.zeros((n, NOISE_BANDS))
         row = np.full(n, SIREN_ROW)
         return Voice(hz0, hz1, row, np.zeros(n), np.ones(n)), silent, silent
@@ -203,7 +206,7 @@ class SourceBank:
     def _construction(self, slots: np.ndarray, d: Drive) -> Generated:
         """Hammer blows at random intervals (more with intensity) over a machine rumble."""
         where = self._blows(slots, v.BLOWS_HZ[0] + (v.BLOWS_HZ[1] - v.BLOWS_HZ[0]) * d.a1)
-        rumble = np.tile(0.3 * self._bands["rumble"], (len(slots), 1))
+        rumble = np.broadcast_to(0.3 * self._bands["rumble"], (len(slots), NOISE_BANDS))
         return self._blow_table.take(where), rumble, rumble
 
     def _make_blows(self) -> np.ndarray:
