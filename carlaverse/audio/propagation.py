@@ -56,11 +56,12 @@ class DelayLines:
         self.written += self.block
         # Clipping the ends clips the whole ramp: it is linear in between.
         d0, d1 = (np.clip(d * self.rate, 1.0, self.max_delay_samples) for d in (delay0_s, delay1_s))
-        delay = np.outer(d1 - d0, self._ramp)
-        delay += d0[:, None]  # [samples]
-        # Positions relative to the ring's start, made positive (a whole number of rings
-        # on, which & mask removes); truncation then is the floor.
-        position = (self._offsets + float((start & (self.length - 1)) + self.length)) - delay
+        # Read positions relative to the ring's start, made positive (a whole number of
+        # rings on, which & mask removes) so that truncation is the floor: the sample's
+        # offset in the block less its delay d0 + (d1 − d0)·ramp [samples].
+        position = np.outer(d0 - d1, self._ramp)
+        position += self._offsets + float((start & (self.length - 1)) + self.length)
+        position -= d0[:, None]
         whole = position.astype(np.int64)
         frac = (position - whole).astype(np.float32)
         whole &= self.length - 1

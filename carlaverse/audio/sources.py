@@ -83,7 +83,10 @@ class SourceBank:
         self._sample_index = np.arange(block)
         self._tyre_dry_shifted = np.roll(v.TYRE_DRY, 1)  # one octave up
         n = np.arange(1, block + 1, dtype=np.float32)
-        self._phase_steps = (n, (n * (n + 1) / (2 * block)).astype(np.float32))
+        # Per sample: its index, the ramp's running sum, 1 (for the carried phase).
+        self._phase_basis = np.stack([n, n * (n + 1) / (2 * block), np.ones(block)]).astype(
+            np.float32
+        )
 
     def reset(self, slots: np.ndarray) -> None:
         """Fresh state for emitters that just appeared."""
@@ -142,13 +145,11 @@ class SourceBank:
     def _tone_phase(self, slots: np.ndarray, hz0: np.ndarray, hz1: np.ndarray) -> np.ndarray:
         """Running phase (E × block) [rad, from the carried phase in 0..4π on, unwrapped: the
         table lookup wraps it] of a frequency ramped from hz0 to hz1 (E,) over the block:
-        the sum of the ramp in closed form, no cumulative sum."""
-        n, rise = self._phase_steps
-        step = np.float32(TWO_PI / self.rate)
-        start = ((hz0 * step).astype(np.float32), ((hz1 - hz0) * step).astype(np.float32))
-        phase = np.outer(start[0], n)
-        phase += np.outer(start[1], rise)
-        phase += self.phase[slots, None].astype(np.float32)
+        the sum of the ramp in closed form, no cumulative sum: one matrix product of each
+        emitter's (step, step change, carried phase) with the per-sample basis."""
+        step = TWO_PI / self.rate
+        terms = np.stack([hz0 * step, (hz1 - hz0) * step, self.phase[slots]], axis=1)
+        phase = terms.astype(np.float32) @ self._phase_basis
         # The block's end in double precision: the phase carried on never drifts.
         end = self.phase[slots] + TWO_PI / self.rate * (
             hz0 * self.block + (hz1 - hz0) * (self.block + 1) / 2
