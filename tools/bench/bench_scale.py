@@ -42,6 +42,7 @@ from typing import Any
 
 import scale_profile
 from benchdoc import RunInfo, command_line, write_section
+from peers.profile import py_spy
 
 SESSION = "scale"
 GRID_JUNCTIONS = 8  # per side (a larger generated town takes minutes to build its scenery)
@@ -283,10 +284,11 @@ class Bench:
 
 
 def _py_spy(pid: int, seconds: float, out: Path) -> subprocess.Popen | None:
-    if shutil.which("py-spy") is None:
+    program = py_spy()
+    if program is None:
         print("--profile needs py-spy: pip install py-spy", file=sys.stderr)
         return None
-    cmd = ["py-spy", "record", "--pid", str(pid), "--duration", str(int(seconds)), "--format",
+    cmd = [program, "record", "--pid", str(pid), "--duration", str(int(seconds)), "--format",
            "raw", "--output", str(out), "--nonblocking",
            "--rate", str(scale_profile.SAMPLE_RATE_HZ)]  # fmt: skip
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
