@@ -42,7 +42,7 @@ from carlaverse.messages import (
     SpawnPoint,
     Weather,
 )
-from carlaverse.traffic.engine import EgoPlacement, TrafficEngine
+from carlaverse.traffic.engine import EgoPlacement, NpcFrame, TrafficEngine
 from carlaverse.traffic.scenario import Scenario, Session, load_scenario
 from carlaverse.traffic.spawns import SpawnAllocator
 
@@ -116,12 +116,14 @@ class TrafficDomain:
         now = egos_at(t, egos, self._spec.collisions.max_extrapolation_s)
         placements = now.placements()
         self._advance(t, placements)
-        self._triggers.tick(t, t - (self._offset_s or 0.0), now, self._engine.npcs(), out)
-        actors = build_actors(now, self._engine.npcs(), self._spec.collisions)
+        scenario_s = t - (self._offset_s or 0.0)
+        npcs = self._engine.npcs().at(scenario_s)  # the engine may step less often than we tick
+        self._triggers.tick(t, scenario_s, now, npcs, out)
+        actors = build_actors(now, npcs, self._spec.collisions)
         self._publish_contacts(t, self._collisions.step(t, actors, out.next_seq), out)
         self._remove_hit_npcs(t)
-        self._publish_world(t, out)
-        self._sound.tick(t, now, self._engine.npcs(), self._weather.latest, out)
+        self._publish_world(t, npcs, out)
+        self._sound.tick(t, now, npcs, self._weather.latest, out)
 
     def snapshot_parts(self) -> tuple[NpcBatch | None, LightsState | None, Weather | None]:
         return self._npc_batch, self._lights.current, self._weather.latest
@@ -145,10 +147,11 @@ class TrafficDomain:
     # ------------------------------------------------------------------ one tick
 
     def _advance(self, t: float, placements: list[EgoPlacement]) -> None:
-        """Step the engine to session time t; after a stall, catch up a little, drop the rest."""
+        """Step the engine to the step nearest session time t (the frame is dead-reckoned the
+        rest of the way); after a stall, catch up a little, drop the rest."""
         engine, step = self._engine, self._engine.step_length_s
-        if self._offset_s is None:
-            self._offset_s = t - engine.time_s - step
+        if self._offset_s is None:  # scenario time starts at 0 with the first tick
+            self._offset_s = t - engine.time_s
         target = t - self._offset_s
         for _ in range(self._spec.session.max_catch_up_steps):
             if engine.time_s + step / 2 > target:
@@ -180,11 +183,10 @@ class TrafficDomain:
             del self._removals[npc_id]
             self.stats.npcs_removed += 1
 
-    def _publish_world(self, t: float, out: Outbox) -> None:
+    def _publish_world(self, t: float, frame: NpcFrame, out: Outbox) -> None:
         if t >= self._next_npc_t:
             period = 1.0 / self._spec.session.npc_rate_hz
             self._next_npc_t = max(self._next_npc_t + period, t + period / 2)
-            frame = self._engine.npcs()
             self._npc_batch = NpcBatch.pack(out.next_seq(), t, frame.ids, frame.rows)
             out.npc(self._npc_batch)
         lights = self._lights.tick(t, out.next_seq)

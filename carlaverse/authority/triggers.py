@@ -147,7 +147,6 @@ class TriggerRunner:
         self._engine = engine
         self._weather = weather
         self._arrivals: dict[str, ts.Arrival] = {}  # NPC id -> its timed arrival
-        self._last_t: float | None = None
         self.fired = 0
 
     def tick(
@@ -162,9 +161,9 @@ class TriggerRunner:
             trigger.held_before = holds
             if fresh and (trigger.fired == 0 or trigger.spec.repeat):
                 self._fire(trigger, values, t, out)
-        dt = 0.0 if self._last_t is None else t - self._last_t
-        self._last_t = t
-        self._steer(world, dt)
+        # A commanded speed holds from the engine's next step on, for one step: the step, not
+        # the tick, is the interval to plan over (the engine may step less often than we tick).
+        self._steer(world, self._engine.step_length_s)
 
     def _fire(self, trigger: Trigger, values: dict[str, float], t: float, out: Outbox) -> None:
         trigger.fired += 1

@@ -44,6 +44,20 @@ class NpcFrame:
     def __len__(self) -> int:
         return len(self.ids)
 
+    def at(self, t: float) -> NpcFrame:
+        """The frame dead-reckoned to engine time `t` (velocity and yaw rate held): the
+        engine may step more coarsely than the authority ticks, so between its steps the
+        collision matrix and the NPC batches see NPCs where they are now, not where the last
+        step left them."""
+        dt = t - self.t
+        if dt == 0.0 or not self.ids:
+            return self
+        rows = self.rows.copy()
+        rows["x"] += rows["vx"] * dt
+        rows["y"] += rows["vy"] * dt
+        rows["yaw"] = np.remainder(rows["yaw"] + rows["yaw_rate"] * dt + np.pi, 2 * np.pi) - np.pi
+        return NpcFrame(t, self.ids, rows)
+
 
 @dataclass(frozen=True, slots=True)
 class EgoPlacement:

@@ -3,6 +3,7 @@ dead reckoning of egos, and catching up with the session clock after a stall."""
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -14,6 +15,7 @@ from carlaverse.traffic.sumo_engine import EngineBusyError, SumoEngine, SumoSett
 from carlaverse.traffic.sumo_tools import import_libsumo
 from tests.traffic.helpers import (
     CROSSING_MAP,
+    FOLLOWER,
     T0,
     TICK_S,
     domain_of,
@@ -31,6 +33,7 @@ traffic:
   scripted_vehicles:
     - {id: parked, kind: truck, edges: [ZC], depart_pos_m: 10, stop: {edge: ZC, pos_m: 25}}
 """
+STEP_PER_TICK = PARKED + f"  step_length_s: {TICK_S}\n"  # SUMO steps once per authority tick
 
 
 def test_second_simulation_in_one_process_is_refused(tmp_path: Path, net_cache: Path) -> None:
@@ -69,17 +72,36 @@ def test_egos_are_dead_reckoned_to_the_tick_and_observers_have_no_body() -> None
 def test_after_a_stall_the_engine_catches_up_a_little_then_skips(
     tmp_path: Path, net_cache: Path
 ) -> None:
-    with domain_of(write_scenario(tmp_path, CROSSING_MAP + PARKED), net_cache) as domain:
+    with domain_of(write_scenario(tmp_path, CROSSING_MAP + STEP_PER_TICK), net_cache) as domain:
         out = MemoryOutbox()
-        t = run(domain, out, T0, 1.0)
-        assert domain.engine.time_s == pytest.approx(1.0)
-        domain.tick(t + 0.06, {}, out)  # two ticks late: catch up
-        assert domain.engine.time_s == pytest.approx(1.0 + 0.06 + TICK_S)
+        t = run(domain, out, T0, 1.0)  # ticks T0 .. T0 + 0.98: scenario time 0 .. 0.98
+        assert domain.engine.time_s == pytest.approx(1.0 - TICK_S)
+        domain.tick(t + 0.06, {}, out)  # 0.08 s after the last tick: catch up
+        assert domain.engine.time_s == pytest.approx(1.06)
         domain.tick(t + 2.0, {}, out)  # a 2 s stall: 5 steps, the rest is dropped
-        assert domain.engine.time_s == pytest.approx(1.08 + 5 * TICK_S)
+        assert domain.engine.time_s == pytest.approx(1.06 + 5 * TICK_S)
         assert domain.stats.dropped_s == pytest.approx(2.0 - 0.06 - 5 * TICK_S, abs=1e-6)
         domain.tick(t + 2.0 + TICK_S, {}, out)  # and from there on, one step per tick
-        assert domain.engine.time_s == pytest.approx(1.08 + 6 * TICK_S)
+        assert domain.engine.time_s == pytest.approx(1.06 + 6 * TICK_S)
+
+
+def test_between_coarse_steps_npcs_are_dead_reckoned_to_the_tick(
+    tmp_path: Path, net_cache: Path
+) -> None:
+    """SUMO steps every 0.1 s by default, the authority ticks at 50 Hz and sends NPC batches
+    at 20 Hz: every batch must show the NPC where it is at the batch's time, not where the
+    last step left it (two batches per step would otherwise repeat one position)."""
+    with domain_of(write_scenario(tmp_path, CROSSING_MAP + FOLLOWER), net_cache) as domain:
+        out = MemoryOutbox()
+        run(domain, out, T0, 4.0)
+        assert domain.engine.step_length_s == pytest.approx(0.1)
+        assert domain.stats.steps == pytest.approx(40, abs=1)  # 10 steps a second, not 50
+        moving = [(b.t, npc_row(b, "follower")) for b in out.npcs[-40:] if "follower" in b.ids]
+        assert len(moving) >= 30
+        for (t0, a), (t1, b) in itertools.pairwise(moving):
+            assert a["vx"] > 1.0  # it drives east along WZ
+            assert b["x"] - a["x"] == pytest.approx(a["vx"] * (t1 - t0), abs=0.05)
+            assert b["x"] != a["x"]
 
 
 def test_egos_off_the_network_do_not_break_the_tick(tmp_path: Path, net_cache: Path) -> None:
