@@ -16,6 +16,7 @@ import numpy as np
 
 from carlaverse.authority.actors import EgoColumns, EgoNow
 from carlaverse.authority.domain import Outbox
+from carlaverse.authority.scratch import Scratch
 from carlaverse.authority.sound_areas import ListenerAreas
 from carlaverse.authority.sound_audibility import audible
 from carlaverse.authority.sound_sources import ActorSounds, actor_columns
@@ -38,6 +39,7 @@ class SoundPublisher:
         self._actors = ActorSounds(spec.sirens)
         self._areas = ListenerAreas(areas if spec.map_ambience else [], spec.construction)
         self._next_t = -math.inf
+        self._scratch = Scratch()
         self.stats = SoundStats()
 
     def tick(
@@ -74,9 +76,11 @@ class SoundPublisher:
         on_actors = self._actors.sources(t, actor_columns(listeners, frame), wetness)
         ears = np.stack([listeners.x, listeners.y, listeners.z], axis=1).reshape(-1, 3)
         around = self._areas.sources(ears, weather, spec.threshold_db)
-        heard = audible(ears, on_actors, around, spec.threshold_db, spec.max_emitters)
-        chosen = heard.emitters()
+        heard = audible(
+            ears, on_actors, around, spec.threshold_db, spec.max_emitters, scratch=self._scratch
+        )
+        chosen = heard.emitters_by_listener()
         return [
-            AudioScene(next_seq() if next_seq else 0, t, node_id, chosen[heard.of(i)])
-            for i, node_id in enumerate(listeners.ids)
+            AudioScene(next_seq() if next_seq else 0, t, node_id, emitters)
+            for node_id, emitters in zip(listeners.ids, chosen, strict=True)
         ]
