@@ -8,7 +8,6 @@ tick time; a node without a pose (an observer) has no place to hear from.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -19,6 +18,7 @@ from carlaverse.authority.domain import Outbox
 from carlaverse.authority.scratch import Scratch
 from carlaverse.authority.sound_areas import ListenerAreas
 from carlaverse.authority.sound_audibility import audible
+from carlaverse.authority.sound_schedule import PhaseGroups
 from carlaverse.authority.sound_sources import ActorSounds, actor_columns
 from carlaverse.messages import AudioScene, MapArea, Weather
 from carlaverse.traffic.engine import NpcFrame
@@ -38,9 +38,14 @@ class SoundPublisher:
         self._spec = spec
         self._actors = ActorSounds(spec.sirens)
         self._areas = ListenerAreas(areas if spec.map_ambience else [], spec.construction)
-        self._next_t = -math.inf
+        self._groups = PhaseGroups(spec.rate_hz)
         self._scratch = Scratch()
         self.stats = SoundStats()
+
+    @property
+    def phase_groups(self) -> int:
+        """How many groups the listeners are dealt into (one group's scenes per tick)."""
+        return self._groups.groups
 
     def tick(
         self,
@@ -50,12 +55,14 @@ class SoundPublisher:
         weather: Weather | None,
         out: Outbox,
     ) -> None:
-        """Publish the scenes due at session time `t` [s]."""
-        if not self._spec.enabled or not egos or t < self._next_t:
+        """Publish the scenes due at session time `t` [s] (one phase group's at most)."""
+        if not self._spec.enabled or not egos:
             return
-        period = 1.0 / self._spec.rate_hz
-        self._next_t = max(self._next_t + period, t + period / 2)
-        for scene in self.scenes(t, egos, frame, weather, out.next_seq):
+        listeners = EgoColumns.of(egos)
+        due = self._groups.due(t, listeners.ids)
+        if not len(due):
+            return
+        for scene in self.scenes(t, listeners, frame, weather, out.next_seq, due):
             out.audio(scene.listener, scene)
             self.stats.scenes += 1
             self.stats.emitters += len(scene.emitters)
@@ -67,20 +74,23 @@ class SoundPublisher:
         frame: NpcFrame,
         weather: Weather | None,
         next_seq: Callable[[], int] | None = None,
+        only: np.ndarray | None = None,
     ) -> list[AudioScene]:
-        """One scene per ego: what it hears at `t`, loudest first, at most `max_emitters`."""
+        """One scene per ego (per ego at the indices `only`, if given): what it hears at `t`,
+        loudest first, at most `max_emitters`."""
         spec = self._spec
         wetness = weather.wetness if weather is not None else 0.0
         # Egos come first among the actors, so an ego's index is its sources' owner index.
         listeners = EgoColumns.of(egos)
+        chosen = np.arange(len(listeners)) if only is None else only
         on_actors = self._actors.sources(t, actor_columns(listeners, frame), wetness)
-        ears = np.stack([listeners.x, listeners.y, listeners.z], axis=1).reshape(-1, 3)
+        ears = np.stack([listeners.x, listeners.y, listeners.z], axis=1).reshape(-1, 3)[chosen]
         around = self._areas.sources(ears, weather, spec.threshold_db)
         heard = audible(
-            ears, on_actors, around, spec.threshold_db, spec.max_emitters, scratch=self._scratch
+            ears, on_actors, around, spec.threshold_db, spec.max_emitters, chosen, self._scratch
         )
-        chosen = heard.emitters_by_listener()
+        ids = [listeners.ids[i] for i in chosen.tolist()]
         return [
             AudioScene(next_seq() if next_seq else 0, t, node_id, emitters)
-            for node_id, emitters in zip(listeners.ids, chosen, strict=True)
+            for node_id, emitters in zip(ids, heard.emitters_by_listener(), strict=True)
         ]
