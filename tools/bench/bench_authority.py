@@ -151,6 +151,7 @@ def _measure(domain: TrafficDomain, seconds: float, warmup_s: float) -> dict[str
         "pedestrians": int((kinds == 6).sum()),
         "egos": len(tracks),
         "npcs": len(kinds),
+        "step_s": engine.step_length_s,
         "ticks": ticks,
         "parts": {k: v for k, v in parts.items()},
         "contacts": domain.stats.contacts,
@@ -205,9 +206,11 @@ def main(argv: list[str] | None = None) -> int:
 def _body(table: str, results: list[dict[str, Any]], args: argparse.Namespace) -> str:
     return (
         f"One `TrafficDomain.tick` at {1 / TICK_S:g} Hz: egos dead-reckoned and carried in "
-        f"SUMO, SUMO step (libsumo, step {TICK_S:g} s, action step {ACTION_STEP_S:g} s), NPC "
-        "read, collision matrix (broadphase + narrowphase over all actors), NPC batch, lights "
-        "and weather at the scenario's default rates, every message encoded. Town: generated "
+        f"SUMO, SUMO step (libsumo, step {results[0]['step_s']:g} s: one tick in "
+        f"{results[0]['step_s'] / TICK_S:g} steps it and the rest dead-reckon the NPCs; action "
+        f"step {ACTION_STEP_S:g} s), NPC read, collision matrix (broadphase + narrowphase over "
+        "all actors), NPC batch, lights and weather at the scenario's default rates, every "
+        "message encoded. Town: generated "
         f"{GRID_JUNCTIONS} × {GRID_JUNCTIONS} grid, {BLOCK_M:g} m blocks, {LANES} lanes per "
         f"direction, sidewalks and crossings; {PEDESTRIANS} NPC pedestrians and {EGOS} egos "
         f"driving along roads at {EGO_SPEED:g} m/s. {args.warmup:g} s of sim to fill the "
