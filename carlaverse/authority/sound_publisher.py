@@ -3,7 +3,9 @@
 Called from the domain's tick (never from a Zenoh callback); the scenes go out through the
 outbox on `audio/<node id>`, best effort: a scene that cannot go out now is superseded by the
 next one 50 ms later, so nothing waits for a slow link. Listeners are the embodied egos at the
-tick time; a node without a pose (an observer) has no place to hear from.
+tick time; a node without a pose (an observer) has no place to hear from. With many
+listeners, each tick builds the scenes of one phase group (sound_schedule), so no tick
+carries them all.
 """
 
 from __future__ import annotations

@@ -38,6 +38,8 @@ class PhaseGroups:
         self._last_t: float | None = None
         self._group: dict[str, int] = {}  # listener id -> its group, in order of arrival
         self._next_t = [-math.inf]  # [s] when each group is due next
+        self._dealt: list[str] = []  # the listeners as last dealt, in their order
+        self._dealt_groups = np.zeros(0, dtype=np.intp)  # and the group of each
 
     @property
     def groups(self) -> int:
@@ -55,8 +57,7 @@ class PhaseGroups:
         # Keep the cadence, but never schedule into the past: no burst after a stall.
         next_t = self._next_t[group] + self._period_s
         self._next_t[group] = max(next_t, t + self._period_s / 2)
-        members = [i for i, n in enumerate(listeners) if self._group[n] == group]
-        return np.array(members, dtype=np.intp)
+        return np.flatnonzero(self._dealt_groups == group)
 
     def _learn_tick(self, t: float) -> None:
         if self._last_t is not None and t > self._last_t:
@@ -68,10 +69,12 @@ class PhaseGroups:
         return max(1, min(ticks_per_period, listeners // GROUP_MIN_LISTENERS))
 
     def _deal(self, t: float, listeners: Sequence[str]) -> None:
+        wanted = self._wanted_groups(len(listeners))
+        if wanted == self.groups and listeners == self._dealt:
+            return  # the usual tick: the same listeners as the last one
         present = set(listeners)
         for gone in [n for n in self._group if n not in present]:
             del self._group[gone]
-        wanted = self._wanted_groups(len(present))
         if wanted != self.groups:
             self._regroup(t, wanted)
         sizes = self._sizes()
@@ -85,6 +88,8 @@ class PhaseGroups:
             self._group[newest] = smallest
             sizes[largest] -= 1
             sizes[smallest] += 1
+        self._dealt = list(listeners)
+        self._dealt_groups = np.array([self._group[n] for n in listeners], dtype=np.intp)
 
     def _regroup(self, t: float, groups: int) -> None:
         """`groups` phases spread over the period after group 0's; the members of dropped

@@ -10,8 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from itertools import chain, repeat
-from operator import add
+from itertools import chain
 
 import numpy as np
 
@@ -135,12 +134,17 @@ _ARRAYS = ("owner", "listener", "kind", "pos", "vel", "level_db", "drive", "exte
 
 
 def _on_actors(
-    actors: ActorColumns, pick: np.ndarray, kind: str, level: np.ndarray, drive: np.ndarray
+    actors: ActorColumns,
+    names: list[str],
+    pick: np.ndarray,
+    kind: str,
+    level: np.ndarray,
+    drive: np.ndarray,
 ) -> SoundSources:
-    """Sources of one `kind` on the actors selected by the boolean mask `pick`."""
+    """Sources of one `kind` (ids `names`, one per actor) on the actors picked by the mask."""
     where = np.flatnonzero(pick)
     return SoundSources.build(
-        list(map(add, map(actors.ids.__getitem__, where.tolist()), repeat(f".{kind}"))),
+        list(map(names.__getitem__, where.tolist())),
         KIND_INDEX[kind],
         actors.pos[where],
         level[where],
@@ -159,8 +163,13 @@ class ActorSounds:
         self._last_ids: list[str] = []
         self._last_speeds = np.zeros(0)  # [m/s] of those actors
         self._last_t: float | None = None
+        # Kept while the actors stay the same, as they do from most ticks to the next:
+        self._named_ids: list[str] = []  # the actors these are for
+        self._names: dict[str, list[str]] = {}  # kind -> "<actor id>.<kind>" of each actor
+        self._siren_pick = np.zeros(0, dtype=bool)  # the actors with a siren
 
     def sources(self, t: float, actors: ActorColumns, wetness: float) -> SoundSources:
+        self._name(actors.ids)
         speed = actors.speed
         accel = self._acceleration(t, actors.ids, speed)
         engine = self._engines.run(actors.kind, speed, accel)
@@ -169,13 +178,22 @@ class ActorSounds:
         tyre_drive = np.stack([speed, np.full(len(speed), wetness)], axis=1)
         engine_drive = np.stack([engine.rpm, engine.load], axis=1)
         has_engine = self._engines.has_engine[actors.kind]
+        engines, tyres = self._names["engine"], self._names["tyres"]
         parts = [
-            _on_actors(actors, has_engine, "engine", engine.level_db, engine_drive),
-            _on_actors(actors, rolling, "tyres", tyre_level, tyre_drive),
+            _on_actors(actors, engines, has_engine, "engine", engine.level_db, engine_drive),
+            _on_actors(actors, tyres, rolling, "tyres", tyre_level, tyre_drive),
         ]
         if self._sirens:
             parts.append(self._siren_sources(actors))
         return SoundSources.concat(parts)
+
+    def _name(self, ids: list[str]) -> None:
+        """The source ids and siren mask of these actors (built anew only when they changed)."""
+        if ids == self._named_ids:
+            return
+        self._named_ids = ids
+        self._names = {k: [f"{i}.{k}" for i in ids] for k in ("engine", "tyres", "siren")}
+        self._siren_pick = np.array([i in self._sirens for i in ids], dtype=bool)
 
     def _acceleration(self, t: float, ids: list[str], speed: np.ndarray) -> np.ndarray:
         """[m/s²] along the path since the last call; 0 for actors new since then."""
@@ -190,9 +208,9 @@ class ActorSounds:
         return (speed - before) / dt if dt > 0 else np.zeros(len(ids))
 
     def _siren_sources(self, actors: ActorColumns) -> SoundSources:
-        pick = np.array([i in self._sirens for i in actors.ids], dtype=bool)
+        pick = self._siren_pick
         specs = [self._sirens[actors.ids[i]] for i in np.flatnonzero(pick)]
         level, drive = np.zeros(len(pick)), np.zeros((len(pick), 2))
         level[pick] = [s.level_db for s in specs]
         drive[pick, 0] = [SIREN_PATTERNS.index(s.pattern) for s in specs]
-        return _on_actors(actors, pick, "siren", level, drive)
+        return _on_actors(actors, self._names["siren"], pick, "siren", level, drive)
