@@ -148,15 +148,17 @@ def _loudest_shared(
 def _quietness(ears: np.ndarray, sources: SoundSources, out: np.ndarray) -> np.ndarray:
     """`out` (listeners × sources) set to d² · 10^(−L₁/10) [m²], d at least MIN_DISTANCE_M.
 
-    w·|e − p|² = w·|e|² + w·|p|² − 2 w·e·p is one (listeners × 5) @ (5 × sources) product;
+    w·|e − p|² = w·|e|² + w·|p|² − 2 w·e·p is one (listeners × 5) by (5 × sources) product;
     coordinates are taken from the listeners' mean so the cancellation stays far below a
-    square millimetre at town scale in float64."""
+    square millimetre at town scale in float64. The product is numpy's own loop (einsum),
+    not BLAS: OpenBLAS spreads a product this size over threads that then spin, twice the
+    CPU of the work itself on a shared machine."""
     w = np.power(10.0, -sources.level_db / 10.0)
     centre = ears.mean(axis=0)
     e, p = ears - centre, sources.pos - centre
     left = np.column_stack([e, (e * e).sum(axis=1), np.ones(len(e))])
     right = np.vstack([-2.0 * w * p.T, w, w * (p * p).sum(axis=1)])
-    np.matmul(left, right, out=out)
+    np.einsum("ik,kj->ij", left, right, out=out)
     return np.maximum(out, w * MIN_DISTANCE_M**2, out=out)
 
 
