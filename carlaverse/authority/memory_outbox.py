@@ -17,6 +17,7 @@ class MemoryOutbox:
     """Collects a domain's output per channel; `keep=False` only encodes and counts."""
 
     keep: bool = True
+    deaf: set[str] = field(default_factory=set)  # listeners nothing takes audio for
     npcs: list[m.NpcBatch] = field(default_factory=list)
     lights_states: list[m.LightsState] = field(default_factory=list)
     weathers: list[m.Weather] = field(default_factory=list)
@@ -46,6 +47,9 @@ class MemoryOutbox:
 
     def audio(self, node_id: str, scene: m.AudioScene) -> None:
         self._sent(m.AUDIO_SCENE.encode(scene), self.audio_scenes, (node_id, scene))
+
+    def hears(self, node_id: str) -> bool:
+        return node_id not in self.deaf
 
     def _sent(self, payload: bytes, into: list, item: object) -> None:
         self.bytes_sent += len(payload)

@@ -41,8 +41,11 @@ class ZenohOutbox:
             keys.world("events"), priority=zenoh.Priority.INTERACTIVE_HIGH, **reliable
         )
         # One declared publisher per listener: a put on a declared key skips resolving the
-        # key expression, which was most of a scene's cost with hundreds of listeners.
-        self._audio: dict[str, zenoh.Publisher] = {}
+        # key expression, which was most of a scene's cost with hundreds of listeners. Its
+        # matching listener keeps `_heard`: the listeners something subscribes to (the node's
+        # audio process, a recorder), so no scene is built for a node that renders no audio.
+        self._audio: dict[str, tuple[zenoh.Publisher, zenoh.MatchingListener]] = {}
+        self._heard: set[str] = set()
 
     def next_seq(self) -> int:
         return next(self._seq)
@@ -77,18 +80,42 @@ class ZenohOutbox:
         )
         self._count("impulse")
 
+    def hears(self, node_id: str) -> bool:
+        if node_id not in self._audio:
+            self._audio_publisher(node_id)
+        return node_id in self._heard
+
     def audio(self, node_id: str, scene: m.AudioScene) -> None:
-        publisher = self._audio.get(node_id)
-        if publisher is None:
-            # Best effort like NPC batches: the next scene, one audio period later, supersedes it.
-            publisher = self._audio[node_id] = self._session.declare_publisher(
-                self._keys.audio(node_id), congestion_control=zenoh.CongestionControl.DROP
-            )
+        publisher = self._audio_publisher(node_id)
         publisher.put(m.AUDIO_SCENE.encode(scene), timestamp=self._session.new_timestamp())
         self._count("audio")
 
+    def _audio_publisher(self, node_id: str) -> zenoh.Publisher:
+        declared = self._audio.get(node_id)
+        if declared is not None:
+            return declared[0]
+        # Best effort like NPC batches: the next scene, one audio period later, supersedes it.
+        publisher = self._session.declare_publisher(
+            self._keys.audio(node_id), congestion_control=zenoh.CongestionControl.DROP
+        )
+        heard = self._heard
+
+        def on_matching(status: zenoh.MatchingStatus) -> None:
+            # A Zenoh thread: a set operation, nothing that waits.
+            (heard.add if status.matching else heard.discard)(node_id)
+
+        # Listen first, then read: a subscriber that appears in between is seen either way.
+        listener = publisher.declare_matching_listener(on_matching)
+        if publisher.matching_status.matching:
+            heard.add(node_id)
+        self._audio[node_id] = (publisher, listener)
+        return publisher
+
     def forget(self, node_id: str) -> None:
         """A node left: drop what was declared for it."""
-        publisher = self._audio.pop(node_id, None)
-        if publisher is not None:
+        declared = self._audio.pop(node_id, None)
+        if declared is not None:
+            publisher, listener = declared
+            listener.undeclare()
             publisher.undeclare()
+        self._heard.discard(node_id)

@@ -3,7 +3,8 @@
 Called from the domain's tick (never from a Zenoh callback); the scenes go out through the
 outbox on `audio/<node id>`, best effort: a scene that cannot go out now is superseded by the
 next one 50 ms later, so nothing waits for a slow link. Listeners are the embodied egos at the
-tick time; a node without a pose (an observer) has no place to hear from. With many
+tick time; a node without a pose (an observer) has no place to hear from, and a node nothing
+takes audio for (no audio process, no recorder) gets no scene built. With many
 listeners, each tick builds the scenes of one phase group (sound_schedule), so no tick
 carries them all.
 """
@@ -62,6 +63,11 @@ class SoundPublisher:
             return
         listeners = EgoColumns.of(egos)
         due = self._groups.due(t, listeners.ids)
+        if len(due):
+            # Only listeners something takes audio for: most participants of a large session
+            # render none, and their scenes were most of the authority's audio work.
+            ids = listeners.ids
+            due = due[np.fromiter((out.hears(ids[i]) for i in due.tolist()), bool, len(due))]
         if not len(due):
             return
         for scene in self.scenes(t, listeners, frame, weather, out.next_seq, due):

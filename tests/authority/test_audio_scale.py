@@ -180,3 +180,22 @@ def test_scenes_go_out_per_phase_group_through_the_publisher() -> None:
         times = [s.t for node, s in out.audio_scenes if node == e.node_id]
         assert len(times) == pytest.approx(2 * RATE_HZ, abs=1)
         assert max(np.diff(times)) <= 1 / RATE_HZ + TICK_S + 1e-9
+
+
+def test_no_scene_is_built_for_a_listener_nothing_takes_audio_for() -> None:
+    rng = np.random.default_rng(6)
+    egos = [ego(f"e{i}", *rng.uniform(0, 600, 2)) for i in range(64)]
+    npcs = frame(rng, 100)
+    deaf = {f"e{i}" for i in range(64) if i % 4}  # three in four render no audio
+    out = MemoryOutbox(deaf=deaf)
+    publisher = SoundPublisher(AudioSpec(), [])
+    for k in range(50):
+        publisher.tick(k * TICK_S, egos, npcs, None, out)
+    heard = {node for node, _ in out.audio_scenes}
+    assert heard == {e.node_id for e in egos} - deaf
+    assert publisher.stats.scenes == len(out.audio_scenes) == pytest.approx(16 * RATE_HZ, abs=16)
+    # Everyone deaf: the tick builds nothing at all.
+    silent = MemoryOutbox(deaf={e.node_id for e in egos})
+    for k in range(50):
+        publisher.tick(1.0 + k * TICK_S, egos, npcs, None, silent)
+    assert silent.audio_scenes == [] and silent.bytes_sent == 0
