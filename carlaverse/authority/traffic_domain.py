@@ -115,9 +115,13 @@ class TrafficDomain:
         self.stats.ticks += 1
         now = egos_at(t, egos, self._spec.collisions.max_extrapolation_s)
         placements = now.placements()
-        self._advance(t, placements)
+        stepped = self._advance(t, placements)
         scenario_s = t - (self._offset_s or 0.0)
-        npcs = self._engine.npcs().at(scenario_s)  # the engine may step less often than we tick
+        # The engine steps less often than we tick, so the frame is dead-reckoned to now. A
+        # tick that stepped it keeps the frame it had and leaves reading the step back to the
+        # next tick: SUMO's step and the read-back, its two big costs, fall on different ticks.
+        frame = self._engine.last_read() if stepped else self._engine.npcs()
+        npcs = frame.at(scenario_s)
         self._triggers.tick(t, scenario_s, now, npcs, out)
         actors = build_actors(now, npcs, self._spec.collisions)
         self._publish_contacts(t, self._collisions.step(t, actors, out.next_seq), out)
@@ -146,24 +150,27 @@ class TrafficDomain:
 
     # ------------------------------------------------------------------ one tick
 
-    def _advance(self, t: float, placements: list[EgoPlacement]) -> None:
+    def _advance(self, t: float, placements: list[EgoPlacement]) -> bool:
         """Step the engine to the step nearest session time t (the frame is dead-reckoned the
-        rest of the way); after a stall, catch up a little, drop the rest."""
+        rest of the way); after a stall, catch up a little, drop the rest. Whether it stepped."""
         engine, step = self._engine, self._engine.step_length_s
         if self._offset_s is None:  # scenario time starts at 0 with the first tick
             self._offset_s = t - engine.time_s
         target = t - self._offset_s
+        stepped = False
         for _ in range(self._spec.session.max_catch_up_steps):
             if engine.time_s + step / 2 > target:
-                return
+                return stepped
             engine.place_egos(placements)
             engine.step()
             self.stats.steps += 1
+            stepped = True
         lag = target - engine.time_s
         if lag > step / 2:
             self._offset_s += lag
             self.stats.dropped_s += lag
             log.warning("traffic fell %.3f s behind the session clock; skipped ahead", lag)
+        return stepped
 
     def _publish_contacts(self, t: float, contacts: TickContacts, out: Outbox) -> None:
         for event in contacts.events:

@@ -107,7 +107,12 @@ class TrafficEngine(Protocol):
         ...
 
     def npcs(self) -> NpcFrame:
-        """All NPCs (not the egos) after the last step."""
+        """All NPCs (not the egos) after the last step (read back now if not yet)."""
+        ...
+
+    def last_read(self) -> NpcFrame:
+        """The NPCs as last read back, without reading: after a step not yet read, the
+        frame of the step before (still good to dead-reckon from)."""
         ...
 
     def place_egos(self, egos: Sequence[EgoPlacement]) -> None:

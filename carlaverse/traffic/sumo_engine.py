@@ -62,6 +62,7 @@ class SumoEngine:
         self._closed = False
         self._egos = EgoCarrier(self._ls, settings.traffic.ego_match_radius_m)
         self._frame = NpcFrame.empty()
+        self._unread = False  # a step whose NPCs are not read back yet
         self._next_top_up = 0.0
         try:
             self._reader = NpcReader(self._ls, define_types(self._ls), settings.step_length_s)
@@ -101,10 +102,13 @@ class SumoEngine:
         return self._settings.step_length_s
 
     def step(self) -> None:
+        if self._unread:  # each step read once: the yaw rates are per step
+            self.npcs()
         self._ls.simulationStep()
         if self.time_s + 1e-9 >= self._next_top_up:
             self._top_up()
-        self._frame = self._reader.read(self.time_s, carried=self._egos.carrying)
+        # Read back when asked: a tick that steps can leave the read to the next tick.
+        self._unread = True
 
     def _top_up(self) -> None:
         self._demand.top_up(self._egos.vehicles, self._egos.persons)
@@ -112,6 +116,12 @@ class SumoEngine:
         self._next_top_up = self.time_s + self._settings.traffic.top_up_interval_s
 
     def npcs(self) -> NpcFrame:
+        if self._unread:
+            self._frame = self._reader.read(self.time_s, carried=self._egos.carrying)
+            self._unread = False
+        return self._frame
+
+    def last_read(self) -> NpcFrame:
         return self._frame
 
     # ------------------------------------------------------------------ egos and NPC reactions

@@ -5,7 +5,9 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -102,6 +104,36 @@ def test_between_coarse_steps_npcs_are_dead_reckoned_to_the_tick(
             assert a["vx"] > 1.0  # it drives east along WZ
             assert b["x"] - a["x"] == pytest.approx(a["vx"] * (t1 - t0), abs=0.05)
             assert b["x"] != a["x"]
+
+
+def test_no_tick_both_steps_sumo_and_reads_its_npcs_back(tmp_path: Path, net_cache: Path) -> None:
+    """SUMO's step and the read-back of every NPC are the tick's two big costs: the tick that
+    steps dead-reckons the frame it has and the next tick reads the step back, so the two
+    never add up on one tick, and every batch still shows the NPC where it is."""
+    with domain_of(write_scenario(tmp_path, CROSSING_MAP + FOLLOWER), net_cache) as domain:
+        engine, calls = domain.engine, []
+        for name in ("step", "npcs"):
+            inner = getattr(engine, name)
+
+            def traced(inner: Callable[[], Any] = inner, name: str = name) -> Any:
+                calls.append((name, engine._unread))  # a read happens only if unread
+                return inner()
+
+            setattr(engine, name, traced)
+        out, per_tick = MemoryOutbox(), []
+
+        def mark(t: float) -> None:
+            per_tick.append([name for name, unread in calls if name == "step" or unread])
+            calls.clear()
+
+        run(domain, out, T0, 3.0, every=mark)
+        steps = [k for k, work in enumerate(per_tick) if "step" in work]
+        assert len(steps) == pytest.approx(30, abs=1)
+        assert all(work in ([], ["step"], ["npcs"]) for work in per_tick[1:]), per_tick[:12]
+        assert all(per_tick[k + 1] == ["npcs"] for k in steps if k + 1 < len(per_tick))
+        moving = [(b.t, npc_row(b, "follower")) for b in out.npcs[-30:] if "follower" in b.ids]
+        for (t0, a), (t1, b) in itertools.pairwise(moving):
+            assert b["x"] - a["x"] == pytest.approx(a["vx"] * (t1 - t0), abs=0.05)
 
 
 def test_egos_off_the_network_do_not_break_the_tick(tmp_path: Path, net_cache: Path) -> None:

@@ -137,7 +137,7 @@ def _measure(domain: TrafficDomain, seconds: float, warmup_s: float) -> dict[str
         t += TICK_S
     engine = domain.engine
     timed(engine, "step", parts["sumo"])
-    timed(engine._reader, "read", parts["read"])  # inside the step: the NPC read-back alone
+    timed(engine._reader, "read", parts["read"])  # the NPC read-back, on the tick after a step
     timed(engine, "place_egos", parts["egos"])
     timed(domain._collisions, "step", parts["collisions"])
     gc.collect()
@@ -166,7 +166,7 @@ def pct(values: list[float], q: float) -> float:
 
 def report(results: list[dict[str, Any]]) -> str:
     rows = ["| NPC vehicles (target / present) | pedestrians | egos | ticks | p50 ms | p99 ms "
-            "| max ms | SUMO step p50 / p99 ms | of which NPC read p50 ms "
+            "| max ms | SUMO step p50 / p99 ms | NPC read p50 ms "
             "| collisions p50 / p99 ms | out kB/s |", "|---" * 11 + "|"]  # fmt: skip
     for r in results:
         step, coll = r["parts"]["sumo"], r["parts"]["collisions"]
@@ -208,7 +208,8 @@ def _body(table: str, results: list[dict[str, Any]], args: argparse.Namespace) -
         f"One `TrafficDomain.tick` at {1 / TICK_S:g} Hz: egos dead-reckoned and carried in "
         f"SUMO, SUMO step (libsumo, step {results[0]['step_s']:g} s: one tick in "
         f"{results[0]['step_s'] / TICK_S:g} steps it and the rest dead-reckon the NPCs; action "
-        f"step {ACTION_STEP_S:g} s), NPC read, collision matrix (broadphase + narrowphase over "
+        f"step {ACTION_STEP_S:g} s), NPC read (on the tick after a step), collision matrix "
+        "(broadphase + narrowphase over "
         "all actors), NPC batch, lights and weather at the scenario's default rates, every "
         "message encoded. Town: generated "
         f"{GRID_JUNCTIONS} × {GRID_JUNCTIONS} grid, {BLOCK_M:g} m blocks, {LANES} lanes per "
@@ -233,9 +234,10 @@ def _reading(results: list[dict[str, Any]]) -> str:
     return (
         "Vehicles present can fall short of the target when the town's entry lanes are full "
         "(SUMO inserts when there is room). The SUMO step column is `SumoEngine.step`: "
-        "libsumo's step, reading every NPC back and the periodic demand top-up; it took up to "
+        "libsumo's step and the periodic demand top-up; it took up to "
         f"{share:.0%} of all tick time, and the ticks that step SUMO make the p99. Reading "
-        f"{read['npcs']} NPCs back took {pct(read['parts']['read'], 0.5):.2f} ms at p50."
+        f"{read['npcs']} NPCs back, which the tick after a step does (so the two costs do not "
+        f"add up on one tick), took {pct(read['parts']['read'], 0.5):.2f} ms at p50."
         f"{verdict} Repeat a run to see how much the tails move with the load shown above."
     )
 

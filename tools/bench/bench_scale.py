@@ -120,7 +120,7 @@ def authority_main(endpoint: str, scenario: str, conn: Any) -> None:
             conn.send({
                 "ticks": len(ticks), "p50": percentile(ticks, 0.5), "p99": percentile(ticks, 0.99),
                 "max": max(ticks, default=float("nan")), "overruns": authority.overruns,
-                "npcs": len(domain.engine.npcs().ids), "egos": len(authority.roster.tracks),
+                "npcs": len(domain.engine.last_read().ids), "egos": len(authority.roster.tracks),
             })  # fmt: skip
     authority.stop()
     ticking.join(5)  # the tick thread must be done with SUMO before close() ends it
