@@ -25,12 +25,16 @@ def split_by_tile(batch: m.NpcBatch) -> dict[str, m.NpcBatch]:
         return {}
     ix = np.floor(rows["x"] / TILE_SIZE_M).astype(np.int64)
     iy = np.floor(rows["y"] / TILE_SIZE_M).astype(np.int64)
-    cells, inverse = np.unique(np.stack([ix, iy], axis=1), axis=0, return_inverse=True)
-    order = np.argsort(inverse.ravel(), kind="stable")
-    bounds = np.searchsorted(inverse.ravel()[order], np.arange(len(cells) + 1))
+    # One integer per tile (a 1-D unique is several times faster than unique over rows).
+    span = int(iy.max() - iy.min()) + 1
+    code = (ix - ix.min()) * span + (iy - iy.min())
+    codes, first, inverse = np.unique(code, return_index=True, return_inverse=True)
+    order = np.argsort(inverse, kind="stable")
+    bounds = np.searchsorted(inverse[order], np.arange(len(codes) + 1))
+    cells = zip(ix[first].tolist(), iy[first].tolist(), strict=True)
     ids = batch.ids
     out = {}
-    for k, (cx, cy) in enumerate(cells.tolist()):
+    for k, (cx, cy) in enumerate(cells):
         members = order[bounds[k] : bounds[k + 1]]
         out[tile_token(cx, cy)] = m.NpcBatch.pack(
             batch.seq, batch.t, [ids[i] for i in members.tolist()], rows[members]

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from carlaverse.authority.actors import build_actors, egos_at
+from carlaverse.authority.actors import EgoColumns, build_actors, egos_at
 from carlaverse.authority.collisions import CollisionMatrix, TickContacts
 from carlaverse.authority.domain import EgoTrack, Outbox
 from carlaverse.authority.lights import LightPublisher, apply_overrides
@@ -42,7 +42,7 @@ from carlaverse.messages import (
     SpawnPoint,
     Weather,
 )
-from carlaverse.traffic.engine import EgoPlacement, NpcFrame, TrafficEngine
+from carlaverse.traffic.engine import NpcFrame, TrafficEngine
 from carlaverse.traffic.scenario import Scenario, Session, load_scenario
 from carlaverse.traffic.spawns import SpawnAllocator
 
@@ -114,8 +114,7 @@ class TrafficDomain:
     def tick(self, t: float, egos: Mapping[str, EgoTrack], out: Outbox) -> None:
         self.stats.ticks += 1
         now = egos_at(t, egos, self._spec.collisions.max_extrapolation_s)
-        placements = now.placements()
-        stepped = self._advance(t, placements)
+        stepped = self._advance(t, now)
         scenario_s = t - (self._offset_s or 0.0)
         # The engine steps less often than we tick, so the frame is dead-reckoned to now. A
         # tick that stepped it keeps the frame it had and leaves reading the step back to the
@@ -150,17 +149,19 @@ class TrafficDomain:
 
     # ------------------------------------------------------------------ one tick
 
-    def _advance(self, t: float, placements: list[EgoPlacement]) -> bool:
+    def _advance(self, t: float, now: EgoColumns) -> bool:
         """Step the engine to the step nearest session time t (the frame is dead-reckoned the
         rest of the way); after a stall, catch up a little, drop the rest. Whether it stepped."""
         engine, step = self._engine, self._engine.step_length_s
         if self._offset_s is None:  # scenario time starts at 0 with the first tick
             self._offset_s = t - engine.time_s
         target = t - self._offset_s
-        stepped = False
+        stepped, placements = False, None
         for _ in range(self._spec.session.max_catch_up_steps):
             if engine.time_s + step / 2 > target:
                 return stepped
+            if placements is None:  # only on ticks that step: one in five by default
+                placements = now.placements()
             engine.place_egos(placements)
             engine.step()
             self.stats.steps += 1

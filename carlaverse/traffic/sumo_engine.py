@@ -63,6 +63,8 @@ class SumoEngine:
         self._egos = EgoCarrier(self._ls, settings.traffic.ego_match_radius_m)
         self._frame = NpcFrame.empty()
         self._unread = False  # a step whose NPCs are not read back yet
+        # Lights change only when SUMO steps or we set them: read once per engine time.
+        self._light_cache: tuple[float, list[LightReading]] | None = None
         self._next_top_up = 0.0
         try:
             self._reader = NpcReader(self._ls, define_types(self._ls), settings.step_length_s)
@@ -203,15 +205,21 @@ class SumoEngine:
                 f"light {light_id!r} controls {links} links, state {state!r} has {len(state)}"
             )
         tl.setRedYellowGreenState(light_id, state)
+        self._light_cache = None
 
     # ------------------------------------------------------------------ traffic lights
 
     def light_readings(self) -> list[LightReading]:
+        now = self.time_s
+        if self._light_cache is not None and self._light_cache[0] == now:
+            return self._light_cache[1]
         tl = self._ls.trafficlight
-        return [
+        readings = [
             LightReading(i, tl.getRedYellowGreenState(i), tl.getPhase(i), tl.getNextSwitch(i))
             for i in tl.getIDList()
         ]
+        self._light_cache = (now, readings)
+        return readings
 
     def light_programs(self) -> dict[str, list[LightPhase]]:
         tl, programs = self._ls.trafficlight, {}
@@ -243,6 +251,7 @@ class SumoEngine:
         )
         tl.setProgram(light_id, OVERRIDE_PROGRAM)
         self._apply_offset(light_id, phases, offset_s)
+        self._light_cache = None
 
     def _apply_offset(self, light_id: str, phases: Sequence[LightPhase], offset_s: float) -> None:
         """Start the cycle as SUMO's `offset` would: at time 0 it is (-offset) into the cycle."""

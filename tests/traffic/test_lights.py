@@ -84,3 +84,19 @@ def test_override_with_a_wrong_state_length_is_refused(tmp_path: Path, net_cache
     scenario = write_scenario(tmp_path, CROSSING_MAP + QUIET + bad)
     with pytest.raises(ConfigError, match="controls 28 links"):
         domain_of(scenario, net_cache).__enter__()
+
+
+def test_lights_read_once_per_step_and_a_set_state_shows_at_once(
+    tmp_path: Path, net_cache: Path
+) -> None:
+    with domain_of(write_scenario(tmp_path, CROSSING_MAP + QUIET), net_cache) as domain:
+        engine = domain.engine
+        run(domain, MemoryOutbox(), T0, 1.0)
+        first = engine.light_readings()
+        assert engine.light_readings() is first  # same engine time: SUMO is not asked again
+        links = len(first[0].state)
+        engine.set_light_state("C", "r" * links)
+        assert {r.id: r.state for r in engine.light_readings()}["C"] == "r" * links
+        engine.step()
+        after = engine.light_readings()
+        assert after is not first and after == engine.light_readings()
