@@ -111,11 +111,18 @@ def stop_on_signals() -> StopSignal:
     return stop
 
 
+def tell(text: str) -> None:
+    """One line on stderr in one write: `print` writes the text and its newline apart, and a
+    log line from another thread can land between them, gluing two lines together."""
+    sys.stderr.write(text + "\n")
+    sys.stderr.flush()
+
+
 def say(command: str) -> Callable[[str], None]:
     """A one-line notice on stderr, `carlaverse COMMAND: ...`, for what a command waits for."""
 
     def notice(message: str) -> None:
-        print(f"carlaverse {command}: {message}", file=sys.stderr, flush=True)
+        tell(f"carlaverse {command}: {message}")
 
     return notice
 

@@ -9,7 +9,7 @@ import threading
 import time
 from pathlib import Path
 
-from carlaverse.cli.common import add_fabric_args, attend, fabric_from_args
+from carlaverse.cli.common import add_fabric_args, attend, fabric_from_args, tell
 from carlaverse.fabric.session import FabricError, FabricUnreachable
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.recorder import (
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
             return 2
         return _record(args)
     except (RecordingError, FabricError, KeySpaceError) as exc:
-        print(f"carlaverse record: {exc}", file=sys.stderr)
+        tell(f"carlaverse record: {exc}")
         return 1
 
 
@@ -109,7 +109,7 @@ def _record(args: argparse.Namespace) -> int:
         # retrying until then, and SIGINT/SIGTERM or --duration end the wait.
         session, notice = attend("record", fabric_from_args(args), keys, stop, deadline)
     except FabricUnreachable as exc:
-        print(f"carlaverse record: {exc}", file=sys.stderr)
+        tell(f"carlaverse record: {exc}")
         return 0 if stop.is_set() else 5
     try:
         sink = McapSink(
@@ -123,15 +123,15 @@ def _record(args: argparse.Namespace) -> int:
         )
         recorder.start()
         # Said once subscribed: a script starting the session after it can wait for this line.
-        print(f"recording session {args.session} into {args.output}", file=sys.stderr, flush=True)
+        tell(f"recording session {args.session} into {args.output}")
         _wait(recorder, stop, deadline, args.progress_s)
         stats = recorder.stop()
     finally:
         notice.close()
         session.close()
-    print(f"recorded {_describe(stats)} into {args.output}", file=sys.stderr)
+    tell(f"recorded {_describe(stats)} into {args.output}")
     if stats.failure:
-        print(f"carlaverse record: RECORDING FAILED: {stats.failure}", file=sys.stderr)
+        tell(f"carlaverse record: RECORDING FAILED: {stats.failure}")
         return 1
     return 0
 
@@ -167,7 +167,7 @@ def _stop_event() -> threading.Event:
 def _progress(stats: RecorderStats, last: tuple[float, int]) -> tuple[float, int]:
     now = time.monotonic()
     rate = (stats.written - last[1]) / max(now - last[0], 1e-6)
-    print(f"recording: {_describe(stats)}, {rate:.0f} msg/s", file=sys.stderr, flush=True)
+    tell(f"recording: {_describe(stats)}, {rate:.0f} msg/s")
     return now, stats.written
 
 
