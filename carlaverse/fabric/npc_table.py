@@ -133,7 +133,8 @@ def _interpolate(a: _Batch, b: _Batch, t: float) -> NpcFrame:
         where = a.index()
         idx = np.fromiter((where.get(i, -1) for i in b.ids), dtype=np.int64, count=len(b.ids))
         known = idx >= 0
-        ca = _columns(a.rows[np.where(known, idx, 0)])
+        # Row 0 stands in for newcomers (replaced below); an empty batch has no row 0.
+        ca = _columns(a.rows[np.where(known, idx, 0)]) if len(a.ids) else dict(cb)
         back = t - b.t  # newcomers: dead-reckoned back from their first sample
         ca = {k: np.where(known, v, cb[k]) for k, v in ca.items()}
         cb_x, cb_y = cb["x"] + cb["vx"] * back, cb["y"] + cb["vy"] * back

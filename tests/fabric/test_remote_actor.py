@@ -321,3 +321,22 @@ def test_npcs_interpolate_as_arrays_at_the_views_render_time() -> None:
     views = list(world.npc_views(3.0))
     assert len(views) == 15 and views[0].render_t == world.render_time(3.0)
     assert set(world.npc_frame(3.0).kinds()) == {"car"}
+
+
+def test_npcs_appearing_after_an_empty_batch_are_drawn_not_raised() -> None:
+    """A town that starts empty, or a tile the NPCs have just entered: the view interpolates
+    between a batch with no NPCs and one with some (the newcomers dead-reckoned back)."""
+    paths = {f"v{k}": CirclePath(radius=30.0 + k, speed_mps=10.0) for k in range(3)}
+    world = WorldView("me", PAST)
+    for k in range(12):
+        t = k * 0.05
+        ids = [] if k < 6 else sorted(paths)
+        world.push_npc(npc_batch(t, ids, paths), t + 0.01)
+    for now in (0.3, 0.31, 0.35, 0.4, 0.5, 0.6):  # render times across the empty -> full step
+        world.update(now)
+        frame = world.npc_frame(now)
+        assert frame is not None
+        for i, npc_id in enumerate(frame.ids):
+            true = paths[npc_id].pose_at(frame.t)
+            assert math.hypot(frame.x[i] - true.x, frame.y[i] - true.y) < 0.1, (now, npc_id)
+    assert sorted(world.npcs) == sorted(paths)
