@@ -50,6 +50,7 @@ from typing import Any
 import scale_profile
 from benchdoc import RunInfo, command_line, write_section
 from peers.profile import py_spy
+from scale_report import interest_table, receive_table, scale_table, verdicts
 
 SESSION = "scale"
 GRID_JUNCTIONS = 8  # per side (a larger generated town takes minutes to build its scenery)
@@ -63,10 +64,6 @@ VEHICLES = 500
 FILL_S = 30.0  # [s] for SUMO to insert the NPCs before anything is measured
 SETTLE_S = 3.0  # [s] after the swarm or the hearing probes joined, before a window
 NEAR_RADIUS_M = 200.0  # [m] probe-near's interest radius (the node default)
-TARGET_TICK_P99_MS = 20.0
-TARGET_DELIVERY = 0.999
-TARGET_ONE_WAY_P99_MS = 5.0
-TARGET_RX_US = 10.0  # [µs] per pose received
 CLK_TCK = os.sysconf("SC_CLK_TCK")
 
 SCENARIO = f"""name: scale-bench
@@ -375,19 +372,6 @@ def _py_spy(pid: int, seconds: float, out: Path) -> subprocess.Popen | None:
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
 
-def top_functions(raw: Path, count: int = 15) -> list[tuple[str, float]]:
-    """Functions by the share of samples they were on the stack in (inclusive)."""
-    totals: dict[str, int] = {}
-    samples = 0
-    for line in raw.read_text().splitlines():
-        stack, _, n = line.rpartition(" ")
-        samples += int(n)
-        for frame in set(stack.split(";")):
-            totals[frame] = totals.get(frame, 0) + int(n)
-    ranked = sorted(totals.items(), key=lambda kv: -kv[1])[:count]
-    return [(frame, n / max(samples, 1)) for frame, n in ranked]
-
-
 def _free_port() -> int:
     import socket
 
@@ -397,106 +381,6 @@ def _free_port() -> int:
 
 
 # ---------------------------------------------------------------- the report
-
-
-def _per_pose_us(probe: dict[str, Any], base: dict[str, Any]) -> tuple[float, float]:
-    """(all CPU, CPU above the no-swarm window) per pose received [µs]."""
-    if not probe["poses"]:
-        return float("nan"), float("nan")
-    rate = probe["cpu_s"] / probe["seconds"]
-    base_rate = base["cpu_s"] / base["seconds"]
-    per_s = probe["poses"] / probe["seconds"]
-    return rate / per_s * 1e6, (rate - base_rate) / per_s * 1e6
-
-
-def _delivery(probe: dict[str, Any]) -> float:
-    return probe["poses"] / probe["spanned"] if probe["spanned"] else float("nan")
-
-
-def scale_table(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
-    rows = [
-        "| egos | poses/s sent (of 50 Hz × N) | authority tick p50 / p99 / max ms | overruns | "
-        "probe-near one-way p50 / p99 ms | delivery | router CPU | authority CPU | swarm CPU | "
-        "tick p99 ms / overruns beside probe-all |",
-        "|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for n, r in runs.items():
-        w, h = r["session"], r["hearing"]
-        a, near, cpu = w["authority"], w["probe-near"], w["cpu"]
-        rows.append(
-            f"| {n} | {r['swarm']['poses_per_s']:,.0f} ({r['swarm']['offered_fraction']:.0%}) | "
-            f"{a['p50']:.2f} / {a['p99']:.2f} / {a['max']:.1f} | {a['overruns']} | "
-            f"{near['p50_ms']:.2f} / {near['p99_ms']:.2f} | {_delivery(near):.3%} | "
-            f"{cpu['router']:.0%} | {cpu['authority']:.0%} | {cpu['swarm']:.0%} | "
-            f"{h['authority']['p99']:.2f} / {h['authority']['overruns']} |"
-        )
-    return "\n".join(rows)
-
-
-def receive_table(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
-    rows = [
-        "| egos | probe-all poses/s | one-way p50 / p99 ms | delivery | µs per pose (all / "
-        "above idle) | bare zenoh-python µs per pose above idle | authority CPU |",
-        "|---|---|---|---|---|---|---|",
-    ]
-    idle = base["hearing"]
-    for n, r in runs.items():
-        h = r["hearing"]
-        p = h["probe-all"]
-        total_us, marginal_us = _per_pose_us(p, idle["probe-all"])
-        rows.append(
-            f"| {n} | {p['poses'] / p['seconds']:,.0f} | {p['p50_ms']:.2f} / {p['p99_ms']:.2f} | "
-            f"{_delivery(p):.3%} | {total_us:.1f} / {marginal_us:.1f} | "
-            f"{_per_pose_us(h['floor'], idle['floor'])[1]:.1f} | {h['cpu']['authority']:.0%} |"
-        )
-    return "\n".join(rows)
-
-
-def interest_table(runs: dict[int, dict[str, Any]]) -> str:
-    rows = [
-        "| egos on the map | probe-near: egos heard | poses/s received | tiles subscribed | "
-        "probe-all: egos heard | poses/s received |",
-        "|---|---|---|---|---|---|",
-    ]
-    for n, r in runs.items():
-        near, every = r["session"]["probe-near"], r["hearing"]["probe-all"]
-        rows.append(
-            f"| {n} | {near['senders']} | {near['poses'] / near['seconds']:,.0f} | "
-            f"{near['tiles']} | {every['senders']} | {every['poses'] / every['seconds']:,.0f} |"
-        )
-    return "\n".join(rows)
-
-
-def _node_check(who: str, probe: dict[str, Any], n: int) -> tuple[str, bool, str]:
-    delivery = _delivery(probe)
-    return (
-        f"{who} at N = {n} receives ≥ {TARGET_DELIVERY:.1%} with one-way p99 ≤ "
-        f"{TARGET_ONE_WAY_P99_MS:g} ms",
-        delivery >= TARGET_DELIVERY and probe["p99_ms"] <= TARGET_ONE_WAY_P99_MS,
-        f"{delivery:.3%}, p99 {probe['p99_ms']:.2f} ms",
-    )
-
-
-def verdicts(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
-    n = max(runs)
-    w, h = runs[n]["session"], runs[n]["hearing"]
-    a, near, every = w["authority"], w["probe-near"], h["probe-all"]
-    total_us, marginal_us = _per_pose_us(every, base["hearing"]["probe-all"])
-    floor_us = _per_pose_us(h["floor"], base["hearing"]["floor"])[1]
-    checks = [
-        (f"authority tick p99 ≤ {TARGET_TICK_P99_MS:g} ms with no overruns at N = {n}",
-         a["p99"] <= TARGET_TICK_P99_MS and a["overruns"] == 0,
-         f"p99 {a['p99']:.2f} ms, {a['overruns']} overruns; beside probe-all "
-         f"{h['authority']['p99']:.2f} ms, {h['authority']['overruns']} overruns"),
-        *(_node_check(name, probe, n) for name, probe in (
-            ("a participant with the default interest radius (probe-near)", near),
-            ("a node hearing every pose of the session (probe-all)", every))),
-        (f"receive cost ≤ {TARGET_RX_US:g} µs per pose (above idle)",
-         marginal_us <= TARGET_RX_US, f"probe-all {marginal_us:.1f} µs ({total_us:.1f} µs all "
-         f"in); a bare zenoh-python subscriber to the same poses in the same window, its "
-         f"callback only taking the bytes: {floor_us:.1f} µs"),
-    ]  # fmt: skip
-    return "\n".join(f"- {what}: {'met' if ok else 'MISSED'} ({got})." for what, ok, got in checks)
 
 
 def section(runs: dict[int, dict[str, Any]], base: dict[str, Any], profile: str) -> str:
@@ -553,29 +437,6 @@ def section(runs: dict[int, dict[str, Any]], base: dict[str, Any], profile: str)
     return "\n".join(parts)
 
 
-def profile_text(raw: Path, egos: int, seconds: float, before: dict | None) -> str:
-    if not raw.exists():
-        return ""
-    shares = scale_profile.split(raw, seconds)
-    rows = ["| function (file:line) | share of samples |", "|---|---|"]
-    rows += [f"| `{frame}` | {share:.0%} |" for frame, share in top_functions(raw)]
-    compared = (
-        f" beside the same split recorded by this script before ({before['label']}, "
-        f"N = {before['egos']})"
-        if before
-        else ""
-    )
-    return (
-        f"Where the authority's time went at N = {egos} in a window like the session one, after "
-        f"the measured ones (py-spy at "
-        f"{scale_profile.SAMPLE_RATE_HZ} Hz, all threads: the tick and Zenoh's), split into the "
-        f"parts of its work as shares of one core{compared}:\n\n"
-        + scale_profile.table(shares, before)
-        + "\n\nTop functions (inclusive, share of samples):\n\n"
-        + "\n".join(rows)
-    )
-
-
 def _profile(raw: Path, egos: int, args: argparse.Namespace) -> str:
     """The profile's text; saves its split when asked (the 'before' of a later run)."""
     before = json.loads(args.profile_before.read_text()) if args.profile_before else None
@@ -583,7 +444,7 @@ def _profile(raw: Path, egos: int, args: argparse.Namespace) -> str:
         shares = scale_profile.split(raw, args.seconds)
         scale_profile.save(shares, egos, args.profile_label, args.profile_out)
         shutil.copyfile(raw, args.profile_out.with_suffix(".raw.txt"))  # for a closer look
-    return profile_text(raw, egos, args.seconds, before)
+    return scale_profile.text(raw, egos, args.seconds, before)
 
 
 def main(argv: list[str] | None = None) -> int:

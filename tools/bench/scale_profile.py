@@ -85,6 +85,43 @@ def table(after: dict[str, float], before: dict | None) -> str:
     return "\n".join(rows)
 
 
+def top_functions(raw: Path, count: int = 15) -> list[tuple[str, float]]:
+    """Functions by the share of samples they were on the stack in (inclusive)."""
+    totals: dict[str, int] = {}
+    samples = 0
+    for line in raw.read_text().splitlines():
+        stack, _, n = line.rpartition(" ")
+        samples += int(n)
+        for frame in set(stack.split(";")):
+            totals[frame] = totals.get(frame, 0) + int(n)
+    ranked = sorted(totals.items(), key=lambda kv: -kv[1])[:count]
+    return [(frame, n / max(samples, 1)) for frame, n in ranked]
+
+
+def text(raw: Path, egos: int, seconds: float, before: dict | None) -> str:
+    """The profile's section text: the split beside `before`, then the top functions."""
+    if not raw.exists():
+        return ""
+    shares = split(raw, seconds)
+    rows = ["| function (file:line) | share of samples |", "|---|---|"]
+    rows += [f"| `{frame}` | {share:.0%} |" for frame, share in top_functions(raw)]
+    compared = (
+        f" beside the same split recorded by this script before ({before['label']}, "
+        f"N = {before['egos']})"
+        if before
+        else ""
+    )
+    return (
+        f"Where the authority's time went at N = {egos} in a window like the session one, after "
+        f"the measured ones (py-spy at "
+        f"{SAMPLE_RATE_HZ} Hz, all threads: the tick and Zenoh's), split into the "
+        f"parts of its work as shares of one core{compared}:\n\n"
+        + table(shares, before)
+        + "\n\nTop functions (inclusive, share of samples):\n\n"
+        + "\n".join(rows)
+    )
+
+
 def main(argv: list[str] | None = None) -> int:
     """Split a raw recording again (e.g. after a new part was named) and save it."""
     import argparse

@@ -1,0 +1,114 @@
+"""The scale benchmark's report: its tables and verdicts, from the windows' figures.
+
+`bench_scale.py` runs the windows; each is a dict of the children's reports (see
+`Bench.window` there). Pure functions of those dicts, so a saved run can be reported again.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+TARGET_TICK_P99_MS = 20.0
+TARGET_DELIVERY = 0.999
+TARGET_ONE_WAY_P99_MS = 5.0
+TARGET_RX_US = 10.0  # [µs] per pose received
+
+
+def _per_pose_us(probe: dict[str, Any], base: dict[str, Any]) -> tuple[float, float]:
+    """(all CPU, CPU above the no-swarm window) per pose received [µs]."""
+    if not probe["poses"]:
+        return float("nan"), float("nan")
+    rate = probe["cpu_s"] / probe["seconds"]
+    base_rate = base["cpu_s"] / base["seconds"]
+    per_s = probe["poses"] / probe["seconds"]
+    return rate / per_s * 1e6, (rate - base_rate) / per_s * 1e6
+
+
+def _delivery(probe: dict[str, Any]) -> float:
+    return probe["poses"] / probe["spanned"] if probe["spanned"] else float("nan")
+
+
+def scale_table(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
+    rows = [
+        "| egos | poses/s sent (of 50 Hz × N) | authority tick p50 / p99 / max ms | overruns | "
+        "probe-near one-way p50 / p99 ms | delivery | router CPU | authority CPU | swarm CPU | "
+        "tick p99 ms / overruns beside probe-all |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for n, r in runs.items():
+        w, h = r["session"], r["hearing"]
+        a, near, cpu = w["authority"], w["probe-near"], w["cpu"]
+        rows.append(
+            f"| {n} | {r['swarm']['poses_per_s']:,.0f} ({r['swarm']['offered_fraction']:.0%}) | "
+            f"{a['p50']:.2f} / {a['p99']:.2f} / {a['max']:.1f} | {a['overruns']} | "
+            f"{near['p50_ms']:.2f} / {near['p99_ms']:.2f} | {_delivery(near):.3%} | "
+            f"{cpu['router']:.0%} | {cpu['authority']:.0%} | {cpu['swarm']:.0%} | "
+            f"{h['authority']['p99']:.2f} / {h['authority']['overruns']} |"
+        )
+    return "\n".join(rows)
+
+
+def receive_table(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
+    rows = [
+        "| egos | probe-all poses/s | one-way p50 / p99 ms | delivery | µs per pose (all / "
+        "above idle) | bare zenoh-python µs per pose above idle | authority CPU |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    idle = base["hearing"]
+    for n, r in runs.items():
+        h = r["hearing"]
+        p = h["probe-all"]
+        total_us, marginal_us = _per_pose_us(p, idle["probe-all"])
+        rows.append(
+            f"| {n} | {p['poses'] / p['seconds']:,.0f} | {p['p50_ms']:.2f} / {p['p99_ms']:.2f} | "
+            f"{_delivery(p):.3%} | {total_us:.1f} / {marginal_us:.1f} | "
+            f"{_per_pose_us(h['floor'], idle['floor'])[1]:.1f} | {h['cpu']['authority']:.0%} |"
+        )
+    return "\n".join(rows)
+
+
+def interest_table(runs: dict[int, dict[str, Any]]) -> str:
+    rows = [
+        "| egos on the map | probe-near: egos heard | poses/s received | tiles subscribed | "
+        "probe-all: egos heard | poses/s received |",
+        "|---|---|---|---|---|---|",
+    ]
+    for n, r in runs.items():
+        near, every = r["session"]["probe-near"], r["hearing"]["probe-all"]
+        rows.append(
+            f"| {n} | {near['senders']} | {near['poses'] / near['seconds']:,.0f} | "
+            f"{near['tiles']} | {every['senders']} | {every['poses'] / every['seconds']:,.0f} |"
+        )
+    return "\n".join(rows)
+
+
+def _node_check(who: str, probe: dict[str, Any], n: int) -> tuple[str, bool, str]:
+    delivery = _delivery(probe)
+    return (
+        f"{who} at N = {n} receives ≥ {TARGET_DELIVERY:.1%} with one-way p99 ≤ "
+        f"{TARGET_ONE_WAY_P99_MS:g} ms",
+        delivery >= TARGET_DELIVERY and probe["p99_ms"] <= TARGET_ONE_WAY_P99_MS,
+        f"{delivery:.3%}, p99 {probe['p99_ms']:.2f} ms",
+    )
+
+
+def verdicts(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
+    n = max(runs)
+    w, h = runs[n]["session"], runs[n]["hearing"]
+    a, near, every = w["authority"], w["probe-near"], h["probe-all"]
+    total_us, marginal_us = _per_pose_us(every, base["hearing"]["probe-all"])
+    floor_us = _per_pose_us(h["floor"], base["hearing"]["floor"])[1]
+    checks = [
+        (f"authority tick p99 ≤ {TARGET_TICK_P99_MS:g} ms with no overruns at N = {n}",
+         a["p99"] <= TARGET_TICK_P99_MS and a["overruns"] == 0,
+         f"p99 {a['p99']:.2f} ms, {a['overruns']} overruns; beside probe-all "
+         f"{h['authority']['p99']:.2f} ms, {h['authority']['overruns']} overruns"),
+        *(_node_check(name, probe, n) for name, probe in (
+            ("a participant with the default interest radius (probe-near)", near),
+            ("a node hearing every pose of the session (probe-all)", every))),
+        (f"receive cost ≤ {TARGET_RX_US:g} µs per pose (above idle)",
+         marginal_us <= TARGET_RX_US, f"probe-all {marginal_us:.1f} µs ({total_us:.1f} µs all "
+         f"in); a bare zenoh-python subscriber to the same poses in the same window, its "
+         f"callback only taking the bytes: {floor_us:.1f} µs"),
+    ]  # fmt: skip
+    return "\n".join(f"- {what}: {'met' if ok else 'MISSED'} ({got})." for what, ok, got in checks)
