@@ -81,8 +81,7 @@ class ZenohOutbox:
         self._count("impulse")
 
     def hears(self, node_id: str) -> bool:
-        if node_id not in self._audio:
-            self._audio_publisher(node_id)
+        self._audio_publisher(node_id)  # declared on first ask: its matching status follows
         return node_id in self._heard
 
     def audio(self, node_id: str, scene: m.AudioScene) -> None:

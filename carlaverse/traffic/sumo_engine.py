@@ -63,8 +63,8 @@ class SumoEngine:
         self._egos = EgoCarrier(self._ls, settings.traffic.ego_match_radius_m)
         self._frame = NpcFrame.empty()
         self._unread = False  # a step whose NPCs are not read back yet
-        # Lights change only when SUMO steps or we set them: read once per engine time.
-        self._light_cache: tuple[float, list[LightReading]] | None = None
+        # Lights change only when SUMO steps or we set them: read once between those.
+        self._lights: list[LightReading] | None = None
         self._next_top_up = 0.0
         try:
             self._reader = NpcReader(self._ls, define_types(self._ls), settings.step_length_s)
@@ -107,6 +107,7 @@ class SumoEngine:
         if self._unread:  # each step read once: the yaw rates are per step
             self.npcs()
         self._ls.simulationStep()
+        self._lights = None
         if self.time_s + 1e-9 >= self._next_top_up:
             self._top_up()
         # Read back when asked: a tick that steps can leave the read to the next tick.
@@ -205,21 +206,18 @@ class SumoEngine:
                 f"light {light_id!r} controls {links} links, state {state!r} has {len(state)}"
             )
         tl.setRedYellowGreenState(light_id, state)
-        self._light_cache = None
+        self._lights = None
 
     # ------------------------------------------------------------------ traffic lights
 
     def light_readings(self) -> list[LightReading]:
-        now = self.time_s
-        if self._light_cache is not None and self._light_cache[0] == now:
-            return self._light_cache[1]
-        tl = self._ls.trafficlight
-        readings = [
-            LightReading(i, tl.getRedYellowGreenState(i), tl.getPhase(i), tl.getNextSwitch(i))
-            for i in tl.getIDList()
-        ]
-        self._light_cache = (now, readings)
-        return readings
+        if self._lights is None:
+            tl = self._ls.trafficlight
+            self._lights = [
+                LightReading(i, tl.getRedYellowGreenState(i), tl.getPhase(i), tl.getNextSwitch(i))
+                for i in tl.getIDList()
+            ]
+        return self._lights
 
     def light_programs(self) -> dict[str, list[LightPhase]]:
         tl, programs = self._ls.trafficlight, {}
@@ -251,7 +249,7 @@ class SumoEngine:
         )
         tl.setProgram(light_id, OVERRIDE_PROGRAM)
         self._apply_offset(light_id, phases, offset_s)
-        self._light_cache = None
+        self._lights = None
 
     def _apply_offset(self, light_id: str, phases: Sequence[LightPhase], offset_s: float) -> None:
         """Start the cycle as SUMO's `offset` would: at time 0 it is (-offset) into the cycle."""
