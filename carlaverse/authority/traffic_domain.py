@@ -211,8 +211,12 @@ def load_domain(
     seed_override: int | None = None,
     *,
     cache_dir: Path | None = None,
+    sumo_process: bool | None = None,
 ) -> TrafficDomain:
     """Build a scenario's network, start SUMO on it and return the domain that ticks it.
+
+    SUMO runs in a process of its own unless `sumo_process` (default: the scenario's
+    `traffic.sumo_process`) says otherwise; tests that look into libsumo keep it in theirs.
 
     Raises ConfigError (naming the scenario file) for a scenario that does not fit its map,
     SumoMissingError when SUMO is not installed, SumoToolError when a map fails to convert.
@@ -221,6 +225,7 @@ def load_domain(
     from carlaverse.traffic.netbuild import build_map
     from carlaverse.traffic.spawns import resolve_spawns
     from carlaverse.traffic.sumo_engine import SumoEngine, SumoSettings
+    from carlaverse.traffic.sumo_process import SumoProcess
 
     scenario = load_scenario(scenario_name_or_path)
     spec = scenario.spec
@@ -232,8 +237,11 @@ def load_domain(
     except ValueError as exc:
         raise ConfigError(str(scenario.path), str(exc)) from exc
     seed = spec.seed if seed_override is None else seed_override
+    separate = spec.traffic.sumo_process if sumo_process is None else sumo_process
+    settings = SumoSettings(built.net, seed, spec.step_length_s, spec.traffic)
+    engine: TrafficEngine
     try:
-        engine = SumoEngine(SumoSettings(built.net, seed, spec.step_length_s, spec.traffic))
+        engine = SumoProcess(settings) if separate else SumoEngine(settings)
     except ValueError as exc:
         raise ConfigError(str(scenario.path), str(exc)) from exc
     try:

@@ -176,6 +176,9 @@ class Traffic(StrictStruct):
     ego_match_radius_m: Positive = 10.0
     sumo_warnings: bool = False  # let SUMO print its warnings (noisy with human actors)
     sumo_options: list[str] = []  # extra sumo options, appended verbatim
+    # SUMO in a process of its own, stepping beside the authority's tick (false: inside the
+    # authority's process, where each step stalls the tick that takes it).
+    sumo_process: bool = True
 
 
 # --------------------------------------------------------------------------- lights, weather

@@ -75,9 +75,11 @@ def write_scenario(tmp_path: Path, body: str, name: str = "test") -> Path:
 
 @contextmanager
 def domain_of(
-    scenario: str | Path, cache: Path, seed: int | None = None
+    scenario: str | Path, cache: Path, seed: int | None = None, sumo_process: bool = False
 ) -> Iterator[TrafficDomain]:
-    domain = load_domain(scenario, seed, cache_dir=cache)
+    """The scenario's domain; SUMO in this process unless asked, so tests can look into it
+    with libsumo and the ticks see each step's NPCs at once (no race with another process)."""
+    domain = load_domain(scenario, seed, cache_dir=cache, sumo_process=sumo_process)
     try:
         yield domain
     finally:
