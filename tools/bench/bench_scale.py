@@ -107,7 +107,7 @@ def authority_main(endpoint: str, scenario: str, conn: Any) -> None:
     authority = Authority(session, settings, WallAlignedClock(), domain).start()
     ticking = threading.Thread(target=authority.run, daemon=True)
     ticking.start()
-    conn.send(os.getpid())
+    conn.send((os.getpid(), getattr(domain.engine, "pid", None)))  # SUMO's own process, if any
     while (command := conn.recv()) != "quit":
         if command == "start":
             authority.tick_ms.clear()
@@ -264,7 +264,7 @@ class Bench:
         scenario = self.tmp / "scale.yaml"
         scenario.write_text(SCENARIO)
         self.conns["authority"], _ = self._child(authority_main, str(scenario))
-        self.authority_pid = self.conns["authority"].recv()
+        self.authority_pid, self.sumo_pid = self.conns["authority"].recv()
         self.conns["probe-near"], _ = self._child(probe_main, "probe-near", NEAR_RADIUS_M)
         # A participant standing near probe-near, so it has a neighbour at any N (the swarm
         # spreads 16 egos over 16 km², rarely one within its tiles).
@@ -307,6 +307,8 @@ class Bench:
         pids = {"router": self.router.pid, "authority": self.authority_pid}  # type: ignore[union-attr]
         if swarm_pid is not None:
             pids["swarm"] = swarm_pid
+        if self.sumo_pid is not None:
+            pids["sumo"] = self.sumo_pid
         cpu0 = {k: proc_cpu_s(p) for k, p in pids.items()}
         t0 = time.monotonic()
         conns = dict(self.conns)
@@ -367,7 +369,7 @@ def _py_spy(pid: int, seconds: float, out: Path) -> subprocess.Popen | None:
         print("--profile needs py-spy: pip install py-spy", file=sys.stderr)
         return None
     cmd = [program, "record", "--pid", str(pid), "--duration", str(int(seconds)), "--format",
-           "raw", "--output", str(out), "--nonblocking",
+           "raw", "--output", str(out), "--nonblocking", "--subprocesses",
            "--rate", str(scale_profile.SAMPLE_RATE_HZ)]  # fmt: skip
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 
@@ -393,7 +395,9 @@ def section(runs: dict[int, dict[str, Any]], base: dict[str, Any], profile: str)
         f"`carlaverse swarm --egos N` driving blocks of the same street grid over "
         f"{SPREAD_M / 1000:g} km × {SPREAD_M / 1000:g} km at 50 Hz per ego: every ego joins and "
         "is in the collision matrix; those on the town's streets are carried in SUMO, the "
-        "others SUMO cannot place (retried each second). Swarm egos render no audio, so "
+        "others SUMO cannot place (retried each second). SUMO runs in a process of its own "
+        "beside the authority (`traffic.sumo_process`, the default), its CPU in a column of "
+        "its own. Swarm egos render no audio, so "
         "the authority builds no audio scenes for them (it builds a listener's only while "
         "something subscribes to its audio key; 256 listeners' scenes are costed under "
         "Authority audio emitters). All on this machine over "

@@ -34,6 +34,10 @@ PARTS: list[tuple[str, list[tuple[str, str]]]] = [
       ("_on_snapshot", ""), ("_on_leave", "")]),
 ]  # fmt: skip
 OTHER = "other (interpreter, Zenoh threads, idle loop)"
+# SUMO runs in a child of the authority (traffic.sumo_process), recorded with --subprocesses:
+# its stacks are split the same way, under this prefix, so they are not read as the tick's.
+SUMO_PROCESS = "SUMO's own process, beside the tick: "
+SUMO_PROCESS_ROOTS = {("_serve", "sumo_process.py"), ("main", "sumo_process.py")}
 
 
 def _frame_parts(frame: str) -> tuple[str, str]:
@@ -43,12 +47,13 @@ def _frame_parts(frame: str) -> tuple[str, str]:
 
 
 def part_of(stack: list[str]) -> str:
-    for frame in reversed(stack):
-        name, file = _frame_parts(frame)
+    frames = [_frame_parts(frame) for frame in stack]
+    prefix = SUMO_PROCESS if any(f in SUMO_PROCESS_ROOTS for f in frames) else ""
+    for name, file in reversed(frames):
         for part, patterns in PARTS:
             if any(name == n and (not f or file == f) for n, f in patterns):
-                return part
-    return OTHER
+                return prefix + part
+    return prefix + OTHER
 
 
 def split(raw: Path, seconds: float) -> dict[str, float]:
@@ -114,8 +119,8 @@ def text(raw: Path, egos: int, seconds: float, before: dict | None) -> str:
     return (
         f"Where the authority's time went at N = {egos} in a window like the session one, after "
         f"the measured ones (py-spy at "
-        f"{SAMPLE_RATE_HZ} Hz, all threads: the tick and Zenoh's), split into the "
-        f"parts of its work as shares of one core{compared}:\n\n"
+        f"{SAMPLE_RATE_HZ} Hz, all threads: the tick and Zenoh's, and its SUMO process), split "
+        f"into the parts of its work as shares of one core{compared}:\n\n"
         + table(shares, before)
         + "\n\nTop functions (inclusive, share of samples):\n\n"
         + "\n".join(rows)

@@ -31,18 +31,20 @@ def _delivery(probe: dict[str, Any]) -> float:
 def scale_table(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
     rows = [
         "| egos | poses/s sent (of 50 Hz × N) | authority tick p50 / p99 / max ms | overruns | "
-        "probe-near one-way p50 / p99 ms | delivery | router CPU | authority CPU | swarm CPU | "
-        "tick p99 ms / overruns beside probe-all |",
-        "|---|---|---|---|---|---|---|---|---|---|",
+        "probe-near one-way p50 / p99 ms | delivery | router CPU | authority CPU | "
+        "its SUMO process CPU | swarm CPU | tick p99 ms / overruns beside probe-all |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for n, r in runs.items():
         w, h = r["session"], r["hearing"]
         a, near, cpu = w["authority"], w["probe-near"], w["cpu"]
+        sumo = f"{cpu['sumo']:.0%}" if "sumo" in cpu else "–"  # SUMO inside the authority
         rows.append(
             f"| {n} | {r['swarm']['poses_per_s']:,.0f} ({r['swarm']['offered_fraction']:.0%}) | "
             f"{a['p50']:.2f} / {a['p99']:.2f} / {a['max']:.1f} | {a['overruns']} | "
             f"{near['p50_ms']:.2f} / {near['p99_ms']:.2f} | {_delivery(near):.3%} | "
-            f"{cpu['router']:.0%} | {cpu['authority']:.0%} | {cpu['swarm']:.0%} | "
+            f"{cpu['router']:.0%} | {cpu['authority']:.0%} | "
+            f"{sumo} | {cpu['swarm']:.0%} | "
             f"{h['authority']['p99']:.2f} / {h['authority']['overruns']} |"
         )
     return "\n".join(rows)
