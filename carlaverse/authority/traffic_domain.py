@@ -54,6 +54,7 @@ class DomainStats:
     ticks: int = 0
     steps: int = 0
     dropped_s: float = 0.0  # [s] engine time skipped after stalls
+    deferred_steps: int = 0  # ticks that left a step to a later one: SUMO was still stepping
     contacts: int = 0
     impulses: int = 0
     npcs_removed: int = 0
@@ -157,9 +158,18 @@ class TrafficDomain:
             self._offset_s = t - engine.time_s
         target = t - self._offset_s
         stepped, placements = False, None
-        for _ in range(self._spec.session.max_catch_up_steps):
+        catch_up = self._spec.session.max_catch_up_steps
+        for _ in range(catch_up):
             if engine.time_s + step / 2 > target:
                 return stepped
+            if engine.stepping:
+                # The step before still runs in SUMO's process: a later tick steps instead of
+                # this one waiting (catching up one step a tick). A lag longer than a
+                # catch-up is dropped below, as after a stall.
+                self.stats.deferred_steps += 1
+                if target - engine.time_s <= catch_up * step:
+                    return stepped
+                break
             if placements is None:  # only on ticks that step: one in five by default
                 placements = now.placements()
             engine.place_egos(placements)

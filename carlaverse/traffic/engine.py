@@ -106,6 +106,12 @@ class TrafficEngine(Protocol):
         """Advance one step of `step_length_s`."""
         ...
 
+    @property
+    def stepping(self) -> bool:
+        """Whether the last step still runs elsewhere (another process): a step now would
+        wait for it. Always False for an engine that steps in the caller's thread."""
+        ...
+
     def npcs(self) -> NpcFrame:
         """All NPCs (not the egos) after the last step (read back now if not yet)."""
         ...

@@ -103,6 +103,10 @@ class SumoEngine:
     def step_length_s(self) -> float:
         return self._settings.step_length_s
 
+    @property
+    def stepping(self) -> bool:
+        return False  # each step is done when step() returns
+
     def step(self) -> None:
         if self._unread:  # each step read once: the yaw rates are per step
             self.npcs()

@@ -68,6 +68,10 @@ class SumoProcess:
         self._step_s = settings.step_length_s
         self._closed = False
         self._in_flight = False  # a step sent whose frame has not come back
+        # Steps that had to wait for the one before (SUMO slower than the session, or starved
+        # of CPU), and the longest such wait: the tick paid for them.
+        self.late_steps = 0
+        self.longest_wait_s = 0.0
         self._steps = 0
         self._placements: list[EgoPlacement] = []
         reply = self._receive(START_TIMEOUT_S, "starting")
@@ -87,6 +91,11 @@ class SumoProcess:
     def step_length_s(self) -> float:
         return self._step_s
 
+    @property
+    def stepping(self) -> bool:
+        self._collect()
+        return self._in_flight
+
     def place_egos(self, egos: Sequence[EgoPlacement]) -> None:
         self._placements = list(egos)
 
@@ -94,7 +103,10 @@ class SumoProcess:
         if self._closed:
             raise SumoProcessError("the SUMO process is closed")
         if self._in_flight:
+            began = time.perf_counter()
             self._await_step()
+            self.late_steps += 1
+            self.longest_wait_s = max(self.longest_wait_s, time.perf_counter() - began)
         self._send(("step", self._placements))
         self._in_flight = True
         self._steps += 1
@@ -112,7 +124,8 @@ class SumoProcess:
         return self._lights
 
     def counters(self) -> dict[str, int]:
-        return dict(self._counters)  # as of the last step back: no call, no wait
+        # The child's as of the last step back (no call, no wait), and the steps that waited.
+        return {**self._counters, "sumo_late_steps": self.late_steps}
 
     # ------------------------------------------------------------------ NPC reactions, triggers
 

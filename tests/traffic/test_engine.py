@@ -150,3 +150,50 @@ def test_egos_off_the_network_do_not_break_the_tick(tmp_path: Path, net_cache: P
         report = domain.report()  # what the authority's --json summary shows as `traffic`
         assert report["ego_failures"] == domain.engine.ego_failures and report["ticks"] >= 150
         assert len(out.npcs) >= 59 and out.npcs[-1].ids  # the world went on
+
+
+class Held:
+    """The domain's real engine, reporting a step still running elsewhere while `held`."""
+
+    def __init__(self, engine: Any) -> None:
+        self.engine = engine
+        self.held = False
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.engine, name)
+
+    @property
+    def stepping(self) -> bool:
+        return self.held
+
+    def step(self) -> None:
+        assert not self.held, "stepped while the step before still ran"
+        self.engine.step()
+
+
+def test_a_tick_leaves_the_step_to_a_later_one_while_sumo_still_steps(
+    tmp_path: Path, net_cache: Path
+) -> None:
+    with domain_of(write_scenario(tmp_path, CROSSING_MAP + STEP_PER_TICK), net_cache) as domain:
+        held = Held(domain.engine)
+        domain._engine = held  # type: ignore[assignment]
+        out = MemoryOutbox()
+        t = run(domain, out, T0, 0.2)  # scenario time 0 .. 0.18, a step a tick
+        s = t - T0  # scenario time of the next tick: 0.2
+        assert held.time_s == pytest.approx(s - TICK_S)
+        held.held = True
+        for k in range(3):  # three ticks while SUMO is busy: none of them waits or steps
+            domain.tick(t + k * TICK_S, {}, out)
+        assert held.time_s == pytest.approx(s - TICK_S)
+        assert domain.stats.deferred_steps == 3
+        held.held = False
+        domain.tick(t + 3 * TICK_S, {}, out)  # free again: caught up, nothing dropped
+        assert held.time_s == pytest.approx(s + 3 * TICK_S)
+        assert domain.stats.dropped_s == 0.0
+        held.held = True  # busy for longer than a catch-up (5 steps): the lag is dropped
+        domain.tick(t + 12 * TICK_S, {}, out)
+        assert held.time_s == pytest.approx(s + 3 * TICK_S)
+        assert domain.stats.dropped_s == pytest.approx(9 * TICK_S)
+        held.held = False
+        domain.tick(t + 13 * TICK_S, {}, out)  # and on from the session's time
+        assert held.time_s == pytest.approx(s + 4 * TICK_S)

@@ -88,7 +88,7 @@ def test_npcs_are_never_more_than_one_step_old(tmp_path: Path, net_cache: Path) 
             engine.step()  # the step before has come back by now, whatever the timing
             assert engine.last_read().t >= engine.time_s - 2 * engine.step_length_s + 1e-9
         assert frame_at(engine, engine.time_s).t == pytest.approx(engine.time_s)
-        assert set(engine.counters()) == {"failed_routes", "ego_failures"}  # the child's, sent back
+        assert set(engine.counters()) == {"failed_routes", "ego_failures", "sumo_late_steps"}
     finally:
         engine.close()
 
@@ -175,3 +175,24 @@ def test_domain_on_the_process_drives_the_same_car(tmp_path: Path, net_cache: Pa
     assert rows[True]["x"] == pytest.approx(rows[False]["x"], abs=0.3)
     assert rows[True]["y"] == pytest.approx(rows[False]["y"], abs=0.05)
     assert rows[True]["vx"] == pytest.approx(rows[False]["vx"], abs=0.5)
+
+
+def test_the_domain_never_waits_for_sumo_s_process(
+    tmp_path: Path, net_cache: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ticks as fast as the loop goes (far faster than SUMO answers): a tick whose step is
+    not back yet leaves stepping to a later tick instead of waiting for it."""
+    with domain_of(
+        write_scenario(tmp_path, CROSSING_MAP + BUSY), net_cache, sumo_process=True
+    ) as domain:
+        engine = domain.engine
+        assert isinstance(engine, SumoProcess)
+
+        def refuse() -> None:
+            raise AssertionError("a tick waited for SUMO's process")
+
+        monkeypatch.setattr(engine, "_await_step", refuse)
+        out = MemoryOutbox()
+        run(domain, out, T0, 10.0)
+        assert domain.stats.steps > 0 and engine.late_steps == 0
+        assert domain.stats.steps + domain.stats.deferred_steps > 0

@@ -52,6 +52,8 @@ from benchdoc import RunInfo, command_line, write_section
 from peers.profile import py_spy
 from scale_report import interest_table, receive_table, scale_table, verdicts
 
+from carlaverse.authority.service import AuthoritySettings
+
 SESSION = "scale"
 GRID_JUNCTIONS = 8  # per side (a larger generated town takes minutes to build its scenery)
 BLOCK_M = 150.0  # [m] between junctions
@@ -95,7 +97,7 @@ def percentile(values: list[float], q: float) -> float:
 # ---------------------------------------------------------------- the authority (a child)
 
 
-def authority_main(endpoint: str, scenario: str, conn: Any) -> None:
+def authority_main(endpoint: str, scenario: str, priority: int, conn: Any) -> None:
     from carlaverse.authority.service import Authority, AuthoritySettings
     from carlaverse.authority.traffic_domain import load_domain
     from carlaverse.fabric.clock import WallAlignedClock
@@ -103,8 +105,20 @@ def authority_main(endpoint: str, scenario: str, conn: Any) -> None:
 
     domain = load_domain(scenario)
     session = open_session(FabricSettings(connect=[endpoint]))
-    settings = AuthoritySettings(session=SESSION)
+    settings = AuthoritySettings(session=SESSION, tick_priority=priority)
     authority = Authority(session, settings, WallAlignedClock(), domain).start()
+    import gc
+
+    pauses: list[float] = []
+    began = [0.0]
+
+    def on_gc(phase: str, info: dict) -> None:
+        if phase == "start":
+            began[0] = time.perf_counter()
+        else:
+            pauses.append((time.perf_counter() - began[0]) * 1e3)
+
+    gc.callbacks.append(on_gc)
     ticking = threading.Thread(target=authority.run, daemon=True)
     ticking.start()
     conn.send((os.getpid(), getattr(domain.engine, "pid", None)))  # SUMO's own process, if any
@@ -112,12 +126,16 @@ def authority_main(endpoint: str, scenario: str, conn: Any) -> None:
         if command == "start":
             authority.tick_ms.clear()
             authority.overruns = 0
+            pauses.clear()
         elif command == "stop":
             ticks = list(authority.tick_ms)
             conn.send({
                 "ticks": len(ticks), "p50": percentile(ticks, 0.5), "p99": percentile(ticks, 0.99),
                 "max": max(ticks, default=float("nan")), "overruns": authority.overruns,
                 "npcs": len(domain.engine.last_read().ids), "egos": len(authority.roster.tracks),
+                "gc_n": len(pauses), "gc_max_ms": max(pauses, default=0.0),
+                "late": getattr(domain.engine, "late_steps", 0),
+                "late_max_ms": getattr(domain.engine, "longest_wait_s", 0.0) * 1e3,
             })  # fmt: skip
     authority.stop()
     ticking.join(5)  # the tick thread must be done with SUMO before close() ends it
@@ -246,7 +264,8 @@ class Bench:
     session windows measure the authority beside what a session has: participants that hear
     the actors around them."""
 
-    def __init__(self, tmp: Path, seconds: float, fill_s: float) -> None:
+    def __init__(self, tmp: Path, seconds: float, fill_s: float, priority: int) -> None:
+        self.priority = priority
         self.tmp = tmp
         self.seconds = seconds
         self.fill_s = fill_s
@@ -263,7 +282,7 @@ class Bench:
                                        stderr=subprocess.DEVNULL)  # fmt: skip
         scenario = self.tmp / "scale.yaml"
         scenario.write_text(SCENARIO)
-        self.conns["authority"], _ = self._child(authority_main, str(scenario))
+        self.conns["authority"], _ = self._child(authority_main, str(scenario), self.priority)
         self.authority_pid, self.sumo_pid = self.conns["authority"].recv()
         self.conns["probe-near"], _ = self._child(probe_main, "probe-near", NEAR_RADIUS_M)
         # A participant standing near probe-near, so it has a neighbour at any N (the swarm
@@ -462,9 +481,15 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--profile-label", default="", help="what the saved split measured")
     parser.add_argument("--profile-before", type=Path, help="a saved split to compare with")
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md")
+    parser.add_argument(
+        "--tick-priority",
+        type=int,
+        default=AuthoritySettings().tick_priority,
+        help="the authority's tick_priority (default: the shipped default)",
+    )
     args = parser.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
-        bench = Bench(Path(tmp), args.seconds, args.fill)
+        bench = Bench(Path(tmp), args.seconds, args.fill, args.tick_priority)
         try:
             bench.start()
             base = bench.both_windows(None, None)

@@ -11,6 +11,7 @@ as SUMO's, and the rest of `SumoEngine.step` as ours. Shares are of one core: sa
 from __future__ import annotations
 
 import json
+from collections.abc import Iterator
 from pathlib import Path
 
 SAMPLE_RATE_HZ = 100  # py-spy's --rate, set explicitly by the benchmark
@@ -38,6 +39,18 @@ OTHER = "other (interpreter, Zenoh threads, idle loop)"
 # its stacks are split the same way, under this prefix, so they are not read as the tick's.
 SUMO_PROCESS = "SUMO's own process, beside the tick: "
 SUMO_PROCESS_ROOTS = {("_serve", "sumo_process.py"), ("main", "sumo_process.py")}
+# Frames under every stack of a process or thread: on top of the list, telling nothing.
+BOOTSTRAP = (
+    "<module> ",
+    "_run_",
+    "spawn_main ",
+    "_main ",
+    "Thread._bootstrap",
+    "Thread.run ",
+    "BaseProcess._bootstrap",
+    "BaseProcess.run ",
+    "main (carlaverse/traffic/sumo",
+)
 
 
 def _frame_parts(frame: str) -> tuple[str, str]:
@@ -56,15 +69,23 @@ def part_of(stack: list[str]) -> str:
     return prefix + OTHER
 
 
+def stacks(raw: Path) -> Iterator[tuple[list[str], int]]:
+    """(frames root first, samples) of each line. With --subprocesses py-spy puts a frame
+    `process PID:"command line"` at the root, whose command line may hold `;`: dropped."""
+    for line in raw.read_text().splitlines():
+        stack, _, count = line.rpartition(" ")
+        if stack.startswith("process "):
+            stack = stack[stack.find('";', stack.find('"') + 1) + 2 :]
+        if stack and count.isdigit():
+            yield stack.split(";"), int(count)
+
+
 def split(raw: Path, seconds: float) -> dict[str, float]:
     """Share of one core per part (0.25 = a quarter of a core), largest first."""
     samples: dict[str, int] = {}
-    for line in raw.read_text().splitlines():
-        stack, _, count = line.rpartition(" ")
-        if not stack or not count.isdigit():
-            continue
-        part = part_of(stack.split(";"))
-        samples[part] = samples.get(part, 0) + int(count)
+    for frames, count in stacks(raw):
+        part = part_of(frames)
+        samples[part] = samples.get(part, 0) + count
     total = SAMPLE_RATE_HZ * seconds
     return dict(sorted(((p, n / total) for p, n in samples.items()), key=lambda kv: -kv[1]))
 
@@ -94,11 +115,11 @@ def top_functions(raw: Path, count: int = 15) -> list[tuple[str, float]]:
     """Functions by the share of samples they were on the stack in (inclusive)."""
     totals: dict[str, int] = {}
     samples = 0
-    for line in raw.read_text().splitlines():
-        stack, _, n = line.rpartition(" ")
-        samples += int(n)
-        for frame in set(stack.split(";")):
-            totals[frame] = totals.get(frame, 0) + int(n)
+    for frames, n in stacks(raw):
+        samples += n
+        for frame in set(frames):
+            if not frame.startswith(BOOTSTRAP):
+                totals[frame] = totals.get(frame, 0) + n
     ranked = sorted(totals.items(), key=lambda kv: -kv[1])[:count]
     return [(frame, n / max(samples, 1)) for frame, n in ranked]
 
