@@ -28,6 +28,17 @@ from carlaverse.keys import AUTHORITY_ID, KeySpaceError, check_token
 log = logging.getLogger(__name__)
 
 
+def fifo_priority(text: str) -> int:
+    """A SCHED_FIFO priority argument: 0 (leave the scheduling alone) or 1-99."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number 0-99") from None
+    if not 0 <= value <= 99:
+        raise argparse.ArgumentTypeError(f"{value} is out of range: 0 (normal) or 1-99")
+    return value
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = (
         "Run the authority of a session: joins, presence, the session clock, despawns, and the "
@@ -45,6 +56,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         metavar="S",
         help="despawn a silent node after S seconds (default: scenario's, else 3)",
+    )
+    parser.add_argument(
+        "--tick-priority",
+        type=fifo_priority,
+        default=0,
+        metavar="N",
+        help="run the tick thread real-time (SCHED_FIFO N, 1-99) where allowed, else at nice "
+        "-10: ticks on time on a machine shared with nodes, at their cost (default: 0, normal)",
     )
     add_fabric_args(parser)
     add_output_args(parser)
@@ -97,6 +116,7 @@ def run(args: argparse.Namespace) -> int:
         session=session_name,
         tick_hz=args.tick_hz or getattr(params, "tick_hz", 50.0),
         despawn_timeout_s=args.despawn_timeout or getattr(params, "despawn_timeout_s", 3.0),
+        tick_priority=args.tick_priority,
     )
     authority = Authority(session, settings, WallAlignedClock(), domain).start()
     watcher = threading.Thread(target=lambda: (stop.wait(), authority.stop()), daemon=True)
@@ -117,6 +137,7 @@ def run(args: argparse.Namespace) -> int:
         print_json(
             {
                 "tick": summary,
+                "scheduling": authority.scheduling,
                 "despawned": authority.despawned,
                 "dropped": authority.dropped,
                 "sent": authority.outbox.sent,

@@ -74,6 +74,12 @@ class EgoPlacement:
     width: float  # [m]
     height: float  # [m]
 
+    def __reduce__(self) -> tuple[type[EgoPlacement], tuple[object, ...]]:
+        # Pickled for SUMO's process every step: a slots dataclass's own pickling looks up
+        # `fields()` per object, 3 ms a step at 256 egos; the plain tuple costs a tenth.
+        return EgoPlacement, (self.node_id, self.actor_kind, self.x, self.y, self.z, self.yaw,
+                              self.speed, self.length, self.width, self.height)  # fmt: skip
+
 
 @dataclass(frozen=True, slots=True)
 class LightPhase:

@@ -158,3 +158,18 @@ def test_a_client_told_nothing_tries_once_and_says_why() -> None:
     assert time.monotonic() - started < CLIENT_ATTEMPT_MS / 1e3 + 1.0
     assert f"Unable to connect to any of {settings.connect[0]}" in str(err.value)
     assert not any(bit in str(err.value) for bit in RUST_INTERNALS), err.value
+
+
+@pytest.mark.parametrize(
+    ("value", "says"),
+    [("120", "120 is out of range: 0 (normal) or 1-99"), ("high", "'high' is not a whole")],
+)
+def test_a_bad_tick_priority_names_the_flag_and_the_range(
+    value: str, says: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exited:
+        main(["authority", "--scenario", "none", "--tick-priority", value])
+    assert exited.value.code == 2
+    last = capsys.readouterr().err.strip().splitlines()[-1]
+    assert last.startswith("carlaverse authority: error: argument --tick-priority: "), last
+    assert says in last, last
