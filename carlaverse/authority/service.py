@@ -15,6 +15,7 @@ lost), `timeout` (silent for the despawn timeout), `authority` (a new process to
 
 from __future__ import annotations
 
+import gc
 import logging
 import threading
 import time
@@ -128,6 +129,16 @@ class Authority:
         period = 1.0 / self.settings.tick_hz
         if self.settings.tick_priority:
             self.scheduling = raise_priority(self.settings.tick_priority)  # this thread's
+        # Everything alive now lives as long as the session (the map, the scenario, the
+        # network's tables): out of the collector's sight, a full collection no longer walks
+        # it while a tick waits (up to 124 ms at N = 256 on a loaded host before).
+        gc.freeze()
+        try:
+            self._run(period, duration_s)
+        finally:
+            gc.unfreeze()
+
+    def _run(self, period: float, duration_s: float | None) -> None:
         start = time.monotonic()
         next_t = start
         while not self._stop.is_set():

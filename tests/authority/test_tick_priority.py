@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import os
 import threading
 from collections.abc import Mapping
@@ -60,3 +61,24 @@ def test_a_priority_out_of_range_is_refused_by_name() -> None:
 
     with pytest.raises(msgspec.ValidationError, match="tick_priority"):
         msgspec.convert({"tick_priority": 120}, AuthoritySettings)
+
+
+class FreezeProbe(EmptyDomain):
+    def __init__(self) -> None:
+        self.frozen: list[int] = []
+
+    def tick(self, t: float, egos: Mapping[str, EgoTrack], out: Outbox) -> None:
+        self.frozen.append(gc.get_freeze_count())
+
+
+def test_what_lives_at_the_start_is_kept_from_the_collector_while_it_ticks() -> None:
+    session = open_session(FabricSettings(listen=["tcp/127.0.0.1:0"]))
+    domain = FreezeProbe()
+    authority = Authority(session, AuthoritySettings(session="t"), WallAlignedClock(), domain)
+    try:
+        authority.run(duration_s=0.1)
+    finally:
+        authority.close()
+        session.close()
+    assert domain.frozen and min(domain.frozen) > 1000  # the process's objects, frozen
+    assert gc.get_freeze_count() == 0  # and given back when the ticking ends
