@@ -50,7 +50,7 @@ from typing import Any
 import scale_profile
 from benchdoc import RunInfo, command_line, write_section
 from peers.profile import py_spy
-from scale_report import interest_table, receive_table, scale_table, verdicts
+from scale_report import interest_table, receive_table, scale_table, stalls, verdicts
 
 from carlaverse.authority.service import AuthoritySettings
 
@@ -441,6 +441,8 @@ def section(runs: dict[int, dict[str, Any]], base: dict[str, Any], profile: str)
         "poses received over sequence numbers spanned per sender.",
         "",
         scale_table(runs, base),
+        "",
+        stalls(runs),
         "",
         "Receiving everything (the hear-everything windows): CPU per pose is the probe's "
         "process CPU over poses received (all in: its own pose, clock sync and the NPC "

@@ -50,6 +50,24 @@ def scale_table(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
     return "\n".join(rows)
 
 
+def stalls(runs: dict[int, dict[str, Any]]) -> str:
+    """What could stall the authority's tick in the session windows, besides the machine."""
+    parts = []
+    for n, r in runs.items():
+        a = r["session"]["authority"]
+        if "gc_n" not in a:  # a run saved before these were reported
+            return ""
+        parts.append(
+            f"N = {n}: {a['gc_n']} collections (longest {a['gc_max_ms']:.1f} ms), "
+            f"{a['late']} steps that waited for SUMO"
+        )
+    return (
+        "Stalls in the session windows: Python's cyclic collector in the authority and ticks "
+        "that had to wait for SUMO's process (a tick leaves a step still running to a later "
+        "tick, so none should): " + "; ".join(parts) + "."
+    )
+
+
 def receive_table(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
     rows = [
         "| egos | probe-all poses/s | one-way p50 / p99 ms | delivery | µs per pose (all / "
