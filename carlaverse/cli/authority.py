@@ -24,6 +24,7 @@ from carlaverse.config import ConfigError
 from carlaverse.fabric.clock import WallAlignedClock
 from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config, open_session
 from carlaverse.keys import AUTHORITY_ID, KeySpaceError, check_token
+from carlaverse.traffic.engine import EngineFailed
 
 log = logging.getLogger(__name__)
 
@@ -127,11 +128,16 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
         flush=True,
     )
+    broke = ""
     try:
         authority.run(args.duration)
+    except EngineFailed as exc:  # SUMO's process died: no traffic to run, said in a line
+        broke = str(exc).splitlines()[0]
     finally:
         authority.close()
         session.close()
+    if broke:
+        return fail("authority", f"traffic stopped: {broke}", 1)
     summary = authority.summary()
     if args.json:
         print_json(

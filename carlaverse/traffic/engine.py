@@ -24,6 +24,10 @@ from carlaverse.traffic.scenario import ScriptedVehicle
 KIND_CODE = {kind: code for code, kind in enumerate(ACTOR_KINDS)}
 
 
+class EngineFailed(RuntimeError):
+    """The traffic engine stopped working mid-session (its process died, failed or hung)."""
+
+
 def kind_code(kind: str) -> int:
     """The NPC_DTYPE `kind` byte for an actor kind; unknown kinds count as 'other'."""
     return KIND_CODE.get(kind, KIND_CODE["other"])

@@ -21,6 +21,7 @@ outlives the authority that started it.
 from __future__ import annotations
 
 import contextlib
+import logging
 import os
 import pickle
 import signal
@@ -33,9 +34,17 @@ from collections.abc import Sequence
 from multiprocessing.connection import Connection
 from typing import Any
 
-from carlaverse.traffic.engine import EgoPlacement, LightPhase, LightReading, NpcFrame
+from carlaverse.traffic.engine import (
+    EgoPlacement,
+    EngineFailed,
+    LightPhase,
+    LightReading,
+    NpcFrame,
+)
 from carlaverse.traffic.scenario import ScriptedVehicle
 from carlaverse.traffic.sumo_engine import SumoEngine, SumoSettings
+
+log = logging.getLogger(__name__)
 
 START_TIMEOUT_S = 120.0  # [s] SUMO loading a city's network and inserting its first NPCs
 REPLY_TIMEOUT_S = 30.0  # [s] one step or call; far above any step SUMO takes
@@ -46,7 +55,7 @@ CLOSE_TIMEOUT_S = 5.0  # [s] for SUMO to close before the child is killed
 # ("ready", time_s, frame, lights, counters) or ("raise", exception). Failing: ("fatal", text).
 
 
-class SumoProcessError(RuntimeError):
+class SumoProcessError(EngineFailed):
     """The SUMO process died, failed or stopped answering."""
 
 
@@ -227,7 +236,9 @@ class SumoProcess:
                     raise self._dead(doing) from exc
                 if reply[0] == "fatal":
                     self.close()
-                    raise SumoProcessError(f"SUMO failed while {doing}:\n{reply[1]}")
+                    log.error("SUMO's process failed while %s:\n%s", doing, reply[1])
+                    cause = reply[1].strip().splitlines()[-1]
+                    raise SumoProcessError(f"SUMO failed while {doing}: {cause}")
                 return reply
             if self._process.poll() is not None:
                 raise self._dead(doing)

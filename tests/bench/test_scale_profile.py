@@ -19,6 +19,8 @@ def test_stacks_of_sumo_s_own_process_are_not_read_as_the_tick_s(
     raw.write_text(
         'process 10:"python -m carlaverse authority";run (service.py:1);'
         "tick (traffic_domain.py:5);step (sumo_process.py:90) 30\n"
+        # a child's stacks sit under its parent's process frame, then its own
+        'process 10:"python -m carlaverse authority";'
         'process 11:"python -m carlaverse.traffic.sumo_process 5";main (sumo_process.py:300);'
         "_serve (sumo_process.py:260);step (sumo_engine.py:110);"
         "simulationStep (libsumo.py:1) 70\n"
@@ -30,5 +32,7 @@ def test_stacks_of_sumo_s_own_process_are_not_read_as_the_tick_s(
     assert shares[sumo_step] == 0.70
     assert shares[scale_profile.SUMO_PROCESS + "NPC read-back from SUMO"] == 0.20
     assert "SUMO's own step (libsumo simulationStep)" not in shares  # nothing in the tick's
+    top = [frame for frame, _ in scale_profile.top_functions(raw)]
+    assert not any(frame.startswith("process ") for frame in top), top
     tick_side = {k: v for k, v in shares.items() if not k.startswith(scale_profile.SUMO_PROCESS)}
     assert sum(tick_side.values()) == 0.30  # the authority's handing over, apart

@@ -20,6 +20,7 @@ from carlaverse.traffic.netbuild import build_map
 from carlaverse.traffic.scenario import load_scenario
 from carlaverse.traffic.sumo_engine import SumoEngine, SumoSettings
 from carlaverse.traffic.sumo_process import SumoProcess, SumoProcessError
+from tests.support import Cluster, wait_until
 from tests.traffic.helpers import (
     CROSSING_MAP,
     FOLLOWER,
@@ -196,3 +197,29 @@ def test_the_domain_never_waits_for_sumo_s_process(
         run(domain, out, T0, 10.0)
         assert domain.stats.steps > 0 and engine.late_steps == 0
         assert domain.stats.steps + domain.stats.deferred_steps > 0
+
+
+def sumo_children(pid: int) -> list[int]:
+    """The SUMO processes a process started (from /proc)."""
+    found = []
+    for stat in Path("/proc").glob("[0-9]*/stat"):
+        try:
+            fields = stat.read_text().rsplit(")", 1)[1].split()
+            command = (stat.parent / "cmdline").read_bytes()
+        except OSError:
+            continue
+        if int(fields[1]) == pid and b"carlaverse.traffic.sumo_process" in command:
+            found.append(int(stat.parent.name))
+    return found
+
+
+def test_an_authority_whose_sumo_dies_says_so_in_a_line_and_exits(cluster: Cluster) -> None:
+    cluster.router()
+    authority = cluster.authority("--scenario", "crossing")
+    wait_until(lambda: "ticking at" in authority.output(), 90, "the authority to tick")
+    (child,) = sumo_children(authority.proc.pid)
+    os.kill(child, signal.SIGKILL)
+    assert authority.wait(30) == 1
+    err = "".join(authority.stderr)
+    assert "carlaverse authority: traffic stopped: the SUMO process exited (code -9) while " in err
+    assert "Traceback" not in err, err

@@ -149,6 +149,10 @@ def _measure(domain: TrafficDomain, seconds: float, warmup_s: float) -> dict[str
         return (time.perf_counter() - began) * 1e3
 
     for _ in range(round(warmup_s / TICK_S)):  # let the traffic fill the town
+        # Unpaced, the warm-up would outrun SUMO's own process and drop the lag: it waits for
+        # each step instead, so the town fills over the whole warm-up in both layouts.
+        while domain.engine.stepping:
+            time.sleep(0.0005)
         tick()
         t += TICK_S
     engine = domain.engine

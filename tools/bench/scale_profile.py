@@ -71,10 +71,11 @@ def part_of(stack: list[str]) -> str:
 
 def stacks(raw: Path) -> Iterator[tuple[list[str], int]]:
     """(frames root first, samples) of each line. With --subprocesses py-spy puts a frame
-    `process PID:"command line"` at the root, whose command line may hold `;`: dropped."""
+    `process PID:"command line"` at the root, one per process down to the sampled one, whose
+    command line may hold `;`: dropped."""
     for line in raw.read_text().splitlines():
         stack, _, count = line.rpartition(" ")
-        if stack.startswith("process "):
+        while stack.startswith("process "):
             stack = stack[stack.find('";', stack.find('"') + 1) + 2 :]
         if stack and count.isdigit():
             yield stack.split(";"), int(count)
