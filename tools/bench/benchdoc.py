@@ -13,10 +13,12 @@ tests/test_benchmark_doc.py fails on a section without them or on a figure outsi
 from __future__ import annotations
 
 import datetime
+import math
 import os
 import platform
 import shlex
 import sys
+import time
 from dataclasses import dataclass
 from importlib import metadata
 from pathlib import Path
@@ -36,10 +38,24 @@ class RunInfo:
 
     started: datetime.datetime
     load_1min: float
+    loop_s: float = math.nan  # [s] `python_loop_s()` at the start
 
     @classmethod
     def start(cls) -> RunInfo:
-        return cls(datetime.datetime.now(datetime.UTC), os.getloadavg()[0])
+        return cls(datetime.datetime.now(datetime.UTC), os.getloadavg()[0], python_loop_s())
+
+
+LOOP_STEPS = 5_000_000
+
+
+def python_loop_s() -> float:
+    """[s] a fixed pure-Python loop: how fast this machine runs Python right now. A virtual
+    machine's speed drifts with its host's load, which the load average does not show."""
+    began = time.perf_counter()
+    total = 0
+    for i in range(LOOP_STEPS):
+        total += i
+    return time.perf_counter() - began
 
 
 def command_line(argv: list[str] | None = None) -> str:
@@ -86,9 +102,16 @@ def conditions(run: RunInfo | None) -> str:
     end_load = os.getloadavg()[0]
     if run is None:
         return f"Measured {_today()}; 1-minute load average {end_load:.2f} at the end."
+    speed = ""
+    if not math.isnan(run.loop_s):
+        speed = (
+            f" A {LOOP_STEPS / 1e6:g} M-step Python loop took {run.loop_s:.2f} s at the start and "
+            f"{python_loop_s():.2f} s at the end: this machine's speed drifts with its host's "
+            "load, so compare figures within one run."
+        )
     return (
         f"Measured {run.started:%Y-%m-%d}; 1-minute load average {run.load_1min:.2f} at the "
-        f"start, {end_load:.2f} at the end (other work on this machine shares its cores)."
+        f"start, {end_load:.2f} at the end (other work on this machine shares its cores).{speed}"
     )
 
 
