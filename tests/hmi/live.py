@@ -25,14 +25,16 @@ def hmi_url(proc: Proc) -> str | None:
 def node_with_hmi(
     tmp: Path, kind: str, node_id: str, *extra: str
 ) -> Iterator[tuple[Cluster, Proc, str]]:
-    """A session with a `kind` node on the sim backend serving its HMI; yields its base URL."""
+    """A session with a `kind` node on the sim backend serving its HMI; yields its base URL.
+    The node is stopped at the end; its --duration only guards against an orphan, and must
+    outlast a module's tests on a slow machine (120 s once ran out mid-module)."""
     cluster = Cluster(tmp)
     try:
         cluster.router()
         cluster.authority()
         node = cluster.start(
             "join", kind, "--id", node_id, "--session", "t", "--connect", cluster.endpoint,
-            "--backend", "sim", "--duration", "120", "--hmi", "0", "--json", *extra,
+            "--backend", "sim", "--duration", "900", "--hmi", "0", "--json", *extra,
             name=node_id,
         )  # fmt: skip
         url = wait_until(lambda: hmi_url(node), 30, f"{node_id}'s HMI URL")

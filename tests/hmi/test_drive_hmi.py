@@ -96,10 +96,19 @@ def drive(
         yield running
 
 
+@pytest.fixture
+def car(drive: tuple[Cluster, Proc, str]) -> tuple[Cluster, Proc, str]:
+    """The module's car, checked alive before each test: a test after its exit fails naming
+    the exit and the car's last output, not a refused connection."""
+    node = drive[1]
+    assert node.alive(), f"the car exited ({node.proc.returncode}): {node.output()[-3000:]}"
+    return drive
+
+
 def test_the_dashboard_follows_the_scripted_drive(
-    drive: tuple[Cluster, Proc, str], page: Page, screenshot_dir: Path
+    car: tuple[Cluster, Proc, str], page: Page, screenshot_dir: Path
 ) -> None:
-    cluster, _, url = drive
+    cluster, _, url = car
     fabric = Fabric(cluster, "car")
     page.goto(url + "dashboard")
     page.wait_for_function("window.hmi && hmi.frames > 0", timeout=30000)
@@ -130,9 +139,9 @@ def test_the_dashboard_follows_the_scripted_drive(
 
 
 def test_tapping_low_beam_turns_the_lights_on_the_fabric(
-    drive: tuple[Cluster, Proc, str], page: Page, screenshot_dir: Path
+    car: tuple[Cluster, Proc, str], page: Page, screenshot_dir: Path
 ) -> None:
-    cluster, _, url = drive
+    cluster, _, url = car
     fabric = Fabric(cluster, "car")
     open_touch(page, url)
     button = page.locator('button[data-action="low_beam"]')
@@ -153,9 +162,9 @@ def test_tapping_low_beam_turns_the_lights_on_the_fabric(
 
 
 def test_cruise_set_and_cancel_from_the_touchscreen(
-    drive: tuple[Cluster, Proc, str], page: Page, screenshot_dir: Path
+    car: tuple[Cluster, Proc, str], page: Page, screenshot_dir: Path
 ) -> None:
-    cluster, _, url = drive
+    cluster, _, url = car
     fabric = Fabric(cluster, "car")
     open_touch(page, url)
     page.locator('button[data-action="set"]').click()  # hold the speed it has now
@@ -174,8 +183,8 @@ def test_cruise_set_and_cancel_from_the_touchscreen(
     assert page.errors == []
 
 
-def test_the_hmi_listens_on_loopback_only(drive: tuple[Cluster, Proc, str]) -> None:
-    _, node, url = drive
+def test_the_hmi_listens_on_loopback_only(car: tuple[Cluster, Proc, str]) -> None:
+    _, node, url = car
     port = int(url.rsplit(":", 1)[1].strip("/"))
     listening = [c.laddr for c in psutil.Process(node.proc.pid).net_connections("tcp")
                  if c.status == psutil.CONN_LISTEN and c.laddr.port == port]  # fmt: skip
