@@ -4,6 +4,7 @@ pages in Chromium, and this test watching the fabric as another participant woul
 from __future__ import annotations
 
 import math
+import socket
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -98,10 +99,15 @@ def drive(
 
 @pytest.fixture
 def car(drive: tuple[Cluster, Proc, str]) -> tuple[Cluster, Proc, str]:
-    """The module's car, checked alive before each test: a test after its exit fails naming
-    the exit and the car's last output, not a refused connection."""
-    node = drive[1]
-    assert node.alive(), f"the car exited ({node.proc.returncode}): {node.output()[-3000:]}"
+    """The module's car, checked before each test: alive and its HMI accepting connections, or
+    the test fails with the car's exit code and last output, not a refused connection."""
+    _, node, url = drive
+    port = int(url.rsplit(":", 1)[1].strip("/"))
+    with socket.socket() as probe:
+        probe.settimeout(2.0)
+        serving = probe.connect_ex(("127.0.0.1", port)) == 0
+    state = "running" if node.alive() else f"exited ({node.proc.returncode})"
+    assert serving, f"the car's HMI is gone, the car {state}: {node.output()[-3000:]}"
     return drive
 
 
