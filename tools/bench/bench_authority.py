@@ -24,7 +24,6 @@ import argparse
 import gc
 import itertools
 import math
-import os
 import sys
 import tempfile
 import time
@@ -33,7 +32,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from benchdoc import RunInfo, command_line, write_section
+from benchdoc import RunInfo, command_line, process_cpu_s, write_section
 
 from carlaverse.authority.domain import EgoTrack
 from carlaverse.authority.memory_outbox import MemoryOutbox
@@ -125,12 +124,6 @@ def bench(
         domain.close()
     result["engine"] = "own process" if separate else "in the tick's process"
     return result
-
-
-def process_cpu_s(pid: int) -> float:
-    """[s] user + system CPU of a process so far (Linux /proc)."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
 
 
 def _measure(domain: TrafficDomain, seconds: float, warmup_s: float) -> dict[str, Any]:

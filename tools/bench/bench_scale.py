@@ -34,27 +34,24 @@ import argparse
 import contextlib
 import json
 import multiprocessing as mp
-import os
-import resource
 import shutil
 import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import scale_profile
-from benchdoc import RunInfo, command_line, write_section
+from benchdoc import RunInfo, command_line, process_cpu_s, write_section
 from peers.profile import py_spy
+from scale_children import SESSION, authority_main, floor_main, probe_main
 from scale_report import interest_table, receive_table, scale_table, stalls, verdicts
 
 from carlaverse.authority.service import AuthoritySettings
 
-SESSION = "scale"
 GRID_JUNCTIONS = 8  # per side (a larger generated town takes minutes to build its scenery)
 BLOCK_M = 150.0  # [m] between junctions
 ATTACH_M = 80.0  # [m] the fringe roads: junction A0 sits at (ATTACH_M, ATTACH_M)
@@ -66,7 +63,6 @@ VEHICLES = 500
 FILL_S = 30.0  # [s] for SUMO to insert the NPCs before anything is measured
 SETTLE_S = 3.0  # [s] after the swarm or the hearing probes joined, before a window
 NEAR_RADIUS_M = 200.0  # [m] probe-near's interest radius (the node default)
-CLK_TCK = os.sysconf("SC_CLK_TCK")
 
 SCENARIO = f"""name: scale-bench
 seed: 1
@@ -79,180 +75,6 @@ traffic:
   vehicles: {{count: {VEHICLES}, mix: {{car: 0.85, van: 0.1, truck: 0.05}}}}
   action_step_s: 0.2
 """
-
-
-def proc_cpu_s(pid: int) -> float:
-    """User + system CPU time a process has used [s] (from /proc)."""
-    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK
-
-
-def percentile(values: list[float], q: float) -> float:
-    if not values:
-        return float("nan")
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
-
-
-# ---------------------------------------------------------------- the authority (a child)
-
-
-def authority_main(endpoint: str, scenario: str, priority: int, conn: Any) -> None:
-    from carlaverse.authority.service import Authority, AuthoritySettings
-    from carlaverse.authority.traffic_domain import load_domain
-    from carlaverse.fabric.clock import WallAlignedClock
-    from carlaverse.fabric.session import FabricSettings, open_session
-
-    domain = load_domain(scenario)
-    session = open_session(FabricSettings(connect=[endpoint]))
-    settings = AuthoritySettings(session=SESSION, tick_priority=priority)
-    authority = Authority(session, settings, WallAlignedClock(), domain).start()
-    import gc
-
-    pauses: list[float] = []
-    began = [0.0]
-
-    def on_gc(phase: str, info: dict) -> None:
-        if phase == "start":
-            began[0] = time.perf_counter()
-        else:
-            pauses.append((time.perf_counter() - began[0]) * 1e3)
-
-    gc.callbacks.append(on_gc)
-    ticking = threading.Thread(target=authority.run, daemon=True)
-    ticking.start()
-    conn.send((os.getpid(), getattr(domain.engine, "pid", None)))  # SUMO's own process, if any
-    while (command := conn.recv()) != "quit":
-        if command == "start":
-            authority.tick_ms.clear()
-            authority.overruns = 0
-            pauses.clear()
-        elif command == "stop":
-            ticks = list(authority.tick_ms)
-            conn.send({
-                "ticks": len(ticks), "p50": percentile(ticks, 0.5), "p99": percentile(ticks, 0.99),
-                "max": max(ticks, default=float("nan")), "overruns": authority.overruns,
-                "npcs": len(domain.engine.last_read().ids), "egos": len(authority.roster.tracks),
-                "gc_n": len(pauses), "gc_max_ms": max(pauses, default=0.0),
-                "late": getattr(domain.engine, "late_steps", 0),
-                "late_max_ms": getattr(domain.engine, "longest_wait_s", 0.0) * 1e3,
-            })  # fmt: skip
-    authority.stop()
-    ticking.join(5)  # the tick thread must be done with SUMO before close() ends it
-    authority.close()
-    session.close()
-
-
-# ---------------------------------------------------------------- a real node (a child)
-
-
-class Receipts:
-    """What a probe heard in a window; `heard` runs in Zenoh's callback thread."""
-
-    def __init__(self) -> None:
-        self.recording = False
-        self.latency_s: list[float] = []
-        self.seqs: dict[str, list[int]] = {}  # sender -> [first, last, count]
-
-    def heard(self, node_id: str, seq: int, latency_s: float) -> None:
-        if not self.recording:
-            return
-        self.latency_s.append(latency_s)
-        span = self.seqs.get(node_id)
-        if span is None:
-            self.seqs[node_id] = [seq, seq, 1]
-        else:
-            span[1] = max(span[1], seq)
-            span[2] += 1
-
-
-def probe_main(
-    endpoint: str, node_id: str, radius_m: float, conn: Any, north_m: float = 0.0
-) -> None:
-    from carlaverse.fabric.clock import MonotonicClock
-    from carlaverse.fabric.node_client import NodeClient, NodeSettings
-    from carlaverse.fabric.session import FabricSettings, open_session
-    from carlaverse.messages import Pose
-
-    session = open_session(FabricSettings(connect=[endpoint]))
-    settings = NodeSettings(node_id=node_id, session=SESSION, interest_radius_m=radius_m)
-    client = NodeClient(session, settings, MonotonicClock())
-    receipts = Receipts()
-    push_pose = client.world.push_pose
-
-    def stamped(sender: str, pose: Any, rx_t: float) -> None:
-        receipts.heard(sender, pose.seq, rx_t - pose.t)
-        push_pose(sender, pose, rx_t)
-
-    client.world.push_pose = stamped  # type: ignore[method-assign]
-    x, y = CENTRE[0], CENTRE[1] + north_m
-    client.start(lambda t: Pose(0, t, x, y))
-    client.wait_joined(60)
-    conn.send("joined")
-    started_cpu = started_t = 0.0
-    while True:
-        if conn.poll(0.01):
-            command = conn.recv()
-            if command == "quit":
-                break
-            if command == "start":
-                receipts.latency_s, receipts.seqs = [], {}
-                started_cpu, started_t = _own_cpu_s(), time.monotonic()
-                receipts.recording = True
-            elif command == "stop":
-                receipts.recording = False
-                conn.send(_probe_report(receipts, started_cpu, started_t, client))
-        client.update()  # drain the world's inbox as a node's loop would
-    client.close()
-    session.close()
-
-
-def floor_main(endpoint: str, conn: Any) -> None:
-    """The floor under `probe-all`: a bare zenoh-python subscriber to every pose of the
-    session, whose callback only takes the payload's bytes (no project code). Its CPU per pose
-    is what any Python node pays to be handed a sample; the fabric's share is the rest."""
-    import zenoh
-
-    from carlaverse.fabric.session import FabricSettings, open_session
-    from carlaverse.keys import Keys
-
-    session = open_session(FabricSettings(connect=[endpoint]))
-    count = [0]
-
-    def on_sample(sample: zenoh.Sample) -> None:
-        sample.payload.to_bytes()
-        count[0] += 1
-
-    key = Keys(SESSION).all_ego("pose")
-    subscriber = session.declare_subscriber(key, zenoh.handlers.Callback(on_sample))
-    conn.send("joined")
-    started_cpu = started_t = 0.0
-    while (command := conn.recv()) != "quit":
-        if command == "start":
-            count[0], started_cpu, started_t = 0, _own_cpu_s(), time.monotonic()
-        elif command == "stop":
-            seconds = time.monotonic() - started_t
-            conn.send({"seconds": seconds, "cpu_s": _own_cpu_s() - started_cpu, "poses": count[0]})
-    subscriber.undeclare()
-    session.close()
-
-
-def _own_cpu_s() -> float:
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    return usage.ru_utime + usage.ru_stime
-
-
-def _probe_report(receipts: Receipts, cpu0: float, t0: float, client: Any) -> dict[str, Any]:
-    lat = receipts.latency_s
-    spanned = sum(last - first + 1 for first, last, _ in receipts.seqs.values())
-    return {
-        "seconds": time.monotonic() - t0, "cpu_s": _own_cpu_s() - cpu0, "poses": len(lat),
-        "senders": len(receipts.seqs), "spanned": spanned,
-        "p50_ms": percentile(lat, 0.5) * 1e3, "p99_ms": percentile(lat, 0.99) * 1e3,
-        "max_ms": max(lat, default=float("nan")) * 1e3,
-        "sync_ms": client.clock.uncertainty_s * 1e3, "tiles": len(client.interest.tiles)
-        if client.interest else 0,
-    }  # fmt: skip
 
 
 # ---------------------------------------------------------------- orchestration
@@ -284,11 +106,11 @@ class Bench:
         scenario.write_text(SCENARIO)
         self.conns["authority"], _ = self._child(authority_main, str(scenario), self.priority)
         self.authority_pid, self.sumo_pid = self.conns["authority"].recv()
-        self.conns["probe-near"], _ = self._child(probe_main, "probe-near", NEAR_RADIUS_M)
+        self.conns["probe-near"], _ = self._child(probe_main, "probe-near", NEAR_RADIUS_M, *CENTRE)
         # A participant standing near probe-near, so it has a neighbour at any N (the swarm
         # spreads 16 egos over 16 km², rarely one within its tiles).
         self.conns["probe-mate"], _ = self._child(probe_main, "probe-mate", NEAR_RADIUS_M,
-                                                  north_m=MATE_OFFSET_M)  # fmt: skip
+                                                  CENTRE[0], CENTRE[1] + MATE_OFFSET_M)  # fmt: skip
         for name in ("probe-near", "probe-mate"):
             assert self.conns[name].recv() == "joined", name
         print(f"town filling for {self.fill_s:g} s ...", file=sys.stderr)
@@ -297,7 +119,7 @@ class Bench:
     @contextlib.contextmanager
     def hearing(self) -> Iterator[None]:
         """`probe-all` (a node hearing the whole session) and the bare-Zenoh floor, up."""
-        started = {"probe-all": self._child(probe_main, "probe-all", 0.0),
+        started = {"probe-all": self._child(probe_main, "probe-all", 0.0, *CENTRE),
                    "floor": self._child(floor_main)}  # fmt: skip
         for name, (conn, _proc) in started.items():
             assert conn.recv() == "joined", name
@@ -312,10 +134,9 @@ class Bench:
                     conn.send("quit")
                 proc.join(15)
 
-    def _child(self, target: Any, *args: Any, **kwargs: Any) -> tuple[Any, Any]:
+    def _child(self, target: Any, *args: Any) -> tuple[Any, Any]:
         ours, theirs = self.ctx.Pipe()
-        proc = self.ctx.Process(target=target, args=(self.endpoint, *args, theirs),
-                                kwargs=kwargs, daemon=True)  # fmt: skip
+        proc = self.ctx.Process(target=target, args=(self.endpoint, *args, theirs), daemon=True)
         proc.start()
         self.children.append(proc)
         return ours, proc
@@ -328,7 +149,7 @@ class Bench:
             pids["swarm"] = swarm_pid
         if self.sumo_pid is not None:
             pids["sumo"] = self.sumo_pid
-        cpu0 = {k: proc_cpu_s(p) for k, p in pids.items()}
+        cpu0 = {k: process_cpu_s(p) for k, p in pids.items()}
         t0 = time.monotonic()
         conns = dict(self.conns)
         for conn in conns.values():
@@ -339,7 +160,7 @@ class Bench:
             conn.send("stop")
         wall = time.monotonic() - t0
         out = {name: conn.recv() for name, conn in conns.items()}
-        out["cpu"] = {k: (proc_cpu_s(p) - cpu0[k]) / wall for k, p in pids.items()}
+        out["cpu"] = {k: (process_cpu_s(p) - cpu0[k]) / wall for k, p in pids.items()}
         if spy is not None:
             spy.wait(60)
         return out

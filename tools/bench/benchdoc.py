@@ -58,6 +58,12 @@ def python_loop_s() -> float:
     return time.perf_counter() - began
 
 
+def process_cpu_s(pid: int) -> float:
+    """[s] user + system CPU a process has used so far, all its threads (Linux /proc)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
 def command_line(argv: list[str] | None = None) -> str:
     """The command that reruns this script with these arguments and writes its section."""
     script = Path(sys.argv[0]).resolve()

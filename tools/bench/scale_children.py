@@ -1,0 +1,187 @@
+"""The scale benchmark's child processes: the authority, the probes and the floor.
+
+`bench_scale.py` starts each with a pipe (its last argument) and drives it by commands:
+`start` opens a measured window, `stop` closes it and the child sends its report (a dict),
+`quit` ends it. Kept apart from the orchestration so that a spawned child imports only this.
+"""
+
+from __future__ import annotations
+
+import gc
+import os
+import resource
+import threading
+import time
+from typing import Any
+
+SESSION = "scale"
+
+
+def percentile(values: list[float], q: float) -> float:
+    if not values:
+        return float("nan")
+    ordered = sorted(values)
+    return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
+
+
+class GcPauses:
+    """The cyclic collector's pauses in this process [ms], from `gc.callbacks`."""
+
+    def __init__(self) -> None:
+        self.ms: list[float] = []
+        self._began = 0.0
+        gc.callbacks.append(self._on_gc)
+
+    def _on_gc(self, phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            self._began = time.perf_counter()
+        else:
+            self.ms.append((time.perf_counter() - self._began) * 1e3)
+
+
+# ---------------------------------------------------------------- the authority (a child)
+
+
+def authority_main(endpoint: str, scenario: str, priority: int, conn: Any) -> None:
+    """The authority on `scenario`; reports its ticks and stalls per window."""
+    from carlaverse.authority.service import Authority, AuthoritySettings
+    from carlaverse.authority.traffic_domain import load_domain
+    from carlaverse.fabric.clock import WallAlignedClock
+    from carlaverse.fabric.session import FabricSettings, open_session
+
+    domain = load_domain(scenario)
+    session = open_session(FabricSettings(connect=[endpoint]))
+    settings = AuthoritySettings(session=SESSION, tick_priority=priority)
+    authority = Authority(session, settings, WallAlignedClock(), domain).start()
+    pauses = GcPauses()
+    ticking = threading.Thread(target=authority.run, daemon=True)
+    ticking.start()
+    conn.send((os.getpid(), getattr(domain.engine, "pid", None)))  # SUMO's own process, if any
+    while (command := conn.recv()) != "quit":
+        if command == "start":
+            authority.tick_ms.clear()
+            authority.overruns = 0
+            pauses.ms.clear()
+        elif command == "stop":
+            ticks = list(authority.tick_ms)
+            conn.send({
+                "ticks": len(ticks), "p50": percentile(ticks, 0.5), "p99": percentile(ticks, 0.99),
+                "max": max(ticks, default=float("nan")), "overruns": authority.overruns,
+                "npcs": len(domain.engine.last_read().ids), "egos": len(authority.roster.tracks),
+                "gc_n": len(pauses.ms), "gc_max_ms": max(pauses.ms, default=0.0),
+                "late": getattr(domain.engine, "late_steps", 0),
+            })  # fmt: skip
+    authority.stop()
+    ticking.join(5)  # the tick thread must be done with SUMO before close() ends it
+    authority.close()
+    session.close()
+
+
+# ---------------------------------------------------------------- a real node (a child)
+
+
+class Receipts:
+    """What a probe heard in a window; `heard` runs in Zenoh's callback thread."""
+
+    def __init__(self) -> None:
+        self.recording = False
+        self.latency_s: list[float] = []
+        self.seqs: dict[str, list[int]] = {}  # sender -> [first, last, count]
+
+    def heard(self, node_id: str, seq: int, latency_s: float) -> None:
+        if not self.recording:
+            return
+        self.latency_s.append(latency_s)
+        span = self.seqs.get(node_id)
+        if span is None:
+            self.seqs[node_id] = [seq, seq, 1]
+        else:
+            span[1] = max(span[1], seq)
+            span[2] += 1
+
+
+def probe_main(endpoint: str, node_id: str, radius_m: float, x: float, y: float, conn: Any) -> None:
+    """A node standing at (x, y) with interest radius `radius_m` (0: hears everything)."""
+    from carlaverse.fabric.clock import MonotonicClock
+    from carlaverse.fabric.node_client import NodeClient, NodeSettings
+    from carlaverse.fabric.session import FabricSettings, open_session
+    from carlaverse.messages import Pose
+
+    session = open_session(FabricSettings(connect=[endpoint]))
+    settings = NodeSettings(node_id=node_id, session=SESSION, interest_radius_m=radius_m)
+    client = NodeClient(session, settings, MonotonicClock())
+    receipts = Receipts()
+    push_pose = client.world.push_pose
+
+    def stamped(sender: str, pose: Any, rx_t: float) -> None:
+        receipts.heard(sender, pose.seq, rx_t - pose.t)
+        push_pose(sender, pose, rx_t)
+
+    client.world.push_pose = stamped  # type: ignore[method-assign]
+    client.start(lambda t: Pose(0, t, x, y))
+    client.wait_joined(60)
+    conn.send("joined")
+    started_cpu = started_t = 0.0
+    while True:
+        if conn.poll(0.01):
+            command = conn.recv()
+            if command == "quit":
+                break
+            if command == "start":
+                receipts.latency_s, receipts.seqs = [], {}
+                started_cpu, started_t = _own_cpu_s(), time.monotonic()
+                receipts.recording = True
+            elif command == "stop":
+                receipts.recording = False
+                conn.send(_probe_report(receipts, started_cpu, started_t, client))
+        client.update()  # drain the world's inbox as a node's loop would
+    client.close()
+    session.close()
+
+
+def floor_main(endpoint: str, conn: Any) -> None:
+    """The floor under `probe-all`: a bare zenoh-python subscriber to every pose of the
+    session, whose callback only takes the payload's bytes (no project code). Its CPU per pose
+    is what any Python node pays to be handed a sample; the fabric's share is the rest."""
+    import zenoh
+
+    from carlaverse.fabric.session import FabricSettings, open_session
+    from carlaverse.keys import Keys
+
+    session = open_session(FabricSettings(connect=[endpoint]))
+    count = [0]
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        sample.payload.to_bytes()
+        count[0] += 1
+
+    key = Keys(SESSION).all_ego("pose")
+    subscriber = session.declare_subscriber(key, zenoh.handlers.Callback(on_sample))
+    conn.send("joined")
+    started_cpu = started_t = 0.0
+    while (command := conn.recv()) != "quit":
+        if command == "start":
+            count[0], started_cpu, started_t = 0, _own_cpu_s(), time.monotonic()
+        elif command == "stop":
+            seconds = time.monotonic() - started_t
+            conn.send({"seconds": seconds, "cpu_s": _own_cpu_s() - started_cpu, "poses": count[0]})
+    subscriber.undeclare()
+    session.close()
+
+
+def _own_cpu_s() -> float:
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
+
+
+def _probe_report(receipts: Receipts, cpu0: float, t0: float, client: Any) -> dict[str, Any]:
+    lat = receipts.latency_s
+    spanned = sum(last - first + 1 for first, last, _ in receipts.seqs.values())
+    return {
+        "seconds": time.monotonic() - t0, "cpu_s": _own_cpu_s() - cpu0, "poses": len(lat),
+        "senders": len(receipts.seqs), "spanned": spanned,
+        "p50_ms": percentile(lat, 0.5) * 1e3, "p99_ms": percentile(lat, 0.99) * 1e3,
+        "max_ms": max(lat, default=float("nan")) * 1e3,
+        "sync_ms": client.clock.uncertainty_s * 1e3, "tiles": len(client.interest.tiles)
+        if client.interest else 0,
+    }  # fmt: skip
