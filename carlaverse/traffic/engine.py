@@ -80,7 +80,7 @@ class EgoPlacement:
 
     def __reduce__(self) -> tuple[type[EgoPlacement], tuple[object, ...]]:
         # Pickled for SUMO's process every step: a slots dataclass's own pickling looks up
-        # `fields()` per object, 3 ms a step at 256 egos; the plain tuple costs a tenth.
+        # `fields()` per object, ~1.5 ms a step at 256 egos; the plain tuple 0.3 ms.
         return EgoPlacement, (self.node_id, self.actor_kind, self.x, self.y, self.z, self.yaw,
                               self.speed, self.length, self.width, self.height)  # fmt: skip
 

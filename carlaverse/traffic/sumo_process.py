@@ -78,9 +78,8 @@ class SumoProcess:
         self._closed = False
         self._in_flight = False  # a step sent whose frame has not come back
         # Steps that had to wait for the one before (SUMO slower than the session, or starved
-        # of CPU), and the longest such wait: the tick paid for them.
+        # of CPU): the tick paid for them.
         self.late_steps = 0
-        self.longest_wait_s = 0.0
         self._steps = 0
         self._placements: list[EgoPlacement] = []
         reply = self._receive(START_TIMEOUT_S, "starting")
@@ -112,10 +111,8 @@ class SumoProcess:
         if self._closed:
             raise SumoProcessError("the SUMO process is closed")
         if self._in_flight:
-            began = time.perf_counter()
             self._await_step()
             self.late_steps += 1
-            self.longest_wait_s = max(self.longest_wait_s, time.perf_counter() - began)
         self._send(("step", self._placements))
         self._in_flight = True
         self._steps += 1
