@@ -20,7 +20,7 @@ import numpy as np
 from carlaverse.authority.collisions import Actors
 from carlaverse.authority.domain import EgoTrack
 from carlaverse.messages import ACTOR_KINDS, EgoInfo, Pose
-from carlaverse.traffic.engine import EgoPlacement, NpcFrame, kind_code
+from carlaverse.traffic.engine import EgoPlacement, EgoPlacements, NpcFrame, kind_code
 from carlaverse.traffic.scenario import CollisionSpec
 
 NO_ACTOR_KINDS = {"observer"}  # node kinds that join without a body in the world
@@ -110,12 +110,12 @@ class EgoColumns(Sequence[EgoNow]):
             object.__setattr__(self, "_kind_codes", codes)
         return codes
 
-    def placements(self) -> list[EgoPlacement]:
+    def placements(self) -> EgoPlacements:
         """Where the engine carries each ego: `EgoNow.placement` for all at once."""
         speed = self.vx * np.cos(self.yaw) + self.vy * np.sin(self.yaw)  # [m/s] along heading
         columns = (self.x, self.y, self.z, self.yaw, speed, self.length, self.width, self.height)
-        rows = zip(self.ids, self.actor_kinds, *(c.tolist() for c in columns), strict=True)
-        return [EgoPlacement(*row) for row in rows]
+        table = np.column_stack(columns).reshape(len(self.ids), len(columns))
+        return EgoPlacements(self.ids, self.actor_kinds, table)
 
 
 def has_actor(track: EgoTrack) -> bool:

@@ -64,6 +64,7 @@ class EgoCarrier:
 
     def place(self, egos: Sequence[EgoPlacement], now_s: float) -> None:
         """Carry these egos at engine time `now_s`; drop the ones no longer among them."""
+        egos = list(egos)  # columns (`EgoPlacements`) make their rows once, here
         wanted = {e.node_id for e in egos}
         for node_id in [n for n in self._carried if n not in wanted]:
             self.remove(node_id)

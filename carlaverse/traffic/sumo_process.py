@@ -36,6 +36,7 @@ from typing import Any
 
 from carlaverse.traffic.engine import (
     EgoPlacement,
+    EgoPlacements,
     EngineFailed,
     LightPhase,
     LightReading,
@@ -81,7 +82,7 @@ class SumoProcess:
         # of CPU): the tick paid for them.
         self.late_steps = 0
         self._steps = 0
-        self._placements: list[EgoPlacement] = []
+        self._placements = EgoPlacements.of([])
         reply = self._receive(START_TIMEOUT_S, "starting")
         if reply[0] == "raise":
             self.close()
@@ -105,7 +106,7 @@ class SumoProcess:
         return self._in_flight
 
     def place_egos(self, egos: Sequence[EgoPlacement]) -> None:
-        self._placements = list(egos)
+        self._placements = EgoPlacements.of(egos)  # columns: cheap to pickle
 
     def step(self) -> None:
         if self._closed:

@@ -7,6 +7,7 @@ as the definition; random rosters and payloads must give the same result.
 from __future__ import annotations
 
 import math
+import pickle
 
 import numpy as np
 import pytest
@@ -21,7 +22,7 @@ from carlaverse.authority.sound_audibility import audible, emitters
 from carlaverse.authority.sound_sources import EVERY_LISTENER, SoundSources, actor_columns
 from carlaverse.fabric.guard import Tally
 from carlaverse.messages import ACTOR_KINDS, AUDIO_KINDS, NPC_DTYPE, EgoInfo, Extent, Pose
-from carlaverse.traffic.engine import NpcFrame, kind_code
+from carlaverse.traffic.engine import EgoPlacements, NpcFrame, kind_code
 from carlaverse.traffic.scenario import CollisionSpec
 
 MAX_EXTRAPOLATION_S = 0.5  # [s]
@@ -154,7 +155,24 @@ def test_ego_columns_read_as_the_egos_they_hold() -> None:
     assert list(columns) == egos and columns[-1] == egos[1] and len(columns) == 2
     with pytest.raises(IndexError):
         columns[2]
-    assert len(EgoColumns.of([])) == 0 and EgoColumns.of([]).placements() == []
+    assert len(EgoColumns.of([])) == 0 and list(EgoColumns.of([]).placements()) == []
+
+
+def test_placements_cross_to_sumo_s_process_as_the_same_rows() -> None:
+    rng = np.random.default_rng(3)
+    placements = egos_at(50.0, random_roster(rng, 30, t=50.0), MAX_EXTRAPOLATION_S).placements()
+    rows = list(placements)
+    back = pickle.loads(pickle.dumps(placements))
+    assert list(back) == rows and EgoPlacements.of(rows).ids == placements.ids
+    assert list(EgoPlacements.of(rows)) == rows and EgoPlacements.of(placements) is placements
+    assert back[-1] == rows[-1] and back[0] == rows[0]
+    assert len(rows) > 10  # some of the roster are observers or have no pose yet
+    with pytest.raises(IndexError, match=f"placement {len(rows)} of {len(rows)}"):
+        back[len(rows)]
+    with pytest.raises(ValueError, match="2 ids, 1 kinds"):
+        EgoPlacements(["a", "b"], ["car"], np.zeros((2, 8)))
+    with pytest.raises(ValueError, match=r"shape \(2, 7\)"):
+        EgoPlacements(["a", "b"], ["car", "car"], np.zeros((2, 7)))
 
 
 # ------------------------------------------------------------------ pose intake

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -101,6 +102,15 @@ def run(
         domain.tick(t, egos(t), out)
         every(t)
     return t + TICK_S
+
+
+def wait_for_step(domain: TrafficDomain, timeout_s: float = 30.0) -> None:
+    """Until SUMO's process has sent the step in flight back, so no tick defers a step: the
+    run's traffic is then the in-process run's, tick for tick."""
+    deadline = time.monotonic() + timeout_s
+    while domain.engine.stepping:
+        assert time.monotonic() < deadline, "SUMO's process did not answer a step"
+        time.sleep(0.0005)
 
 
 def lane_point(reply: MapReply, lane_id: str, pos_m: float) -> tuple[float, float, float]:

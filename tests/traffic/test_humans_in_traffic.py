@@ -24,18 +24,24 @@ from tests.traffic.helpers import (
     npc_row,
     pose,
     run,
+    wait_for_step,
     write_scenario,
 )
 
 
-def test_npc_queues_behind_a_stopped_human_driver(tmp_path: Path, net_cache: Path) -> None:
+@pytest.mark.parametrize("sumo_process", [False, True], ids=["in_process", "own_process"])
+def test_npc_queues_behind_a_stopped_human_driver(
+    tmp_path: Path, net_cache: Path, sumo_process: bool
+) -> None:
+    """Also through SUMO's own process, the default, where the egos cross a pipe as columns."""
     scenario = write_scenario(tmp_path, CROSSING_MAP + FOLLOWER)
-    with domain_of(scenario, net_cache) as domain:
+    with domain_of(scenario, net_cache, sumo_process=sumo_process) as domain:
         x, y, yaw = lane_point(domain.map_reply(), "WZ_2", 60.0)  # ego centre, 60 m down WZ
         track = ego_track("driver")
         track.last_pose = pose(T0, x, y, yaw)
         out = MemoryOutbox()
-        run(domain, out, T0, 25.0, egos=lambda t: {"driver": track})
+        run(domain, out, T0, 25.0, egos=lambda t: {"driver": track},
+            every=lambda t: wait_for_step(domain))  # fmt: skip
         follower = npc_row(out.npcs[-1], "follower")
         assert math.hypot(follower["vx"], follower["vy"]) < 0.05  # [m/s] it has stopped
         gap = (x - 4.5 / 2) - (follower["x"] + follower["length"] / 2)  # [m] bumper to bumper
