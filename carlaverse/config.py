@@ -12,6 +12,7 @@ directory), or the name of a file shipped in `configs/` or `scenarios/`.
 
 from __future__ import annotations
 
+import re
 from importlib import resources
 from pathlib import Path
 from typing import Any, TypeVar
@@ -23,6 +24,9 @@ T = TypeVar("T")
 
 SHIPPED_PACKAGES = ("carlaverse.configs", "carlaverse.scenarios")
 
+# msgspec's message: "Expected `float` <= 40.0 - at `$.road.grade_percent`"
+AT_PATH = re.compile(r"^(?P<message>.*) - at `\$\.?(?P<path>[^`]*)`$", re.DOTALL)
+
 
 class ConfigError(ValueError):
     """A configuration file is missing, unreadable or does not match its schema."""
@@ -31,6 +35,13 @@ class ConfigError(ValueError):
         super().__init__(f"{source}: {message}")
         self.source = source
         self.detail = message
+
+
+def invalid_at(message: str) -> tuple[str, str]:
+    """(dotted field path, what is wrong there) of a msgspec validation message; the path is
+    "" when the message names no field."""
+    match = AT_PATH.match(message)
+    return (match["path"], match["message"]) if match else ("", message)
 
 
 class StrictStruct(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):

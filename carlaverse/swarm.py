@@ -33,14 +33,17 @@ log = logging.getLogger(__name__)
 CLOCK_SYNC_PERIOD_S = 2.0  # [s] as a node: keeps the session clock and notices a lost authority
 JOIN_RETRY_S = 0.5  # [s] between join rounds while some egos are not admitted
 
+Coordinate = Annotated[float, msgspec.Meta(ge=-1e7, le=1e7)]  # [m] a map position, finite
+
 
 class SwarmSettings(StrictStruct):
     session: str = "default"
     egos: Annotated[int, msgspec.Meta(ge=1, le=10_000)] = 16
     rate_hz: Annotated[float, msgspec.Meta(gt=0, le=1000)] = 50.0  # [Hz] poses per ego
-    spread_m: Annotated[float, msgspec.Meta(gt=0)] = 1000.0  # [m] side of the square driven in
-    block_m: Annotated[float, msgspec.Meta(gt=0)] = 150.0  # [m] street grid spacing
-    origin: tuple[float, float] = (0.0, 0.0)  # [m] south-west corner of the square
+    # Bounded, so a NaN or an infinity is refused here rather than driving egos nowhere.
+    spread_m: Annotated[float, msgspec.Meta(gt=0, le=1e6)] = 1000.0  # [m] side of the square
+    block_m: Annotated[float, msgspec.Meta(gt=0, le=1e5)] = 150.0  # [m] street grid spacing
+    origin: tuple[Coordinate, Coordinate] = (0.0, 0.0)  # [m] south-west corner of the square
     seed: int = 0
     prefix: str = "swarm"  # ego ids are <prefix>-<index>
     kind: str = "scripted"

@@ -17,7 +17,7 @@ from carlaverse.cli.common import (
     say,
     stop_on_signals,
 )
-from carlaverse.config import ConfigError
+from carlaverse.config import ConfigError, invalid_at
 from carlaverse.fabric.session import FabricError, FabricUnreachable, open_session
 from carlaverse.keys import KeySpaceError
 from carlaverse.swarm import Swarm, SwarmReport, SwarmSettings
@@ -56,6 +56,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_output_args(parser)
 
 
+# The flag that sets each SwarmSettings field, so an error names what the user typed.
+FLAGS = {"session": "--session", "egos": "--egos", "rate_hz": "--rate", "spread_m": "--spread",
+         "block_m": "--block", "origin": "--origin", "seed": "--seed",
+         "prefix": "--prefix"}  # fmt: skip
+
+
 def settings_from_args(args: argparse.Namespace) -> SwarmSettings:
     """The swarm's settings; raises ConfigError naming the flag that is out of range."""
     fields = {"session": args.session or "default", "egos": args.egos, "rate_hz": args.rate,
@@ -65,7 +71,11 @@ def settings_from_args(args: argparse.Namespace) -> SwarmSettings:
     try:
         return msgspec.convert(fields, SwarmSettings)
     except msgspec.ValidationError as exc:
-        raise ConfigError("command line", str(exc)) from exc
+        path, message = invalid_at(str(exc))
+        field = path.split(".")[0].split("[")[0]
+        if field not in FLAGS:
+            raise ConfigError("command line", str(exc)) from exc
+        raise ConfigError(FLAGS[field], f"{message} (got {fields[field]!r})") from exc
 
 
 def run(args: argparse.Namespace) -> int:

@@ -14,7 +14,6 @@ import contextlib
 import copy
 import importlib
 import os
-import re
 from pathlib import Path
 from typing import Any
 
@@ -22,12 +21,9 @@ import msgspec
 import yaml
 
 from carlaverse.cli.config_cmd import detect_kind, validate_file
-from carlaverse.config import ConfigError, parse_yaml, read_text, resolve_path
+from carlaverse.config import ConfigError, invalid_at, parse_yaml, read_text, resolve_path
 from carlaverse.launcher.schema_tree import FILE_SCHEMAS, Section, describe
 from carlaverse.node_runtime import load_node_kind, node_kinds
-
-# msgspec's message: "Expected `float` <= 40.0 - at `$.road.grade_percent`"
-AT_PATH = re.compile(r"^(?P<message>.*) - at `\$\.?(?P<path>[^`]*)`$", re.DOTALL)
 
 
 class FieldError(msgspec.Struct, frozen=True):
@@ -49,9 +45,9 @@ def config_kinds() -> dict[str, type]:
 
 def field_error(exc: ConfigError, known_paths: set[str]) -> FieldError:
     """Where in the file a ConfigError points, and what it says there."""
-    match = AT_PATH.match(exc.detail)
-    if match:
-        return FieldError(match["path"], match["message"])
+    path, message = invalid_at(exc.detail)
+    if path:
+        return FieldError(path, message)
     head, sep, rest = exc.detail.partition(": ")  # cross-field checks: "camera: …"
     if sep and head in known_paths:
         return FieldError(head, rest)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import math
 
+import pytest
+
 from carlaverse.cli import main
 from tests.support import Cluster, wait_until
 
@@ -38,4 +40,17 @@ def test_swarm_egos_join_publish_and_leave(cluster: Cluster) -> None:
 def test_swarm_refuses_bad_flags_in_one_line(capsys) -> None:
     assert main(["swarm", "--egos", "0", "--connect", "tcp/127.0.0.1:7447"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "egos" in err and ">= 1" in err, err
+    assert err == "carlaverse swarm: --egos: Expected `int` >= 1 (got 0)", err
+
+
+@pytest.mark.parametrize(
+    ("flags", "said"),
+    [(["--rate", "0"], "--rate: Expected `float` > 0.0 (got 0.0)"),
+     (["--spread", "-5"], "--spread: Expected `float` > 0.0 (got -5.0)"),
+     (["--egos", "20000"], "--egos: Expected `int` <= 10000 (got 20000)"),
+     (["--block", "inf"], "--block: Expected `float` <= 100000.0 (got inf)"),
+     (["--origin", "1", "nan"], "--origin: Expected `float` >= -10000000.0 (got (1.0, nan))")],
+)  # fmt: skip
+def test_swarm_names_the_flag_the_user_typed(capsys, flags: list[str], said: str) -> None:
+    assert main(["swarm", *flags, "--connect", "tcp/127.0.0.1:7447"]) == 2
+    assert capsys.readouterr().err.strip() == f"carlaverse swarm: {said}"
