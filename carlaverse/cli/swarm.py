@@ -56,26 +56,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_output_args(parser)
 
 
-# The flag that sets each SwarmSettings field, so an error names what the user typed.
-FLAGS = {"session": "--session", "egos": "--egos", "rate_hz": "--rate", "spread_m": "--spread",
-         "block_m": "--block", "origin": "--origin", "seed": "--seed",
-         "prefix": "--prefix"}  # fmt: skip
-
-
 def settings_from_args(args: argparse.Namespace) -> SwarmSettings:
     """The swarm's settings; raises ConfigError naming the flag that is out of range."""
-    fields = {"session": args.session or "default", "egos": args.egos, "rate_hz": args.rate,
-              "spread_m": args.spread, "block_m": args.block, "origin": tuple(args.origin),
-              "seed": args.seed,
-              "prefix": args.prefix}  # fmt: skip
+    given = {"session": ("--session", args.session or "default"), "egos": ("--egos", args.egos),
+             "rate_hz": ("--rate", args.rate), "spread_m": ("--spread", args.spread),
+             "block_m": ("--block", args.block), "origin": ("--origin", tuple(args.origin)),
+             "seed": ("--seed", args.seed),
+             "prefix": ("--prefix", args.prefix)}  # fmt: skip
     try:
-        return msgspec.convert(fields, SwarmSettings)
+        return msgspec.convert({name: value for name, (_, value) in given.items()}, SwarmSettings)
     except msgspec.ValidationError as exc:
         path, message = invalid_at(str(exc))
         field = path.split(".")[0].split("[")[0]
-        if field not in FLAGS:
+        if field not in given:
             raise ConfigError("command line", str(exc)) from exc
-        raise ConfigError(FLAGS[field], f"{message} (got {fields[field]!r})") from exc
+        flag, value = given[field]  # name what the user typed, not the settings field
+        raise ConfigError(flag, f"{message} (got {value!r})") from exc
 
 
 def run(args: argparse.Namespace) -> int:

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
@@ -17,6 +16,7 @@ from carlaverse.authority.memory_outbox import MemoryOutbox
 from carlaverse.authority.traffic_domain import TrafficDomain, load_domain
 from carlaverse.config import shipped_dir
 from carlaverse.messages import EgoInfo, Extent, MapReply, NpcBatch, Pose
+from tests.support import wait_until
 
 MAPS = shipped_dir("carlaverse.scenarios") / "maps"
 TICK_S = 0.02  # [s] the shipped scenarios tick at 50 Hz
@@ -107,10 +107,7 @@ def run(
 def wait_for_step(domain: TrafficDomain, timeout_s: float = 30.0) -> None:
     """Until SUMO's process has sent the step in flight back, so no tick defers a step: the
     run's traffic is then the in-process run's, tick for tick."""
-    deadline = time.monotonic() + timeout_s
-    while domain.engine.stepping:
-        assert time.monotonic() < deadline, "SUMO's process did not answer a step"
-        time.sleep(0.0005)
+    wait_until(lambda: not domain.engine.stepping, timeout_s, "SUMO's process", poll=0.0005)
 
 
 def lane_point(reply: MapReply, lane_id: str, pos_m: float) -> tuple[float, float, float]:
