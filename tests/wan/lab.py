@@ -70,8 +70,12 @@ class SiteProcess:
         self.proc = subprocess.Popen(
             argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
         )
-        for stream, sink in ((self.proc.stdout, self.stdout), (self.proc.stderr, self.lines)):
-            threading.Thread(target=_drain, args=(stream, sink), daemon=True).start()
+        self._drains = [
+            threading.Thread(target=_drain, args=(stream, sink), daemon=True)
+            for stream, sink in ((self.proc.stdout, self.stdout), (self.proc.stderr, self.lines))
+        ]
+        for drain in self._drains:
+            drain.start()
         self.log = log_dir / f"{name}.log"
 
     def alive(self) -> bool:
@@ -88,6 +92,10 @@ class SiteProcess:
         except subprocess.TimeoutExpired:
             self.proc.kill()
             code = self.proc.wait()
+        # The process has exited, but its last lines (the exit summary) may still sit in the
+        # pipes: read them to the end before anyone looks at the output.
+        for drain in self._drains:
+            drain.join(timeout)
         self.log.write_text("".join(self.lines) + "".join(self.stdout), encoding="utf-8")
         return code
 
