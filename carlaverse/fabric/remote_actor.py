@@ -92,13 +92,12 @@ def hermite(p0: float, v0: float, p1: float, v1: float, s: float, h: float) -> f
     )
 
 
-def _ewma(mean: float, dev: float, value: float, gain: float) -> tuple[float, float]:
-    err = value - mean
-    return mean + gain * err, dev + gain * (abs(err) - dev)
+GAIN = 0.05  # weight of a new sample in the running means of interval and latency
 
 
 class StreamTiming:
-    """Send interval and one-way latency of one stream, and the render delay it needs."""
+    """Send interval and one-way latency of one stream, and the render delay it needs
+    (running means and mean deviations, as TCP estimates its round trip)."""
 
     def __init__(self, s: InterpolationSettings) -> None:
         self.s = s
@@ -111,23 +110,28 @@ class StreamTiming:
         self.last_rx_t = -math.inf
 
     def observe(self, sent_t: float, rx_t: float) -> None:
+        # Runs once per pose of every ego a node hears: the averages are updated in place,
+        # not through a helper returning tuples (that call was a tenth of the receive cost).
         latency = rx_t - sent_t
-        if sent_t > self._last_t > -math.inf:
-            interval = sent_t - self._last_t
+        last_t = self._last_t
+        if sent_t > last_t > -math.inf:
+            interval = sent_t - last_t
             if not self._seeded:
                 self.interval_s, self._latency, self._seeded = interval, latency, True
             else:
-                self.interval_s, self._interval_dev = _ewma(
-                    self.interval_s, self._interval_dev, interval, 0.05
-                )
+                err = interval - self.interval_s
+                self.interval_s += GAIN * err
+                self._interval_dev += GAIN * (abs(err) - self._interval_dev)
         if self._seeded:
-            self._latency, self._latency_dev = _ewma(
-                self._latency, self._latency_dev, latency, 0.05
-            )
+            err = latency - self._latency
+            self._latency += GAIN * err
+            self._latency_dev += GAIN * (abs(err) - self._latency_dev)
         else:
             self._latency = latency
-        self._last_t = max(self._last_t, sent_t)
-        self.last_rx_t = max(self.last_rx_t, rx_t)
+        if sent_t > last_t:
+            self._last_t = sent_t
+        if rx_t > self.last_rx_t:
+            self.last_rx_t = rx_t
 
     def target_delay(self) -> float:
         """Interval + latency + deviations: how far behind now samples are on both sides."""
@@ -195,17 +199,23 @@ class RemoteActor:
 
     def add(self, pose: Pose, rx_t: float) -> None:
         """Take a sample that arrived at session time `rx_t`."""
-        if self._t and pose.t <= self._t[-1] and (pose.t in self._t or pose.t < self._t[0]):
+        ts, t = self._t, pose.t
+        newest = not ts or t > ts[-1]
+        if not newest and (t in ts or t < ts[0]):
             return  # duplicate or too old to matter
         self.samples_received += 1
-        self.timing.observe(pose.t, rx_t)
-        before = self._raw_at_last_render()
-        i = bisect.bisect_right(self._t, pose.t)
-        self._t.insert(i, pose.t)
-        self._poses.insert(i, pose)
-        if i == len(self._t) - 1:
+        self.timing.observe(t, rx_t)
+        before = None if self._last_render_t is None else self._raw_at_last_render()
+        if newest:  # nearly every sample: in order, so no search
+            ts.append(t)
+            self._poses.append(pose)
             self.projector.update(pose)
-        self._correct(before, pose, rx_t)
+        else:
+            i = bisect.bisect_right(ts, t)
+            ts.insert(i, t)
+            self._poses.insert(i, pose)
+        if before is not None or pose.flags & POSE_FLAG_TELEPORT:
+            self._correct(before, pose, rx_t)
 
     def _raw_at_last_render(self) -> _Vec4 | None:
         t = self._last_render_t
@@ -244,9 +254,6 @@ class RemoteActor:
 
     def is_stale(self, now: float) -> bool:
         return now - self.timing.last_rx_t > self.s.stale_after_s
-
-    def is_expired(self, now: float) -> bool:
-        return now - self.timing.last_rx_t > self.s.despawn_timeout_s
 
     def view(self, now: float) -> ActorView | None:
         """This actor alone, in the past at its own delay (the world view renders a view's

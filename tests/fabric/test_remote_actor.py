@@ -117,6 +117,21 @@ def test_small_correction_is_blended_large_is_snapped() -> None:
     assert actor.view(0.9).y == pytest.approx(10.5, abs=0.05) and actor.snaps == 1
 
 
+def test_a_sample_out_of_order_is_slotted_in_and_the_newest_stays_newest() -> None:
+    line = PolylinePath(points=[(0, 0), (1000, 0)], speed_mps=10.0)
+    actor = RemoteActor("a", msgspec.structs.replace(S, adaptive=False))
+    for t, rx in ((0.00, 0.001), (0.04, 0.041), (0.02, 0.045), (0.04, 0.046), (0.06, 0.061)):
+        actor.add(line.pose_at(t), rx)
+    actor.add(line.pose_at(-0.02), 0.062)  # older than the whole buffer: nothing to slot into
+    assert actor.samples_received == 4  # the duplicate and the too-old sample are not counted
+    between = actor.past(0.03, 0.07)  # between the late 0.02 and 0.04: interpolated, exact
+    assert between is not None and between.phase is Phase.INTERPOLATING
+    assert between.x == pytest.approx(0.3, abs=1e-6)
+    # present mode projects the newest sample (0.06), not the one that came last (0.02)
+    assert actor.present(0.06).x == pytest.approx(0.6, abs=1e-6)
+    assert actor.last_rx_t == 0.061  # a refused sample is not counted as the newest arrival
+
+
 def test_teleport_flag_snaps() -> None:
     actor = RemoteActor("a", S)
     actor.add(Pose(1, 0.0, 0.0, 0.0), 0.0)
