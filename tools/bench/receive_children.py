@@ -1,0 +1,268 @@
+"""The receive benchmark's child processes: the publisher and one subscriber per layer.
+
+`bench_receive.py` starts each with a pipe (its last argument) and drives it by commands; kept
+apart from the orchestration so that a spawned child imports only this.
+"""
+
+from __future__ import annotations
+
+import resource
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from multiprocessing.connection import Connection
+from typing import Any, NamedTuple
+
+SESSION = "recv"
+NODE_ID = "listener"
+IDLE = "idle"  # the window with the publisher paused
+RING_CAPACITY = 4096  # samples; a ring nobody drains keeps only the newest
+UPDATE_PERIOD_S = 0.01  # [s] a node's loop at 100 Hz
+ORPHAN_S = 300.0  # [s] of silence after which a child decides its orchestrator is gone
+LAG_LIMIT_S = 0.1  # [s] a publisher this far behind its deadlines starts afresh, no burst
+BASE_SPEED = 8.0  # [m/s] the slowest ego
+LANE_M = 3.5  # [m] between the egos' parallel lanes
+
+
+def _commands(conn: Connection) -> Iterator[Any]:
+    """The orchestrator's commands until `quit`; ends as well when it is gone or has been
+    silent for ORPHAN_S (a child must not outlive a run that crashed)."""
+    while conn.poll(ORPHAN_S):
+        try:
+            command = conn.recv()
+        except EOFError:
+            return
+        if command == "quit":
+            return
+        yield command
+
+
+class Flock:
+    """`egos` egos driving east on parallel lanes, each publishing its pose at `rate_hz`."""
+
+    def __init__(self, session: Any, egos: int, rate_hz: float) -> None:
+        from carlaverse.keys import Keys
+
+        keys = Keys(SESSION)
+        self.publishers = [
+            session.declare_publisher(keys.pose(f"e{i}", "t0_0")) for i in range(egos)
+        ]
+        self.speeds = [BASE_SPEED + i % 8 for i in range(egos)]  # [m/s]
+        self.period_s = 1.0 / rate_hz
+        self.sending = threading.Event()
+        self.stop = threading.Event()
+        self.sent = 0  # poses put so far; read by the command loop
+        self.seq = 0
+        self.t0 = time.time()
+
+    def run(self) -> None:
+        while not self.stop.is_set():
+            if self.sending.wait(0.1):
+                self._paced()
+
+    def _paced(self) -> None:
+        """Send every period on a deadline (next += period) until paused or stopped."""
+        deadline = time.monotonic()
+        while self.sending.is_set() and not self.stop.is_set():
+            self._send_all()
+            deadline += self.period_s
+            delay = deadline - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+            elif delay < -LAG_LIMIT_S:  # catching up in a burst would not be the stream we mean
+                deadline = time.monotonic()
+
+    def _send_all(self) -> None:
+        from carlaverse.messages import Pose, encode_pose
+
+        # Wall time is session time here: a subscriber's SessionClock(MonotonicClock()) before
+        # any clock exchange assumes the hosts' wall clocks agree (its offset is time.time() −
+        # time.monotonic()), and on one host they do. So the world view's plausibility check
+        # passes and its interpolation sees true latencies.
+        t = time.time()
+        self.seq += 1
+        for i, publisher in enumerate(self.publishers):
+            vx = self.speeds[i]
+            pose = Pose(self.seq, t, vx * (t - self.t0), LANE_M * i, vx=vx)
+            publisher.put(encode_pose(pose))
+        self.sent += len(self.publishers)
+
+
+def publisher_main(endpoint: str, egos: int, rate_hz: float, conn: Connection) -> None:
+    """The publisher (a child). Commands: `publish` and `pause` switch sending on and off,
+    `mark` asks for the poses sent so far; each is answered with (poses sent, monotonic time)
+    so the orchestrator also learns that the publisher is alive."""
+    from carlaverse.fabric.session import FabricSettings, open_session
+
+    session = open_session(FabricSettings(connect=[endpoint]))
+    flock = Flock(session, egos, rate_hz)
+    sender = threading.Thread(target=flock.run, name="flock", daemon=True)
+    sender.start()
+    conn.send("ready")
+    for command in _commands(conn):
+        if command == "publish":
+            flock.sending.set()
+        elif command == "pause":
+            flock.sending.clear()
+        conn.send((flock.sent, time.monotonic()))
+    flock.stop.set()
+    sender.join(5)
+    session.close()
+
+
+class Reading(NamedTuple):
+    cpu_s: float  # [s] this process, all threads
+    received: int
+    update_cpu_s: float  # [s] the update thread's own
+    t: float  # [s] monotonic
+
+
+@dataclass
+class Receiver:
+    """One layer's subscription in a subscriber child, and what it counted. The counters are
+    bumped on Zenoh's callback thread and read on the main one (ints under the GIL)."""
+
+    counts: bool = True  # False: the layer cannot see its samples (the ring)
+    received: int = 0
+    update_cpu_s: float = 0.0  # [s]
+    entities: list[Any] = field(default_factory=list)
+    stop: threading.Event = field(default_factory=threading.Event)
+    threads: list[threading.Thread] = field(default_factory=list)
+    world: Any = None
+
+    def reading(self) -> Reading:
+        usage = resource.getrusage(resource.RUSAGE_SELF)
+        cpu_s = usage.ru_utime + usage.ru_stime
+        return Reading(cpu_s, self.received, self.update_cpu_s, time.monotonic())
+
+    def since(self, start: Reading) -> dict[str, Any]:
+        now = self.reading()
+        report = {
+            "seconds": now.t - start.t,
+            "cpu_s": now.cpu_s - start.cpu_s,
+            "received": now.received - start.received if self.counts else None,
+            "update_cpu_s": now.update_cpu_s - start.update_cpu_s,
+        }
+        if self.world is not None:  # evidence that the world view accepted what it was given
+            report["egos_seen"] = len(self.world.egos)
+            report["rejected"] = dict(self.world.rejected)
+        return report
+
+    def close(self) -> None:
+        self.stop.set()
+        for thread in self.threads:
+            thread.join(5)
+        for entity in self.entities:
+            entity.undeclare()
+
+
+def _pose_key() -> str:
+    from carlaverse.keys import Keys
+
+    return Keys(SESSION).all_ego("pose")
+
+
+def _ring(session: Any, egos: int) -> Receiver:
+    import zenoh
+
+    receiver = Receiver(counts=False)
+    ring = zenoh.handlers.RingChannel(RING_CAPACITY)
+    receiver.entities.append(session.declare_subscriber(_pose_key(), ring))
+    return receiver
+
+
+def _handoff(session: Any, egos: int) -> Receiver:
+    """Like the scale bench's floor subscriber (scale_children.floor_main)."""
+    import zenoh
+
+    receiver = Receiver()
+
+    def on_sample(sample: zenoh.Sample) -> None:
+        sample.payload.to_bytes()
+        receiver.received += 1
+
+    callback = zenoh.handlers.Callback(on_sample)
+    receiver.entities.append(session.declare_subscriber(_pose_key(), callback))
+    return receiver
+
+
+def _inbound(session: Any, egos: int) -> Receiver:
+    return _project(session, egos, updating=False)
+
+
+def _node(session: Any, egos: int) -> Receiver:
+    return _project(session, egos, updating=True)
+
+
+def _project(session: Any, egos: int, updating: bool) -> Receiver:
+    """The project's pose path as a `NodeClient` declares it, without the rest of a node."""
+    from carlaverse.fabric.clock import MonotonicClock, SessionClock
+    from carlaverse.fabric.inbound import Inbound
+    from carlaverse.fabric.remote_actor import InterpolationSettings
+    from carlaverse.fabric.world_view import WorldView
+
+    world = WorldView(NODE_ID, InterpolationSettings())
+    world.present.update(f"e{i}" for i in range(egos))  # as if their tokens had come
+    clock = SessionClock(MonotonicClock())
+    inbound = Inbound(NODE_ID, world, clock, lost=lambda: None, appeared=lambda: None)
+    receiver = Receiver(world=world)
+    push_pose = world.push_pose
+
+    def counted(node_id: str, pose: Any, rx_t: float) -> None:  # one call more per pose
+        receiver.received += 1
+        push_pose(node_id, pose, rx_t)
+
+    world.push_pose = counted  # type: ignore[method-assign]
+    receiver.entities.append(session.declare_subscriber(_pose_key(), inbound.pose_handler()))
+    if updating:
+        loop = threading.Thread(target=_update_loop, args=(world, clock, receiver), daemon=True)
+        receiver.threads.append(loop)
+        loop.start()
+    return receiver
+
+
+def _update_loop(world: Any, clock: Any, receiver: Receiver) -> None:
+    """A node's loop at 100 Hz, doing only its world view's part; times its own CPU."""
+    deadline = time.monotonic()
+    while not receiver.stop.is_set():
+        began = time.thread_time()
+        world.update(clock.now())
+        receiver.update_cpu_s += time.thread_time() - began
+        deadline += UPDATE_PERIOD_S
+        receiver.stop.wait(max(0.0, deadline - time.monotonic()))
+
+
+SETUPS: dict[str, Callable[[Any, int], Receiver]] = {
+    IDLE: _handoff,  # the idle window's session is subscribed, as the layers' are
+    "zenoh": _ring,
+    "handoff": _handoff,
+    "inbound": _inbound,
+    "node": _node,
+}
+
+
+def subscriber_main(endpoint: str, mode: str, layer: str, egos: int, conn: Connection) -> None:
+    """A subscriber (a child) of one layer. Commands: `start` opens the measured window,
+    `stop` closes it and answers the window's report."""
+    from carlaverse.fabric.session import FabricSettings, open_session
+
+    session = open_session(FabricSettings(mode=mode, connect=[endpoint]))  # type: ignore[arg-type]
+    receiver = SETUPS[layer](session, egos)
+    conn.send("joined")
+    start = receiver.reading()
+    for command in _commands(conn):
+        if command == "start":
+            start = receiver.reading()
+            conn.send("started")
+        elif command == "stop":
+            conn.send({**receiver.since(start), **_links(session)})
+    receiver.close()
+    session.close()
+
+
+def _links(session: Any) -> dict[str, int]:
+    """The session's links: a peer learns the publisher from the router (gossip) and may take
+    its poses over a direct link, which a client never does."""
+    info = session.info
+    return {"routers": len(list(info.routers_zid())), "peers": len(list(info.peers_zid()))}
