@@ -57,6 +57,7 @@ def test_the_run_ends_well_and_prints_a_table_per_mode(run: Run) -> None:
     for layer in ("idle", *LAYERS):
         assert body.count(f"| `{layer}` |") == len(MODES), layer
     assert "The target is a receive cost of at most" in body
+    assert "One-way delay of the `node` layer's poses" in body
 
 
 @pytest.mark.timeout(120)
@@ -91,6 +92,8 @@ def test_the_node_layer_s_world_view_takes_every_ego(run: Run, mode: str) -> Non
     assert node["egos_seen"] == EGOS and node["rejected"] == {}, node
     [update_us] = raw["summary"][mode]["node"]["update_us"]
     assert math.isfinite(update_us) and update_us > 0
+    p50, p99 = node["latency_ms"]  # one host's clock: a delay, never negative, well under 1 s
+    assert 0 < p50 <= p99 < 1000, node["latency_ms"]
 
 
 @pytest.mark.timeout(120)

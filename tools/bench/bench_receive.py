@@ -241,6 +241,8 @@ class Figures:
     step: list[float] = field(default_factory=list)  # [µs/pose] over the layer before
     share: list[float] = field(default_factory=list)  # of a core, the whole process
     update_us: list[float] = field(default_factory=list)  # [µs/pose] the update thread's
+    p50_ms: list[float] = field(default_factory=list)  # one-way, publisher to world view
+    p99_ms: list[float] = field(default_factory=list)
 
 
 def summarise(windows: list[dict[str, Any]], modes: list[str]) -> dict[str, dict[str, Figures]]:
@@ -272,6 +274,9 @@ def _add(figures: Figures, w: dict[str, Any], idle: dict[str, Any]) -> float:
     figures.share.append(w["cpu_s"] / w["seconds"])
     if w["layer"] == "node":
         figures.update_us.append(w["update_cpu_s"] / n * 1e6 if n else float("nan"))
+    if "latency_ms" in w:
+        figures.p50_ms.append(w["latency_ms"][0])
+        figures.p99_ms.append(w["latency_ms"][1])
     return us
 
 
@@ -297,6 +302,18 @@ def table(figures: dict[str, Figures]) -> str:
                  _spread(f.update_us)]  # fmt: skip
         rows.append("| " + " | ".join(cells) + " |")
     return "\n".join(head + rows)
+
+
+def delays(summary: dict[str, dict[str, Figures]]) -> str:
+    """What each mode costs in delay: one-way, from the publisher's put to the pose handler."""
+    lines = [
+        "One-way delay of the `node` layer's poses (send time to the handler's arrival stamp, "
+        "one host's clock), p50 / p99:"
+    ]
+    for mode, f in summary.items():
+        node = f["node"]
+        lines.append(f"{mode} mode {_spread(node.p50_ms, 2)} / {_spread(node.p99_ms, 2)} ms.")
+    return " ".join(lines)
 
 
 def verdict(summary: dict[str, dict[str, Figures]]) -> str:
@@ -368,7 +385,7 @@ def section(
     parts = [intro, "", paths(windows)]
     for mode, figures in summary.items():
         parts += ["", f"A node in **{mode}** mode:", "", table(figures)]
-    return "\n".join([*parts, "", verdict(summary)])
+    return "\n".join([*parts, "", delays(summary), "", verdict(summary)])
 
 
 # ---------------------------------------------------------------- the command line

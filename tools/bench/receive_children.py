@@ -130,6 +130,9 @@ class Receiver:
     stop: threading.Event = field(default_factory=threading.Event)
     threads: list[threading.Thread] = field(default_factory=list)
     world: Any = None
+    # [s] arrival minus send time of each pose in the window (project layers only): what the
+    # session mode costs in delay, beside what it costs in CPU
+    latency_s: list[float] = field(default_factory=list)
 
     def reading(self) -> Reading:
         usage = resource.getrusage(resource.RUSAGE_SELF)
@@ -144,6 +147,9 @@ class Receiver:
             "received": now.received - start.received if self.counts else None,
             "update_cpu_s": now.update_cpu_s - start.update_cpu_s,
         }
+        if self.latency_s:
+            ordered = sorted(self.latency_s)
+            report["latency_ms"] = [ordered[int(q * (len(ordered) - 1))] * 1e3 for q in (0.5, 0.99)]
         if self.world is not None:  # evidence that the world view accepted what it was given
             report["egos_seen"] = len(self.world.egos)
             report["rejected"] = dict(self.world.rejected)
@@ -209,8 +215,11 @@ def _project(session: Any, egos: int, updating: bool) -> Receiver:
     receiver = Receiver(world=world)
     push_pose = world.push_pose
 
+    latency = receiver.latency_s
+
     def counted(node_id: str, pose: Any, rx_t: float) -> None:  # one call more per pose
         receiver.received += 1
+        latency.append(rx_t - pose.t)
         push_pose(node_id, pose, rx_t)
 
     world.push_pose = counted  # type: ignore[method-assign]
@@ -254,6 +263,7 @@ def subscriber_main(endpoint: str, mode: str, layer: str, egos: int, conn: Conne
     for command in _commands(conn):
         if command == "start":
             start = receiver.reading()
+            receiver.latency_s.clear()
             conn.send("started")
         elif command == "stop":
             conn.send({**receiver.since(start), **_links(session)})
