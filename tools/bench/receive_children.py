@@ -20,6 +20,7 @@ IDLE = "idle"  # the window with the publisher paused
 RING_CAPACITY = 4096  # samples; a ring nobody drains keeps only the newest
 UPDATE_PERIOD_S = 0.01  # [s] a node's loop at 100 Hz
 ORPHAN_S = 300.0  # [s] of silence after which a child decides its orchestrator is gone
+SLICES = 10  # a period's sends are spread over this many slices
 LAG_LIMIT_S = 0.1  # [s] a publisher this far behind its deadlines starts afresh, no burst
 BASE_SPEED = 8.0  # [m/s] the slowest ego
 LANE_M = 3.5  # [m] between the egos' parallel lanes
@@ -62,31 +63,34 @@ class Flock:
                 self._paced()
 
     def _paced(self) -> None:
-        """Send every period on a deadline (next += period) until paused or stopped."""
-        deadline = time.monotonic()
+        """Send on a deadline (next += slice) until paused or stopped: each period in SLICES
+        slices, a slice's share of the egos at a time. Egos on their own machines are not in
+        step; all of them in one burst would queue at the receiver and show as delay."""
+        deadline, part = time.monotonic(), 0
         while self.sending.is_set() and not self.stop.is_set():
-            self._send_all()
-            deadline += self.period_s
+            self._send(part)
+            part = (part + 1) % SLICES
+            deadline += self.period_s / SLICES
             delay = deadline - time.monotonic()
             if delay > 0:
                 time.sleep(delay)
             elif delay < -LAG_LIMIT_S:  # catching up in a burst would not be the stream we mean
                 deadline = time.monotonic()
 
-    def _send_all(self) -> None:
+    def _send(self, part: int) -> None:
         from carlaverse.messages import Pose, encode_pose
 
         # Wall time is session time here: a subscriber's SessionClock(MonotonicClock()) before
         # any clock exchange assumes the hosts' wall clocks agree (its offset is time.time() −
         # time.monotonic()), and on one host they do. So the world view's plausibility check
-        # passes and its interpolation sees true latencies.
-        t = time.time()
-        self.seq += 1
-        for i, publisher in enumerate(self.publishers):
-            vx = self.speeds[i]
+        # passes and its interpolation sees true latencies. Each pose is stamped as it is put:
+        # one stamp for the whole burst would count the burst's length (ms) as delay.
+        self.seq += part == 0
+        for i in range(part, len(self.publishers), SLICES):
+            t, vx = time.time(), self.speeds[i]
             pose = Pose(self.seq, t, vx * (t - self.t0), LANE_M * i, vx=vx)
-            publisher.put(encode_pose(pose))
-        self.sent += len(self.publishers)
+            self.publishers[i].put(encode_pose(pose))
+            self.sent += 1
 
 
 def publisher_main(endpoint: str, egos: int, rate_hz: float, conn: Connection) -> None:
