@@ -87,13 +87,7 @@ class Swarm:
             session, self.keys, self.node_ids, settings.kind, settings.actor_kind, settings.rate_hz
         )
         self._publishers = [
-            TiledPublisher(
-                session,
-                self.keys,
-                node_id,
-                congestion_control=zenoh.CongestionControl.DROP,
-                priority=zenoh.Priority.REAL_TIME,
-            )
+            TiledPublisher(session, self.keys, node_id)  # as a node's: `POSE_QOS`
             for node_id in self.node_ids
         ]
         self._seq = [0] * settings.egos

@@ -26,6 +26,16 @@ TILE_HYSTERESIS_M = 25.0  # [m] how far into a new tile a point must be to count
 
 SampleHandler = Callable[[zenoh.Sample], None] | zenoh.handlers.Callback
 
+# How every pose leaves, a node's and the swarm's: the next sample supersedes it, so under
+# congestion it is dropped rather than queued, and it goes ahead of NPC batches and bulk.
+# Not `express`: poses that meet on a link (a router's fan-out) then share frames, and a node
+# hearing 256 egos pays about half the CPU per pose; express would cut their delay instead
+# (docs/benchmarks.md "Receive cost per pose, layer by layer" measures both).
+POSE_QOS: dict[str, object] = {
+    "congestion_control": zenoh.CongestionControl.DROP,
+    "priority": zenoh.Priority.REAL_TIME,
+}
+
 
 class TileTracker:
     """The tile a moving point is in, changing only once the point is well inside a new one."""
@@ -65,7 +75,8 @@ def tiles_around(tile: tuple[int, int], reach: int) -> frozenset[str]:
 
 
 class TiledPublisher:
-    """One node's pose publisher; its key follows the node from tile to tile.
+    """One node's pose publisher; its key follows the node from tile to tile. Its publishers
+    have `POSE_QOS`, and `options` on top.
 
     `put` is called by one thread (the node's pose loop); a new tile declares a publisher
     on its key and undeclares the old one, a few times a minute for a car.
@@ -75,7 +86,7 @@ class TiledPublisher:
         self._session = session
         self._keys = keys
         self._node_id = node_id
-        self._options = options
+        self._options = {**POSE_QOS, **options}
         self._tracker = TileTracker()
         self._tile: tuple[int, int] | None = None
         self._publisher: zenoh.Publisher | None = None

@@ -134,8 +134,6 @@ class NodeClient:
             session,
             self.keys,
             settings.node_id,
-            congestion_control=zenoh.CongestionControl.DROP,
-            priority=zenoh.Priority.REAL_TIME,  # ahead of NPC batches and bulk under load
             # Our own `ego/*/pose` subscriber would otherwise get each put delivered in the
             # publishing thread, running a Python callback before the sample leaves.
             allowed_destination=zenoh.Locality.REMOTE,

@@ -23,7 +23,7 @@ BENCH = Path(__file__).resolve().parents[2] / "tools" / "bench"
 EGOS = 64  # enough poses (3,200/s) that a layer's cost stands well above the idle noise
 RATE_HZ = 50.0
 MODES = ("peer", "client")
-LAYERS = ("zenoh", "handoff", "inbound", "node")
+LAYERS = ("zenoh", "handoff", "inbound", "node", "zenoh+express", "node+express")
 # A 1 s window on a shared 2-core host: the publisher may be descheduled, or catch up, at a
 # window's edges; beyond these bounds the harness is wrong, not the host slow.
 RATE_BOUNDS = (0.7 * EGOS * RATE_HZ, 1.3 * EGOS * RATE_HZ)  # [poses/s]
@@ -77,20 +77,21 @@ def test_every_layer_is_measured_per_pose(run: Run, mode: str, layer: str) -> No
 @pytest.mark.parametrize("mode", MODES)
 def test_layers_that_count_hear_what_was_sent(run: Run, mode: str) -> None:
     _, raw, _ = run
-    for layer in ("handoff", "inbound", "node"):
+    for layer in ("handoff", "inbound", "node", "node+express"):
         [window] = windows_of(raw, mode, layer)
         assert window["received"] >= LEAST_DELIVERY * window["sent"] > 0, (layer, window)
-    [ring] = windows_of(raw, mode, "zenoh")
-    assert ring["received"] is None  # a ring nobody drains counts nothing: sent stands in
+    for ring in windows_of(raw, mode, "zenoh") + windows_of(raw, mode, "zenoh+express"):
+        assert ring["received"] is None  # a ring nobody drains counts nothing: sent stands in
 
 
 @pytest.mark.timeout(120)
 @pytest.mark.parametrize("mode", MODES)
-def test_the_node_layer_s_world_view_takes_every_ego(run: Run, mode: str) -> None:
+@pytest.mark.parametrize("layer", ["node", "node+express"])
+def test_the_node_layer_s_world_view_takes_every_ego(run: Run, mode: str, layer: str) -> None:
     _, raw, _ = run
-    [node] = windows_of(raw, mode, "node")
+    [node] = windows_of(raw, mode, layer)
     assert node["egos_seen"] == EGOS and node["rejected"] == {}, node
-    [update_us] = raw["summary"][mode]["node"]["update_us"]
+    [update_us] = raw["summary"][mode][layer]["update_us"]
     assert math.isfinite(update_us) and update_us > 0
     p50, p99 = node["latency_ms"]  # one host's clock: a delay, never negative, well under 1 s
     assert 0 < p50 <= p99 < 1000, node["latency_ms"]

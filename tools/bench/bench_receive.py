@@ -44,10 +44,14 @@ from pathlib import Path
 from typing import Any
 
 from benchdoc import RunInfo, command_line, write_section
-from receive_children import IDLE, publisher_main, subscriber_main
+from receive_children import EXPRESS, IDLE, publisher_main, subscriber_main
 
 TITLE = "Receive cost per pose, layer by layer"
 LAYERS = ("zenoh", "handoff", "inbound", "node")  # each adds to the one before
+# The same layers while the publisher puts `express`: one frame per pose, as a node meets
+# egos that are machines of their own with direct links (peer mode); one process's egos, and
+# a router's fan-out, otherwise share frames.
+EXPRESS_LAYERS = ("zenoh" + EXPRESS, "node" + EXPRESS)
 MODES = ("peer", "client")
 TARGET_US = 10.0  # [µs] the issue's target: receive cost per pose
 JOIN_S = 60.0  # [s] for a child to open its session and subscribe
@@ -59,6 +63,8 @@ WHAT = {
     "handoff": "Python callback taking the payload's bytes",
     "inbound": "the project's pose handler into a world view",
     "node": "as inbound, plus `WorldView.update` at 100 Hz",
+    "zenoh" + EXPRESS: "as `zenoh`, every pose put express (a frame of its own)",
+    "node" + EXPRESS: "as `node`, every pose put express (a frame of its own)",
 }
 
 
@@ -131,9 +137,10 @@ class Bench:
         self.publisher = self._spawn("publisher", publisher_main, self.args.egos, self.args.rate)
         self.publisher.reply(JOIN_S)
 
-    def sending(self, on: bool) -> None:
+    def sending(self, how: str) -> None:
+        """`publish`, `publish-express` or `pause`."""
         assert self.publisher is not None
-        self.publisher.ask("publish" if on else "pause")
+        self.publisher.ask(how)
 
     def window(self, mode: str, layer: str) -> dict[str, Any]:
         """One subscriber process of `layer`: joined, warmed up, measured, gone."""
@@ -201,13 +208,12 @@ def run_rounds(bench: Bench, args: argparse.Namespace) -> list[dict[str, Any]]:
     """Every mode's idle window (publisher paused), then every (mode, layer), per round."""
     windows = []
     for r in range(args.rounds):
-        bench.sending(False)
-        for mode in args.modes:
-            windows.append(_measured(bench, r, mode, IDLE, args.rounds))
-        bench.sending(True)
-        for mode in args.modes:
-            for layer in LAYERS:
-                windows.append(_measured(bench, r, mode, layer, args.rounds))
+        for how, layers in (("pause", [IDLE]), ("publish", LAYERS),
+                            ("publish-express", EXPRESS_LAYERS)):  # fmt: skip
+            bench.sending(how)
+            for mode in args.modes:
+                for layer in layers:
+                    windows.append(_measured(bench, r, mode, layer, args.rounds))
     return windows
 
 
@@ -216,7 +222,7 @@ def _measured(bench: Bench, r: int, mode: str, layer: str, rounds: int) -> dict[
     rate = poses(window) / window["seconds"]
     share = window["cpu_s"] / window["seconds"]
     each = f", {window['cpu_s'] / poses(window) * 1e6:.1f} µs per pose all in" if rate else ""
-    print(f"round {r + 1}/{rounds} {mode:6} {layer:8} {rate:7.0f} poses/s, "
+    print(f"round {r + 1}/{rounds} {mode:6} {layer:13} {rate:7.0f} poses/s, "
           f"{share:6.1%} of a core{each}", file=sys.stderr, flush=True)  # fmt: skip
     return window
 
@@ -252,17 +258,24 @@ def summarise(windows: list[dict[str, Any]], modes: list[str]) -> dict[str, dict
     rounds = sorted({w["round"] for w in windows})
     out: dict[str, dict[str, Figures]] = {}
     for mode in modes:
-        out[mode] = {layer: Figures() for layer in (IDLE, *LAYERS)}
+        out[mode] = {layer: Figures() for layer in (IDLE, *LAYERS, *EXPRESS_LAYERS)}
         for r in rounds:
             idle = by[(r, mode, IDLE)]
             out[mode][IDLE].share.append(idle["cpu_s"] / idle["seconds"])
-            below = None
-            for layer in LAYERS:
-                us = _add(out[mode][layer], by[(r, mode, layer)], idle)
-                if below is not None:
-                    out[mode][layer].step.append(us - below)
-                below = us
+            us: dict[str, float] = {}
+            for layer in (*LAYERS, *EXPRESS_LAYERS):
+                us[layer] = _add(out[mode][layer], by[(r, mode, layer)], idle)
+                if (under := _under(layer)) is not None:
+                    out[mode][layer].step.append(us[layer] - us[under])
     return out
+
+
+def _under(layer: str) -> str | None:
+    """What a layer's step is taken over: the layer before it, or itself put batched."""
+    if layer.endswith(EXPRESS):
+        return layer.removesuffix(EXPRESS)
+    at = LAYERS.index(layer)
+    return LAYERS[at - 1] if at else None
 
 
 def _add(figures: Figures, w: dict[str, Any], idle: dict[str, Any]) -> float:
@@ -272,7 +285,7 @@ def _add(figures: Figures, w: dict[str, Any], idle: dict[str, Any]) -> float:
     figures.rate.append(n / w["seconds"])
     figures.us.append(us)
     figures.share.append(w["cpu_s"] / w["seconds"])
-    if w["layer"] == "node":
+    if w["layer"].startswith("node"):
         figures.update_us.append(w["update_cpu_s"] / n * 1e6 if n else float("nan"))
     if "latency_ms" in w:
         figures.p50_ms.append(w["latency_ms"][0])
@@ -292,6 +305,7 @@ def _spread(values: list[float], digits: int = 1, scale: float = 1.0, unit: str 
 def table(figures: dict[str, Figures]) -> str:
     head = [
         "| layer | what it does | poses/s | µs per pose above idle | over the layer before "
+        "(express: over the same layer put as nodes do) "
         "| share of a core | of which the update thread, µs per pose |",
         "|---|---|---:|---:|---:|---:|---:|",
     ]
@@ -311,8 +325,10 @@ def delays(summary: dict[str, dict[str, Figures]]) -> str:
         "one host's clock), p50 / p99:"
     ]
     for mode, f in summary.items():
-        node = f["node"]
-        lines.append(f"{mode} mode {_spread(node.p50_ms, 2)} / {_spread(node.p99_ms, 2)} ms.")
+        for layer in ("node", "node" + EXPRESS):
+            node = f[layer]
+            lines.append(f"{mode} mode, `{layer}`: {_spread(node.p50_ms, 2)} / "
+                         f"{_spread(node.p99_ms, 2)} ms.")  # fmt: skip
     return " ".join(lines)
 
 
@@ -332,6 +348,11 @@ def verdict(summary: dict[str, dict[str, Figures]]) -> str:
             f"(`handoff`) takes it to {handed:.1f} µs, {_against(handed)}, before any of the "
             f"project's code runs; a node with its world view (`node`) pays {node:.1f} µs, "
             f"{node / TARGET_US:.1f}× the target."
+        )
+        alone, node_alone = (statistics.median(f[k + EXPRESS].us) for k in ("zenoh", "node"))
+        lines.append(
+            f"With a frame per pose (`+express`) Zenoh's floor is {alone:.1f} µs and the node "
+            f"pays {node_alone:.1f} µs."
         )
     return " ".join(lines)
 
@@ -380,7 +401,8 @@ def section(
         "cannot count what reaches it: its poses are those the publisher sent in its window "
         "(the `handoff` row shows how many arrive). The idle window's CPU, scaled to each "
         "window's length, is subtracted; the `node` layer's update thread idling at 100 Hz "
-        f"is not in it. {_rounds(args.rounds)}"
+        "is not in it. The `inbound` and `node` layers count each pose and note its delay in "
+        f"one wrapper call more per pose than a node makes. {_rounds(args.rounds)}"
     )
     parts = [intro, "", paths(windows)]
     for mode, figures in summary.items():
@@ -431,6 +453,15 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     return args
 
 
+def _without_json(argv: list[str] | None) -> list[str]:
+    """The arguments that decide the figures: `--json PATH` names a local file, not a setting."""
+    args = list(sys.argv[1:] if argv is None else argv)
+    if "--json" in args:
+        at = args.index("--json")
+        del args[at : at + 2]
+    return [a for a in args if not a.startswith("--json=")]
+
+
 def main(argv: list[str] | None = None) -> int:
     run = RunInfo.start()  # first: the machine's load and speed before the run
     args = parse_args(argv)
@@ -450,7 +481,7 @@ def main(argv: list[str] | None = None) -> int:
         args.json.write_text(json.dumps(raw, indent=1))
     body = section(summary, windows, args)
     if args.write:
-        write_section(TITLE, body, command_line(argv), run)
+        write_section(TITLE, body, command_line(_without_json(argv)), run)
     else:
         print(body)
     return 0

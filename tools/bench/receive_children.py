@@ -17,6 +17,7 @@ from typing import Any, NamedTuple
 SESSION = "recv"
 NODE_ID = "listener"
 IDLE = "idle"  # the window with the publisher paused
+EXPRESS = "+express"  # a layer's name ends so when the publisher puts express
 RING_CAPACITY = 4096  # samples; a ring nobody drains keeps only the newest
 UPDATE_PERIOD_S = 0.01  # [s] a node's loop at 100 Hz
 ORPHAN_S = 300.0  # [s] of silence after which a child decides its orchestrator is gone
@@ -46,9 +47,16 @@ class Flock:
         from carlaverse.keys import Keys
 
         keys = Keys(SESSION)
-        self.publishers = [
-            session.declare_publisher(keys.pose(f"e{i}", "t0_0")) for i in range(egos)
-        ]
+        from carlaverse.fabric.interest import POSE_QOS
+
+        def publishers(**extra: object) -> list[Any]:
+            qos = {**POSE_QOS, **extra}  # as a node puts its pose, and `extra` on top
+            return [session.declare_publisher(keys.pose(f"e{i}", "t0_0"), **qos)
+                    for i in range(egos)]  # fmt: skip
+
+        self.batched = publishers()
+        self.express = publishers(express=True)  # one frame per pose, never batched
+        self.publishers = self.batched  # the set `_send` puts with
         self.speeds = [BASE_SPEED + i % 8 for i in range(egos)]  # [m/s]
         self.period_s = 1.0 / rate_hz
         self.sending = threading.Event()
@@ -94,9 +102,10 @@ class Flock:
 
 
 def publisher_main(endpoint: str, egos: int, rate_hz: float, conn: Connection) -> None:
-    """The publisher (a child). Commands: `publish` and `pause` switch sending on and off,
-    `mark` asks for the poses sent so far; each is answered with (poses sent, monotonic time)
-    so the orchestrator also learns that the publisher is alive."""
+    """The publisher (a child). Commands: `publish` (as nodes put), `publish-express` (each
+    pose in a frame of its own) and `pause` switch sending; `mark` asks for the poses sent so
+    far. Each is answered with (poses sent, monotonic time), so the orchestrator also learns
+    that the publisher is alive."""
     from carlaverse.fabric.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(connect=[endpoint]))
@@ -105,7 +114,8 @@ def publisher_main(endpoint: str, egos: int, rate_hz: float, conn: Connection) -
     sender.start()
     conn.send("ready")
     for command in _commands(conn):
-        if command == "publish":
+        if command in ("publish", "publish-express"):
+            flock.publishers = flock.express if command == "publish-express" else flock.batched
             flock.sending.set()
         elif command == "pause":
             flock.sending.clear()
@@ -261,7 +271,7 @@ def subscriber_main(endpoint: str, mode: str, layer: str, egos: int, conn: Conne
     from carlaverse.fabric.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(mode=mode, connect=[endpoint]))  # type: ignore[arg-type]
-    receiver = SETUPS[layer](session, egos)
+    receiver = SETUPS[layer.removesuffix(EXPRESS)](session, egos)
     conn.send("joined")
     start = receiver.reading()
     for command in _commands(conn):

@@ -13,6 +13,7 @@ TRANSPORTS = {
     "zenoh-direct": ("peers.zenoh_bare", "BareZenohDirect"),
     "zenoh-ll": ("peers.zenoh_bare", "BareZenohLowLatency"),
     "zenoh-pose-options": ("peers.zenoh_bare", "BareZenohPoseOptions"),
+    "zenoh-express": ("peers.zenoh_bare", "BareZenohExpress"),
     "pose-no-loop": ("peers.pose_path", "PosePathNoNodeLoop"),
     "dds": ("peers.dds", "CycloneDds"),
     "zmq": ("peers.zmq_pubsub", "ZmqPubSub"),

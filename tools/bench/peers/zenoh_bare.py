@@ -137,3 +137,13 @@ class BareZenohPoseOptions(BareZenoh):
             "priority": zenoh.Priority.REAL_TIME,
             "allowed_destination": zenoh.Locality.REMOTE,
         }
+
+
+class BareZenohExpress(BareZenoh):
+    """Bare Zenoh whose publisher puts `express`: each sample leaves at once instead of
+    waiting in Zenoh's batch for others to share a frame."""
+
+    label = "bare Zenoh, express"
+
+    def publisher_options(self) -> dict[str, Any]:
+        return {"express": True}
