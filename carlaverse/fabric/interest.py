@@ -29,8 +29,8 @@ SampleHandler = Callable[[zenoh.Sample], None] | zenoh.handlers.Callback
 # How every pose leaves, a node's and the swarm's: the next sample supersedes it, so under
 # congestion it is dropped rather than queued, and it goes ahead of NPC batches and bulk.
 # Not `express`: poses that meet on a link (a router's fan-out) then share frames, and a node
-# hearing 256 egos pays about half the CPU per pose; express would cut their delay instead
-# (docs/benchmarks.md "Receive cost per pose, layer by layer" measures both).
+# hearing 256 egos pays a third to a half less CPU per pose; express would cut their delay
+# instead (docs/benchmarks.md "Receive cost per pose, layer by layer" measures both).
 POSE_QOS: dict[str, object] = {
     "congestion_control": zenoh.CongestionControl.DROP,
     "priority": zenoh.Priority.REAL_TIME,
