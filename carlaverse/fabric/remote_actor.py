@@ -111,7 +111,7 @@ class StreamTiming:
 
     def observe(self, sent_t: float, rx_t: float) -> None:
         # Runs once per pose of every ego a node hears: the averages are updated in place,
-        # not through a helper returning tuples (that call was a tenth of the receive cost).
+        # not through a helper returning tuples (6 % of `WorldView.update` in a profile).
         latency = rx_t - sent_t
         last_t = self._last_t
         if sent_t > last_t > -math.inf:
