@@ -50,6 +50,9 @@ class SwarmSettings(StrictStruct):
     actor_kind: str = "car"
     slots: Annotated[int, msgspec.Meta(ge=1, le=100)] = 10  # sends per pose period
     join_timeout_s: Annotated[float, msgspec.Meta(gt=0)] = 2.0
+    # Every pose in a frame of its own, as N machines with links of their own send them. One
+    # process's egos otherwise share frames, which flatters what receivers pay per pose.
+    express: bool = False
 
 
 class SwarmReport(msgspec.Struct, frozen=True):
@@ -87,7 +90,7 @@ class Swarm:
             session, self.keys, self.node_ids, settings.kind, settings.actor_kind, settings.rate_hz
         )
         self._publishers = [
-            TiledPublisher(session, self.keys, node_id)  # as a node's: `POSE_QOS`
+            TiledPublisher(session, self.keys, node_id, express=settings.express)  # `POSE_QOS`
             for node_id in self.node_ids
         ]
         self._seq = [0] * settings.egos

@@ -52,6 +52,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--seed", type=int, default=0, help="seed of the egos' blocks and speeds")
     parser.add_argument("--prefix", default="swarm", help="ego ids are PREFIX-INDEX (swarm)")
+    parser.add_argument(
+        "--express",
+        action="store_true",
+        help="send every pose in a frame of its own, as N separate machines would; without it "
+        "the egos' poses share frames, which makes receiving them cheaper than it would be",
+    )
     add_fabric_args(parser)
     add_output_args(parser)
 
@@ -61,8 +67,8 @@ def settings_from_args(args: argparse.Namespace) -> SwarmSettings:
     given = {"session": ("--session", args.session or "default"), "egos": ("--egos", args.egos),
              "rate_hz": ("--rate", args.rate), "spread_m": ("--spread", args.spread),
              "block_m": ("--block", args.block), "origin": ("--origin", tuple(args.origin)),
-             "seed": ("--seed", args.seed),
-             "prefix": ("--prefix", args.prefix)}  # fmt: skip
+             "seed": ("--seed", args.seed), "prefix": ("--prefix", args.prefix),
+             "express": ("--express", args.express)}  # fmt: skip
     try:
         return msgspec.convert({name: value for name, (_, value) in given.items()}, SwarmSettings)
     except msgspec.ValidationError as exc:

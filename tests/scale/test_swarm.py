@@ -2,23 +2,28 @@
 
 from __future__ import annotations
 
+import argparse
 import math
 
 import pytest
 
 from carlaverse.cli import main
+from carlaverse.cli.swarm import add_arguments, settings_from_args
 from tests.support import Cluster, wait_until
 
 EGOS = 12
 
 
-def test_swarm_egos_join_publish_and_leave(cluster: Cluster) -> None:
+# `--express`: every pose in a frame of its own, as separate machines send; it must reach the
+# same observers through the same router.
+@pytest.mark.parametrize("framing", [[], ["--express"]], ids=["shared-frames", "express"])
+def test_swarm_egos_join_publish_and_leave(cluster: Cluster, framing: list[str]) -> None:
     cluster.router()
     authority = cluster.authority()
     obs = cluster.observer()
     swarm = cluster.start(
         "swarm", "--egos", str(EGOS), "--session", "t", "--connect", cluster.endpoint,
-        "--spread", "600", "--duration", "4", "--json", name="swarm",
+        "--spread", "600", "--duration", "4", "--json", *framing, name="swarm",
     )  # fmt: skip
     ids = {f"swarm-{i}" for i in range(EGOS)}
     wait_until(lambda: obs.update() and ids <= set(obs.world.egos), 30, "every swarm ego")
@@ -54,3 +59,10 @@ def test_swarm_refuses_bad_flags_in_one_line(capsys) -> None:
 def test_swarm_names_the_flag_the_user_typed(capsys, flags: list[str], said: str) -> None:
     assert main(["swarm", *flags, "--connect", "tcp/127.0.0.1:7447"]) == 2
     assert capsys.readouterr().err.strip() == f"carlaverse swarm: {said}"
+
+
+def test_swarm_express_reaches_its_settings() -> None:
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    assert settings_from_args(parser.parse_args(["--express"])).express is True
+    assert settings_from_args(parser.parse_args([])).express is False

@@ -86,8 +86,11 @@ class Bench:
     session windows measure the authority beside what a session has: participants that hear
     the actors around them."""
 
-    def __init__(self, tmp: Path, seconds: float, fill_s: float, priority: int) -> None:
+    def __init__(
+        self, tmp: Path, seconds: float, fill_s: float, priority: int, express: bool = False
+    ) -> None:
         self.priority = priority
+        self.express = express  # the swarm's poses in frames of their own
         self.tmp = tmp
         self.seconds = seconds
         self.fill_s = fill_s
@@ -179,7 +182,8 @@ class Bench:
     def run_swarm(self, egos: int, profile_to: Path | None) -> dict[str, Any]:
         cmd = [sys.executable, "-m", "carlaverse", "swarm", "--egos", str(egos), "--session",
                SESSION, "--connect", self.endpoint, "--spread", f"{SPREAD_M:g}", "--block",
-               f"{BLOCK_M:g}", "--origin", f"{ATTACH_M:g}", f"{ATTACH_M:g}", "--json"]  # fmt: skip
+               f"{BLOCK_M:g}", "--origin", f"{ATTACH_M:g}", f"{ATTACH_M:g}", "--json",
+               *(["--express"] if self.express else [])]  # fmt: skip
         swarm = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         for line in swarm.stderr:  # type: ignore[union-attr]
             if "egos joined" in line:
@@ -304,6 +308,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--profile-label", default="", help="what the saved split measured")
     parser.add_argument("--profile-before", type=Path, help="a saved split to compare with")
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md")
+    parser.add_argument("--swarm-express", action="store_true",
+                        help="the swarm sends every pose in a frame of its own (`swarm "
+                        "--express`), as N separate machines would; not for --write")  # fmt: skip
     parser.add_argument(
         "--tick-priority",
         type=int,
@@ -311,8 +318,10 @@ def main(argv: list[str] | None = None) -> int:
         help="the authority's tick_priority (default: the shipped default)",
     )
     args = parser.parse_args(argv)
+    if args.write and args.swarm_express:
+        parser.error("--swarm-express measures a variant; the written section is the default")
     with tempfile.TemporaryDirectory() as tmp:
-        bench = Bench(Path(tmp), args.seconds, args.fill, args.tick_priority)
+        bench = Bench(Path(tmp), args.seconds, args.fill, args.tick_priority, args.swarm_express)
         try:
             bench.start()
             base = bench.both_windows(None, None)
