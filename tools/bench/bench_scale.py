@@ -86,11 +86,8 @@ class Bench:
     session windows measure the authority beside what a session has: participants that hear
     the actors around them."""
 
-    def __init__(
-        self, tmp: Path, seconds: float, fill_s: float, priority: int, express: bool = False
-    ) -> None:
+    def __init__(self, tmp: Path, seconds: float, fill_s: float, priority: int) -> None:
         self.priority = priority
-        self.express = express  # the swarm's poses in frames of their own
         self.tmp = tmp
         self.seconds = seconds
         self.fill_s = fill_s
@@ -179,11 +176,14 @@ class Bench:
             result["profiled"] = self.window(swarm_pid, profile_to)
         return result
 
-    def run_swarm(self, egos: int, profile_to: Path | None) -> dict[str, Any]:
+    def run_swarm(
+        self, egos: int, profile_to: Path | None, express: bool = False
+    ) -> dict[str, Any]:
+        """A swarm of `egos` and its windows; `express`: its poses in frames of their own."""
         cmd = [sys.executable, "-m", "carlaverse", "swarm", "--egos", str(egos), "--session",
                SESSION, "--connect", self.endpoint, "--spread", f"{SPREAD_M:g}", "--block",
                f"{BLOCK_M:g}", "--origin", f"{ATTACH_M:g}", f"{ATTACH_M:g}", "--json",
-               *(["--express"] if self.express else [])]  # fmt: skip
+               *(["--express"] if express else [])]  # fmt: skip
         swarm = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
         for line in swarm.stderr:  # type: ignore[union-attr]
             if "egos joined" in line:
@@ -229,7 +229,12 @@ def _free_port() -> int:
 # ---------------------------------------------------------------- the report
 
 
-def section(runs: dict[int, dict[str, Any]], base: dict[str, Any], profile: str) -> str:
+def section(
+    runs: dict[int, dict[str, Any]],
+    base: dict[str, Any],
+    profile: str,
+    express: dict[int, dict[str, Any]] | None = None,
+) -> str:
     sync = max(r["hearing"]["probe-all"]["sync_ms"] for r in runs.values())
     ba, bh = base["session"]["authority"], base["hearing"]["authority"]
     parts = [
@@ -282,9 +287,27 @@ def section(runs: dict[int, dict[str, Any]], base: dict[str, Any], profile: str)
         "",
         verdicts(runs, base),
     ]
+    if express:
+        parts += ["", express_part(express, base)]
     if profile:
         parts += ["", profile]
     return "\n".join(parts)
+
+
+def express_part(express: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
+    """The same windows while every pose travels in a frame of its own."""
+    return "\n".join([
+        "A swarm is one process, so its egos' poses share frames on every link, which N "
+        "machines with links of their own would not: receiving them is cheaper here than in "
+        "such a session. The same windows once more with `carlaverse swarm --express` (every "
+        "pose in a frame of its own), after the runs above, on the same router and authority:",
+        "",
+        scale_table(express, base),
+        "",
+        receive_table(express, base),
+        "",
+        verdicts(express, base),
+    ])  # fmt: skip
 
 
 def _profile(raw: Path, egos: int, args: argparse.Namespace) -> str:
@@ -308,9 +331,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--profile-label", default="", help="what the saved split measured")
     parser.add_argument("--profile-before", type=Path, help="a saved split to compare with")
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md")
-    parser.add_argument("--swarm-express", action="store_true",
-                        help="the swarm sends every pose in a frame of its own (`swarm "
-                        "--express`), as N separate machines would; not for --write")  # fmt: skip
+    parser.add_argument("--express-egos", type=int, metavar="N",
+                        help="after the runs, N egos once more with every pose in a frame of "
+                        "its own (`swarm --express`), as N separate machines send them "
+                        "(default: the largest --egos; 0: skip)")  # fmt: skip
     parser.add_argument(
         "--tick-priority",
         type=int,
@@ -318,10 +342,9 @@ def main(argv: list[str] | None = None) -> int:
         help="the authority's tick_priority (default: the shipped default)",
     )
     args = parser.parse_args(argv)
-    if args.write and args.swarm_express:
-        parser.error("--swarm-express measures a variant; the written section is the default")
+    express_n = max(args.egos) if args.express_egos is None else args.express_egos
     with tempfile.TemporaryDirectory() as tmp:
-        bench = Bench(Path(tmp), args.seconds, args.fill, args.tick_priority, args.swarm_express)
+        bench = Bench(Path(tmp), args.seconds, args.fill, args.tick_priority)
         try:
             bench.start()
             base = bench.both_windows(None, None)
@@ -330,11 +353,15 @@ def main(argv: list[str] | None = None) -> int:
                 raw = Path(tmp) / f"spy-{n}.txt"
                 runs[n] = bench.run_swarm(n, raw if args.profile and n == max(args.egos) else None)
                 print(json.dumps({n: runs[n]}, default=str), file=sys.stderr)
+            express = (
+                {express_n: bench.run_swarm(express_n, None, express=True)} if express_n else {}
+            )
+            print(json.dumps({"express": express}, default=str), file=sys.stderr)
             profile = _profile(Path(tmp) / f"spy-{max(args.egos)}.txt", max(args.egos), args)
             print(json.dumps({"base": base}, default=str), file=sys.stderr)
         finally:
             bench.close()
-    body = section(runs, base, profile)
+    body = section(runs, base, profile, express)
     print(body)
     if args.write:
         write_section("Scale: swarm egos, NPCs and interest", body, command_line(argv), run)
