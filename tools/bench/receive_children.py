@@ -44,10 +44,10 @@ class Flock:
     """`egos` egos driving east on parallel lanes, each publishing its pose at `rate_hz`."""
 
     def __init__(self, session: Any, egos: int, rate_hz: float) -> None:
+        from carlaverse.fabric.interest import POSE_QOS
         from carlaverse.keys import Keys
 
         keys = Keys(SESSION)
-        from carlaverse.fabric.interest import POSE_QOS
 
         def publishers(**extra: object) -> list[Any]:
             qos = {**POSE_QOS, **extra}  # as a node puts its pose, and `extra` on top
@@ -93,7 +93,8 @@ class Flock:
         # time.monotonic()), and on one host they do. So the world view's plausibility check
         # passes and its interpolation sees true latencies. Each pose is stamped as it is put:
         # one stamp for the whole burst would count the burst's length (ms) as delay.
-        self.seq += part == 0
+        if part == 0:  # a new period: every ego's next pose
+            self.seq += 1
         for i in range(part, len(self.publishers), SLICES):
             t, vx = time.time(), self.speeds[i]
             pose = Pose(self.seq, t, vx * (t - self.t0), LANE_M * i, vx=vx)
