@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import queue
+import threading
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -47,6 +48,9 @@ class LoopHost:
         self._ctx = mp.get_context("spawn")
         self._state: SharedBlock | None = None
         self._control: SharedBlock | None = None
+        # The pose source reads `_state` on the fabric's publisher thread while the node's
+        # thread may be closing it: the lock makes "still open" and the read one step.
+        self._state_lock = threading.Lock()
         self._process: Any = None
         self._events: Any = None
         self._results: Any = None
@@ -104,9 +108,10 @@ class LoopHost:
         """The loop's newest pose, read from its state block at the pose rate."""
 
         def source(t: float) -> Pose | None:
-            if self._state is None:
-                return None
-            s = self._state.read()
+            with self._state_lock:
+                if self._state is None:
+                    return None  # not started, or closed: the node is ending
+                s = self._state.read()
             if not s["running"]:
                 return None  # no pose before the loop's first tick
             plane = {name: float(s[name]) for name in PLANAR}
@@ -138,13 +143,15 @@ class LoopHost:
         """Stop the loop, keep its report, free the blocks (once; a later call does nothing)."""
         if self._process is None:
             return
+        with self._state_lock:  # the pose source sees None from now on, never a closed block
+            state, self._state = self._state, None
+        blocks = (state, self._control)
         if self._loop_summary:  # the loop already ended and reported: only reap it
             self._process.join(timeout=5)
-            for block in (self._state, self._control):
+            for block in blocks:
                 if block is not None:
                     block.close()
         else:
-            blocks = (self._state, self._control)
             report = stop_loop_process(
                 self._process, self._stop, self._results, blocks, self._loop_name
             )
