@@ -205,7 +205,7 @@ class RemoteActor:
             return  # duplicate or too old to matter
         self.samples_received += 1
         self.timing.observe(t, rx_t)
-        before = None if self._last_render_t is None else self._raw_at_last_render()
+        before = self._raw_at_last_render()
         if newest:  # nearly every sample: in order, so no search
             ts.append(t)
             self._poses.append(pose)
@@ -214,8 +214,7 @@ class RemoteActor:
             i = bisect.bisect_right(ts, t)
             ts.insert(i, t)
             self._poses.insert(i, pose)
-        if before is not None or pose.flags & POSE_FLAG_TELEPORT:
-            self._correct(before, pose, rx_t)
+        self._correct(before, pose, rx_t)
 
     def _raw_at_last_render(self) -> _Vec4 | None:
         t = self._last_render_t

@@ -16,6 +16,7 @@ import datetime
 import math
 import os
 import platform
+import resource
 import shlex
 import sys
 import time
@@ -56,6 +57,12 @@ def python_loop_s() -> float:
     for i in range(LOOP_STEPS):
         total += i
     return time.perf_counter() - began
+
+
+def own_cpu_s() -> float:
+    """[s] user + system CPU this process has used so far, all its threads, to the µs."""
+    usage = resource.getrusage(resource.RUSAGE_SELF)
+    return usage.ru_utime + usage.ru_stime
 
 
 def process_cpu_s(pid: int) -> float:

@@ -1,18 +1,21 @@
 """The receive benchmark's child processes: the publisher and one subscriber per layer.
 
 `bench_receive.py` starts each with a pipe (its last argument) and drives it by commands; kept
-apart from the orchestration so that a spawned child imports only this.
+apart from the orchestration and the report, which a spawned child need not import.
 """
 
 from __future__ import annotations
 
-import resource
 import threading
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from typing import Any, NamedTuple
+
+from benchdoc import own_cpu_s
+
+from carlaverse.fabric.stats import percentile
 
 SESSION = "recv"
 NODE_ID = "listener"
@@ -150,9 +153,7 @@ class Receiver:
     latency_s: list[float] = field(default_factory=list)
 
     def reading(self) -> Reading:
-        usage = resource.getrusage(resource.RUSAGE_SELF)
-        cpu_s = usage.ru_utime + usage.ru_stime
-        return Reading(cpu_s, self.received, self.update_cpu_s, time.monotonic())
+        return Reading(own_cpu_s(), self.received, self.update_cpu_s, time.monotonic())
 
     def since(self, start: Reading) -> dict[str, Any]:
         now = self.reading()
@@ -163,8 +164,7 @@ class Receiver:
             "update_cpu_s": now.update_cpu_s - start.update_cpu_s,
         }
         if self.latency_s:
-            ordered = sorted(self.latency_s)
-            report["latency_ms"] = [ordered[int(q * (len(ordered) - 1))] * 1e3 for q in (0.5, 0.99)]
+            report["latency_ms"] = [percentile(self.latency_s, q) * 1e3 for q in (0.5, 0.99)]
         if self.world is not None:  # evidence that the world view accepted what it was given
             report["egos_seen"] = len(self.world.egos)
             report["rejected"] = dict(self.world.rejected)

@@ -2,17 +2,18 @@
 
 `bench_scale.py` starts each with a pipe (its last argument) and drives it by commands:
 `start` opens a measured window, `stop` closes it and the child sends its report (a dict),
-`quit` ends it. Kept apart from the orchestration so that a spawned child imports only this.
+`quit` ends it. Kept apart from the orchestration, which a spawned child need not import.
 """
 
 from __future__ import annotations
 
 import gc
 import os
-import resource
 import threading
 import time
 from typing import Any
+
+from benchdoc import own_cpu_s
 
 SESSION = "scale"
 
@@ -129,7 +130,7 @@ def probe_main(endpoint: str, node_id: str, radius_m: float, x: float, y: float,
                 break
             if command == "start":
                 receipts.latency_s, receipts.seqs = [], {}
-                started_cpu, started_t = _own_cpu_s(), time.monotonic()
+                started_cpu, started_t = own_cpu_s(), time.monotonic()
                 receipts.recording = True
             elif command == "stop":
                 receipts.recording = False
@@ -161,24 +162,19 @@ def floor_main(endpoint: str, conn: Any) -> None:
     started_cpu = started_t = 0.0
     while (command := conn.recv()) != "quit":
         if command == "start":
-            count[0], started_cpu, started_t = 0, _own_cpu_s(), time.monotonic()
+            count[0], started_cpu, started_t = 0, own_cpu_s(), time.monotonic()
         elif command == "stop":
             seconds = time.monotonic() - started_t
-            conn.send({"seconds": seconds, "cpu_s": _own_cpu_s() - started_cpu, "poses": count[0]})
+            conn.send({"seconds": seconds, "cpu_s": own_cpu_s() - started_cpu, "poses": count[0]})
     subscriber.undeclare()
     session.close()
-
-
-def _own_cpu_s() -> float:
-    usage = resource.getrusage(resource.RUSAGE_SELF)
-    return usage.ru_utime + usage.ru_stime
 
 
 def _probe_report(receipts: Receipts, cpu0: float, t0: float, client: Any) -> dict[str, Any]:
     lat = receipts.latency_s
     spanned = sum(last - first + 1 for first, last, _ in receipts.seqs.values())
     return {
-        "seconds": time.monotonic() - t0, "cpu_s": _own_cpu_s() - cpu0, "poses": len(lat),
+        "seconds": time.monotonic() - t0, "cpu_s": own_cpu_s() - cpu0, "poses": len(lat),
         "senders": len(receipts.seqs), "spanned": spanned,
         "p50_ms": percentile(lat, 0.5) * 1e3, "p99_ms": percentile(lat, 0.99) * 1e3,
         "max_ms": max(lat, default=float("nan")) * 1e3,
