@@ -122,6 +122,7 @@ class Cluster:
         self.port = free_port()
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.sessions: list[Any] = []
+        self.authorities: list[InProcessAuthority] = []  # stopped first at teardown
 
     def start(self, *args: str, name: str = "") -> Proc:
         proc = Proc(list(args), name)
@@ -177,7 +178,16 @@ class Cluster:
         self.sessions.append(client)
         return client
 
+    def in_process_authority(self, despawn_timeout_s: float = 3.0) -> InProcessAuthority:
+        """An `InProcessAuthority` on this cluster's router, stopped at teardown whatever the
+        test did: a live one keeps Zenoh's callback threads, and with them pytest, running."""
+        authority = InProcessAuthority(self.endpoint, despawn_timeout_s)
+        self.authorities.append(authority)
+        return authority
+
     def close(self) -> None:
+        for authority in self.authorities:
+            authority.stop()
         for item in reversed(self.sessions):
             item.close()
         for proc in self.procs:

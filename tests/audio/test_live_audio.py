@@ -20,7 +20,7 @@ from carlaverse.audio.wav import read_wav
 from carlaverse.cli import main
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
-from tests.support import Cluster, InProcessAuthority
+from tests.support import Cluster
 
 BLOCK_S = 512 / 48_000  # [s] the shipped configs' block
 
@@ -48,7 +48,7 @@ def test_a_node_plays_what_it_hears_in_real_time(tmp_path: Path) -> None:
     config.write_text(yaml.safe_dump({"layout": "binaural", "output": {
         "backend": "sim", "wav": str(wav)}}))  # fmt: skip
     cluster = Cluster(tmp_path)
-    authority = InProcessAuthority(cluster.endpoint)
+    authority = cluster.in_process_authority()
     stop = threading.Event()
     feeder = threading.Thread(target=publish_scenes, args=(cluster.endpoint, "car-1", stop))
     try:

@@ -11,7 +11,7 @@ import yaml
 from carlaverse import messages as m
 from carlaverse.hal.ffb_server import FfbServer, LogActuator
 from carlaverse.hal.ffb_server.actuator import LogActuatorOptions
-from tests.support import Cluster, InProcessAuthority, demo_seen, wait_until
+from tests.support import Cluster, demo_seen, wait_until
 
 
 def test_demo_sees_the_bike_and_its_fork_reaches_the_ffb_server(tmp_path: Path) -> None:
@@ -33,7 +33,7 @@ def test_demo_sees_the_bike_and_its_fork_reaches_the_ffb_server(tmp_path: Path) 
 def test_an_impulse_from_the_fabric_throws_the_bike(cluster: Cluster) -> None:
     cluster.router()
     # in this process: nodes take impulses only from the authority's own session
-    authority = InProcessAuthority(cluster.endpoint)
+    authority = cluster.in_process_authority()
     outbox = authority.start().outbox
     bike = cluster.start(
         "join", "bike", "--id", "rider", "--session", "t", "--connect", cluster.endpoint,

@@ -17,7 +17,7 @@ from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import JoinRefused, NodeClient, NodeSettings
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
-from tests.support import Cluster, InProcessAuthority, wait_until
+from tests.support import Cluster, wait_until
 
 KEYS = Keys("t")
 TIMEOUT_S = 1.0  # despawn timeout of these authorities: short, so silence shows quickly
@@ -29,7 +29,7 @@ class Rig:
     def __init__(self, cluster: Cluster) -> None:
         self.cluster = cluster
         cluster.router()
-        self._authority = InProcessAuthority(cluster.endpoint, despawn_timeout_s=TIMEOUT_S)
+        self._authority = cluster.in_process_authority(despawn_timeout_s=TIMEOUT_S)
         self.outsider = self.session()
 
     def session(self):  # type: ignore[no-untyped-def]

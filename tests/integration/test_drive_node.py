@@ -16,7 +16,7 @@ from carlaverse.hal.input.pursuit import scripted_route
 from carlaverse.hal.motion_server import LogPlatform, MotionServer
 from carlaverse.hal.motion_server.platform import LogPlatformOptions
 from carlaverse.keys import Keys
-from tests.support import Cluster, InProcessAuthority, demo_seen, wait_until
+from tests.support import Cluster, demo_seen, wait_until
 
 
 def drive_config(tmp: Path, ffb_port: int, motion_port: int) -> Path:
@@ -67,7 +67,7 @@ DV_TOLERANCE_MPS = 0.5
 def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> None:
     cluster.router()
     # in this process: nodes take impulses only from the authority's own session
-    authority = InProcessAuthority(cluster.endpoint)
+    authority = cluster.in_process_authority()
     outbox = authority.start().outbox
     drive = cluster.start(
         "join", "drive", "--id", "car", "--session", "t", "--connect", cluster.endpoint,

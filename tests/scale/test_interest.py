@@ -102,7 +102,7 @@ def npc_batch(seq: int, t: float, places: dict[str, tuple[float, float]]) -> m.N
 
 def test_npc_batches_reach_a_node_only_for_the_tiles_around_it(cluster: Cluster) -> None:
     cluster.router()
-    authority = InProcessAuthority(cluster.endpoint)
+    authority = cluster.in_process_authority()
     cluster.sessions.append(_Stop(authority))
     out = authority.start().outbox
     obs = cluster.observer()
