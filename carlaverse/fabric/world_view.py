@@ -244,9 +244,25 @@ class WorldView:
             self.skeletons[node_id] = skeleton
 
     def _on_gone(self, node_id: str, reason: str, t: float) -> None:
+        if reason == "left" and node_id in self._tombstones and node_id not in self.egos:
+            self._amend_loss(node_id)
         self._tombstones[node_id] = t
         self.present.discard(node_id)
         self._remove(node_id, reason, t)
+
+    def _amend_loss(self, node_id: str) -> None:
+        """A node's token loss heard before the authority's word that it left: it left.
+
+        A leaving node drops its token only after it saw its own `left` event, but this view
+        hears the two on different links (the event from the authority, the DELETE from the
+        node), so under load the DELETE can come first. The authority's reason is the true one.
+        """
+        for k in range(len(self.despawns) - 1, -1, -1):
+            record = self.despawns[k]
+            if record.actor_id == node_id:
+                if record.reason == "liveliness":
+                    self.despawns[k] = Despawn(node_id, "left", record.t)
+                return
 
     def _on_present(self, node_id: str) -> None:
         if node_id == AUTHORITY_ID:  # the authority is never an actor, whoever says so

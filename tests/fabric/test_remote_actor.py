@@ -177,6 +177,30 @@ def test_presence_loss_and_authority_event_despawn_at_once_and_tombstone() -> No
     assert "a" in world.egos
 
 
+def test_a_token_loss_heard_before_the_authoritys_left_is_amended_to_left() -> None:
+    # The leaver's DELETE and the authority's `left` event reach a peer on different links.
+    world = WorldView("me", S)
+    for n in ("a", "b"):
+        world.push_present(n)
+        world.push_pose(n, Pose(1, 0.0, 0, 0), 0.0)
+    world.update(0.1)
+    world.push_gone("a", "liveliness", 0.1)
+    world.push_gone("b", "liveliness", 0.1)
+    world.update(0.15)
+    assert not world.egos
+    world.push_gone("a", "left", 0.2)  # the authority's word, late: a left on purpose
+    world.update(0.2)
+    assert [(d.actor_id, d.reason, d.t) for d in world.despawns] == [
+        ("a", "left", 0.1), ("b", "liveliness", 0.1)
+    ]  # fmt: skip
+    world.push_present("b")  # b re-joins and later leaves properly: one record each time
+    world.push_pose("b", Pose(2, 1.0, 0, 0), 1.0)
+    world.update(1.0)
+    world.push_gone("b", "left", 1.1)
+    world.update(1.1)
+    assert [d.reason for d in world.despawns] == ["left", "liveliness", "left"]
+
+
 def test_poses_from_nodes_without_presence_are_rejected() -> None:
     world = WorldView("me", S)
     world.push_pose("mallory", Pose(1, 0.0, 0, 0), 0.0)
