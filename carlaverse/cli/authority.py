@@ -22,11 +22,21 @@ from carlaverse.cli.common import (
 )
 from carlaverse.config import ConfigError
 from carlaverse.fabric.clock import WallAlignedClock
-from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config, open_session
+from carlaverse.fabric.session import (
+    FabricError,
+    FabricUnreachable,
+    await_mesh,
+    build_config,
+    open_session,
+)
 from carlaverse.keys import AUTHORITY_ID, KeySpaceError, check_token
 from carlaverse.traffic.engine import EngineFailed
 
 log = logging.getLogger(__name__)
+
+# [s] the most the authority waits to reach anyone before its first tick; one started before
+# its router or its peers goes on ticking (later arrivals get the state in the snapshot).
+MESH_TIMEOUT_S = 2.0
 
 
 def fifo_priority(text: str) -> int:
@@ -112,6 +122,9 @@ def run(args: argparse.Namespace) -> int:
         return fail("authority", str(exc), stop.exit_code() if stop.is_set() else 5)
     except FabricError as exc:
         return fail("authority", str(exc), 3)
+    # Its first tick puts the lights and the weather, reliable: only peers it already has a
+    # link to hear them (a router does not relay between peers).
+    await_mesh(session, stop, MESH_TIMEOUT_S)
     params = getattr(domain, "session_params", None)
     settings = AuthoritySettings(
         session=session_name,

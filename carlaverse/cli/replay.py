@@ -10,10 +10,10 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from carlaverse.cli.common import add_fabric_args, fabric_from_args
-from carlaverse.fabric.session import FabricError, open_session
+from carlaverse.fabric.session import FabricError, await_mesh, open_session
 from carlaverse.keys import KeySpaceError, check_token, parse
 from carlaverse.recording.reading import iter_samples, read_channels
-from carlaverse.recording.replay import Replayer, ReplayStats, default_target, wait_for_peers
+from carlaverse.recording.replay import Replayer, ReplayStats, default_target
 from carlaverse.recording.sink import RecordingError
 
 
@@ -90,7 +90,7 @@ def _replay(args: argparse.Namespace) -> ReplayStats:
         with_commands=args.with_commands,
     )
     try:
-        if args.connect and not wait_for_peers(session, stop):
+        if args.connect and not await_mesh(session, stop):
             raise FabricError(f"could not reach {', '.join(args.connect)} within 10 s")
         replayer.prepare(channels)
         replayer.wait_for_subscribers(stop)  # best effort: a session may have no listener yet

@@ -37,6 +37,12 @@ class FabricUnreachable(FabricError):
 # to signals) for as long as `connect/timeout_ms` says. One attempt per second keeps a waiting
 # client responsive to Ctrl-C / SIGTERM and lets it say what it waits for.
 CLIENT_ATTEMPT_MS = 1000
+
+# A peer's links to the peers its router names open within ~1 ms on loopback; a loaded host
+# or a LAN takes longer, so the set must hold still this long before it counts as complete.
+MESH_QUIET_S = 0.1  # [s]
+MESH_POLL_S = 0.005  # [s]
+
 # Protocols whose address is host:port (the others -- unixsock-stream, serial, vsock -- are
 # paths or device names and are left to Zenoh).
 IP_PROTOCOLS = ("tcp", "udp", "tls", "quic", "ws")
@@ -189,6 +195,39 @@ def open_session(
         waited = True
         if _should_give_up(stop, deadline):
             raise FabricUnreachable(f"no router answered at {_endpoints(settings)}") from error
+
+
+def await_mesh(
+    session: zenoh.Session,
+    stop: threading.Event,
+    timeout_s: float = 10.0,
+    quiet_s: float = MESH_QUIET_S,
+) -> bool:
+    """Wait until the session reaches a peer or router and has opened its links to the peers.
+
+    Why: a router does not relay between its own peers (Zenoh takes them to be meshed), so a
+    peer's put reaches another peer of its site only over a direct link, which the peer opens
+    once the router's gossip names the other, about a millisecond after open on loopback. A
+    reliable put made before then never reaches that subscriber: on loopback a first put right
+    after open missed a peer subscribed long before 11 times in 20, and never once the link was
+    up. Zenoh says nothing when the links are all open, so this waits until the session's peers
+    have stayed the same for `quiet_s`. False when nothing was reached within `timeout_s` or
+    `stop` was set; a client is done once it reaches its router.
+    """
+    deadline = time.monotonic() + timeout_s
+    info = session.info
+    while not (list(info.peers_zid()) or list(info.routers_zid())):
+        if time.monotonic() > deadline or stop.wait(MESH_POLL_S):
+            return False
+    peers = {str(z) for z in info.peers_zid()}
+    since = time.monotonic()
+    while time.monotonic() - since < quiet_s and time.monotonic() < deadline:
+        if stop.wait(MESH_POLL_S):
+            return False
+        now = {str(z) for z in info.peers_zid()}
+        if now != peers:
+            peers, since = now, time.monotonic()
+    return True
 
 
 def _should_give_up(stop: threading.Event | None, deadline: float | None) -> bool:

@@ -67,22 +67,6 @@ def wait_until(
             sleep(min(remaining - spin_s, 0.05))  # wake now and then to notice `stop`
 
 
-def wait_for_peers(
-    session: zenoh.Session, stop: threading.Event, timeout_s: float = 10.0, settle_s: float = 0.5
-) -> bool:
-    """Wait until the session reaches a peer or router, then `settle_s` more [s].
-
-    Samples put before the session knows its subscribers are lost, and the first samples are
-    what a replay most needs to deliver; the settle time lets subscriber declarations arrive.
-    """
-    deadline = time.monotonic() + timeout_s
-    while not (list(session.info.peers_zid()) or list(session.info.routers_zid())):
-        if time.monotonic() > deadline or stop.wait(0.02):
-            return False
-    stop.wait(settle_s)
-    return True
-
-
 @dataclass(slots=True)
 class ReplayStats:
     published: int = 0
