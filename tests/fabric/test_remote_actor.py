@@ -160,12 +160,18 @@ def test_stale_then_despawned_after_timeout() -> None:
     assert "a" not in world.egos and world.despawns[-1].reason == "timeout"
 
 
-def test_presence_loss_and_authority_event_despawn_at_once_and_tombstone() -> None:
+def _hearing(*node_ids: str) -> WorldView:
+    """A world view that has heard a first pose from each of `node_ids`, at 0.1 s."""
     world = WorldView("me", S)
-    for n in ("a", "b"):
+    for n in node_ids:
         world.push_present(n)
         world.push_pose(n, Pose(1, 0.0, 0, 0), 0.0)
     world.update(0.1)
+    return world
+
+
+def test_presence_loss_and_authority_event_despawn_at_once_and_tombstone() -> None:
+    world = _hearing("a", "b")
     world.push_gone("a", "liveliness", 0.1)
     world.push_gone("b", "timeout", 0.1)
     world.push_pose("a", Pose(2, 0.05, 0, 0), 0.12)  # in flight when it left: no ghost
@@ -179,11 +185,7 @@ def test_presence_loss_and_authority_event_despawn_at_once_and_tombstone() -> No
 
 def test_a_token_loss_heard_before_the_authoritys_left_is_amended_to_left() -> None:
     # The leaver's DELETE and the authority's `left` event reach a peer on different links.
-    world = WorldView("me", S)
-    for n in ("a", "b"):
-        world.push_present(n)
-        world.push_pose(n, Pose(1, 0.0, 0, 0), 0.0)
-    world.update(0.1)
+    world = _hearing("a", "b")
     world.push_gone("a", "liveliness", 0.1)
     world.push_gone("b", "liveliness", 0.1)
     world.update(0.15)
