@@ -66,6 +66,10 @@ def test_sigkill_despawns_everywhere_within_timeout(cluster: Cluster) -> None:
     cluster.scripted("c")
     obs = cluster.observer()
     wait_until(lambda: obs.update() and {"a", "b", "c"} <= set(obs.world.egos), 20, "3 actors")
+    # The survivor checked below must have had c in view first: all join within milliseconds
+    # of the authority's start, so wait until a has been publishing beside c for half a second.
+    seen_a = obs.world.stats["a"].count
+    wait_until(lambda: obs.update() and obs.world.stats["a"].count >= seen_a + 25, 10, "a's poses")
     victim = next(p for p in cluster.procs if p.name == "c")
     killed_at = time.monotonic()
     victim.stop(signal.SIGKILL)
@@ -102,6 +106,9 @@ def test_late_joiner_receives_the_current_world(cluster: Cluster) -> None:
     start_pair(cluster)
     first = cluster.observer("early")
     wait_until(lambda: first.update() and {"a", "b"} <= set(first.world.egos), 20, "actors")
+    # What the late joiner must get: the authority holding a pose of each (it takes poses in on
+    # its tick, so an observer can see a node before the authority's snapshot has its pose).
+    wait_until(lambda: _snapshot_posed(first) >= {"a", "b"}, 5, "poses in the authority's snapshot")
     late = cluster.observer("late")
     assert late.wait_joined(10)
     wait_until(lambda: late.snapshot is not None, 5, "the snapshot")
@@ -125,9 +132,17 @@ def test_duplicate_id_is_refused_with_a_reason(cluster: Cluster) -> None:
     )
 
 
-def _snapshot_ids(client) -> set[str]:  # type: ignore[no-untyped-def]
+def _snapshot_egos(client) -> list[m.EgoInfo]:  # type: ignore[no-untyped-def]
     raw = client._query(client.keys.authority("snapshot"), b"", 2.0)
-    return {e.node_id for e in m.SNAPSHOT.decode(raw).egos} if raw else set()
+    return list(m.SNAPSHOT.decode(raw).egos) if raw else []
+
+
+def _snapshot_ids(client) -> set[str]:  # type: ignore[no-untyped-def]
+    return {e.node_id for e in _snapshot_egos(client)}
+
+
+def _snapshot_posed(client) -> set[str]:  # type: ignore[no-untyped-def]
+    return {e.node_id for e in _snapshot_egos(client) if e.pose is not None}
 
 
 def test_garbage_on_every_subscribed_key_is_counted_and_dropped(cluster: Cluster) -> None:
