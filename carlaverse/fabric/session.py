@@ -74,7 +74,8 @@ class FabricSettings(StrictStruct):
 
 
 def default_listen(mode: Mode) -> list[str]:
-    """Loopback only: a node reaches other hosts through its site router unless told otherwise."""
+    """Loopback only: nothing on another host can dial this process. A client reaches other
+    hosts through its site router; a peer does not (docs/architecture.md §2, known defect)."""
     if mode == "client":
         return []
     return ["tcp/127.0.0.1:0"]

@@ -1,0 +1,130 @@
+"""Two hosts of one site: each a node on its own host (network namespace), both connected to
+the site's router on a third, all three on one LAN (a bridge). Does what one puts reach the
+other?
+
+In client mode it does: the router relays for its clients. In peer mode, with the project's
+defaults, it does not (a known defect, marked xfail until fixed): a router does not relay
+between its own peers (Zenoh takes them to be meshed), and a peer listens on loopback by
+default, so the other host can never open the direct link the pair's traffic needs.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from collections.abc import Iterator
+
+import pytest
+
+from tests.wan.netns import NamespaceSet, NetNamespace, Veth, owner_prefix, unavailable_reason
+
+pytestmark = pytest.mark.netns
+
+LAN = "10.98.7"  # 10.98.7.0/24: the router .1 on the bridge, the hosts .2 and .3
+PUTS = 100
+
+LISTENER = """
+import sys, time
+from carlaverse.fabric.session import FabricSettings, open_session
+s = open_session(FabricSettings(mode=sys.argv[1], connect=["tcp/{lan}.1:7447"]))
+heard = []
+s.declare_subscriber("hosts/**", lambda sample: heard.append(1))
+print("subscribed", flush=True)
+sys.stdin.readline()  # until the speaker is done
+print(len(heard), flush=True)
+"""
+ECHO_SERVER = (
+    "import socket;s=socket.create_server(('{lan}.3',9000));print('listening',flush=True);"
+    "c,_=s.accept();c.sendall(c.recv(64));c.close()"
+)
+ECHO_CLIENT = (
+    "import socket,sys;c=socket.create_connection(('{lan}.3',9000),timeout=3);"
+    "c.sendall(b'hello');sys.stdout.write(c.recv(64).decode())"
+)
+SPEAKER = """
+import sys, time
+from carlaverse.fabric.session import FabricSettings, open_session
+s = open_session(FabricSettings(mode=sys.argv[1], connect=["tcp/{lan}.1:7447"]))
+time.sleep(2.0)  # not a wait for a condition: the defect is that no condition ever comes
+for _ in range({puts}):
+    s.put("hosts/pose", b"p")
+    time.sleep(0.01)
+time.sleep(0.5)
+"""
+
+
+@pytest.fixture
+def site() -> Iterator[dict[str, NetNamespace]]:
+    reason = unavailable_reason()
+    if reason:
+        pytest.skip(reason)
+    spaces = NamespaceSet(owner_prefix(os.getpid()) + "h")
+    try:
+        hub, a, b = spaces.add("hub"), spaces.add("a"), spaces.add("b")
+        hub.ip("link", "add", "lan", "type", "bridge")
+        hub.ip("addr", "add", f"{LAN}.1/24", "dev", "lan")
+        hub.ip("link", "set", "lan", "up")
+        for host, index in ((a, 2), (b, 3)):
+            Veth(
+                hub, f"port{index}", f"{LAN}.{100 + index}", host, "eth0", f"{LAN}.{index}"
+            ).create()
+            hub.ip("addr", "del", f"{LAN}.{100 + index}/24", "dev", f"port{index}")
+            hub.ip("link", "set", f"port{index}", "master", "lan")
+        router = subprocess.Popen(
+            hub.argv(sys.executable, "-m", "carlaverse", "router", "--listen", "tcp/0.0.0.0:7447"),
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+        )
+        try:
+            assert router.stdout is not None and "listening" in router.stdout.readline()
+            yield {"a": a, "b": b}
+        finally:
+            router.terminate()
+            router.wait(15)
+    finally:
+        spaces.close()
+
+
+def _heard(site: dict[str, NetNamespace], mode: str) -> int:
+    listener = subprocess.Popen(
+        site["b"].argv(sys.executable, "-c", LISTENER.format(lan=LAN), mode),
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+    assert listener.stdin is not None and listener.stdout is not None
+    try:
+        assert listener.stdout.readline().strip() == "subscribed"
+        speaker = site["a"].argv(sys.executable, "-c", SPEAKER.format(lan=LAN, puts=PUTS), mode)
+        subprocess.run(speaker, check=True, timeout=60)
+        listener.stdin.write("done\n")
+        listener.stdin.flush()
+        return int(listener.stdout.readline())
+    finally:
+        listener.kill()
+        listener.wait(10)
+
+
+def test_the_lan_reaches_between_hosts(site: dict[str, NetNamespace]) -> None:
+    # So that a peer failing below fails for Zenoh's reasons, not the network's.
+    server = subprocess.Popen(site["b"].argv(sys.executable, "-c", ECHO_SERVER.format(lan=LAN)),
+                              stdout=subprocess.PIPE, text=True)  # fmt: skip
+    assert server.stdout is not None and server.stdout.readline().strip() == "listening"
+    client = site["a"].argv(sys.executable, "-c", ECHO_CLIENT.format(lan=LAN))
+    assert subprocess.run(client, capture_output=True, text=True, timeout=10).stdout == "hello"
+    server.wait(10)
+
+
+def test_client_nodes_on_two_hosts_hear_each_other(site: dict[str, NetNamespace]) -> None:
+    assert _heard(site, "client") >= PUTS * 0.99
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="known defect: peers of one site on different hosts listen on loopback and the "
+    "router does not relay between peers; see docs/architecture.md §2",
+)
+def test_peer_nodes_on_two_hosts_hear_each_other(site: dict[str, NetNamespace]) -> None:
+    assert _heard(site, "peer") >= PUTS * 0.99
