@@ -13,6 +13,8 @@ import os
 import re
 import shutil
 import subprocess
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 
 CLONE_NEWNET = 0x40000000
@@ -157,3 +159,19 @@ class NamespaceSet:
         self.spaces.clear()
         if errors:
             raise NetnsError("; ".join(errors))
+
+
+@contextmanager
+def owned_namespaces(tag: str) -> Iterator[NamespaceSet]:
+    """A test's namespaces (`cvw<pid><tag>-<role>`), deleted after it whatever happened; the
+    test is skipped, saying why, where namespaces cannot be made."""
+    reason = unavailable_reason()
+    if reason:
+        import pytest  # only tests call this; the lab's harness does not need pytest
+
+        pytest.skip(reason)
+    spaces = NamespaceSet(owner_prefix(os.getpid()) + tag)
+    try:
+        yield spaces
+    finally:
+        spaces.close()

@@ -15,9 +15,8 @@ from tests.wan.netns import (
     NetNamespace,
     Veth,
     enter_netns,
-    owner_prefix,
+    owned_namespaces,
     remove_orphans,
-    unavailable_reason,
 )
 
 pytestmark = pytest.mark.netns
@@ -35,17 +34,11 @@ CLIENT = (
 
 @pytest.fixture
 def spaces() -> Iterator[NamespaceSet]:
-    reason = unavailable_reason()
-    if reason:
-        pytest.skip(reason)
-    spaces = NamespaceSet(owner_prefix(os.getpid()) + "t")
-    try:
+    with owned_namespaces("t") as spaces:
         core, a, b = spaces.add("core"), spaces.add("a"), spaces.add("b")
         Veth(core, "to-a", "10.99.71.1", a, "wan0", "10.99.71.2").create()
         Veth(core, "to-b", "10.99.72.1", b, "wan0", "10.99.72.2").create()
         yield spaces
-    finally:
-        spaces.close()
 
 
 def _python(ns: NetNamespace, code: str) -> subprocess.Popen[str]:

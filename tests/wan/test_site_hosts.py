@@ -10,14 +10,13 @@ default, so the other host can never open the direct link the pair's traffic nee
 
 from __future__ import annotations
 
-import os
 import subprocess
 import sys
 from collections.abc import Iterator
 
 import pytest
 
-from tests.wan.netns import NamespaceSet, NetNamespace, Veth, owner_prefix, unavailable_reason
+from tests.wan.netns import NetNamespace, Veth, owned_namespaces
 
 pytestmark = pytest.mark.netns
 
@@ -56,11 +55,7 @@ time.sleep(0.5)
 
 @pytest.fixture
 def site() -> Iterator[dict[str, NetNamespace]]:
-    reason = unavailable_reason()
-    if reason:
-        pytest.skip(reason)
-    spaces = NamespaceSet(owner_prefix(os.getpid()) + "h")
-    try:
+    with owned_namespaces("h") as spaces:
         hub, a, b = spaces.add("hub"), spaces.add("a"), spaces.add("b")
         hub.ip("link", "add", "lan", "type", "bridge")
         hub.ip("addr", "add", f"{LAN}.1/24", "dev", "lan")
@@ -83,8 +78,6 @@ def site() -> Iterator[dict[str, NetNamespace]]:
         finally:
             router.terminate()
             router.wait(15)
-    finally:
-        spaces.close()
 
 
 def _heard(site: dict[str, NetNamespace], mode: str) -> int:
