@@ -14,7 +14,7 @@ from typing import Any
 
 import msgspec
 
-from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.fabric.session import FabricSettings, on_this_host, open_session
 from carlaverse.fabric.waiting import SessionWait, WaitNotice
 from carlaverse.keys import Keys
 
@@ -37,7 +37,12 @@ def add_fabric_args(parser: argparse.ArgumentParser, session: bool = True) -> No
         metavar="EP",
         help="Zenoh endpoint to listen on (repeatable; default tcp/127.0.0.1:0, loopback only)",
     )
-    group.add_argument("--mode", choices=["peer", "client"], help="Zenoh mode (default peer)")
+    group.add_argument(
+        "--mode",
+        choices=["peer", "client"],
+        help="Zenoh mode (default: peer when every --connect endpoint is on this host, else "
+        "client, since peers on different hosts of a site do not hear each other)",
+    )
     group.add_argument(
         "--roster",
         metavar="FILE",
@@ -64,6 +69,8 @@ def fabric_from_args(
         changes["listen"] = list(args.listen)
     if getattr(args, "mode", None):
         changes["mode"] = args.mode
+    elif _router_elsewhere(base, changes):
+        changes["mode"] = "client"
     if getattr(args, "lowlatency", False):
         changes["lowlatency"] = True
     settings = msgspec.structs.replace(base, **changes)
@@ -73,6 +80,18 @@ def fabric_from_args(
         node_id = identity or getattr(args, "node_id", None)
         settings = secure_fabric(settings, args.roster, node_id, keep_mode=bool(args.mode))
     return settings
+
+
+def _router_elsewhere(base: FabricSettings, changes: dict[str, Any]) -> bool:
+    """A peer that is not told to listen, with a router on another host: make it a client.
+
+    A router does not relay between its peers, and a peer listens on loopback, so such a peer
+    would hear none of its site's other hosts (docs/architecture.md §2); a client's router
+    relays everything for it. Whoever gives --listen has made the peer reachable and keeps it.
+    """
+    if base.mode != "peer" or changes.get("listen", base.listen):
+        return False
+    return not all(on_this_host(e) for e in changes.get("connect", base.connect))
 
 
 def add_output_args(parser: argparse.ArgumentParser, duration: float | None = None) -> None:

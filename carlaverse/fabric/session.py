@@ -12,6 +12,7 @@ from __future__ import annotations
 import json
 import re
 import signal
+import socket
 import threading
 import time
 from collections.abc import Callable
@@ -75,10 +76,38 @@ class FabricSettings(StrictStruct):
 
 def default_listen(mode: Mode) -> list[str]:
     """Loopback only: nothing on another host can dial this process. A client reaches other
-    hosts through its site router; a peer does not (docs/architecture.md §2, known defect)."""
+    hosts through its site router; a peer does not, so a node whose router is elsewhere is a
+    client unless told otherwise (docs/architecture.md §2)."""
     if mode == "client":
         return []
     return ["tcp/127.0.0.1:0"]
+
+
+def on_this_host(endpoint: str) -> bool:
+    """Whether `endpoint` names an address of this host (a socket can be bound to it).
+
+    Binding sends nothing: it only asks the kernel whether the address is one of ours. A
+    name is resolved first; one that does not resolve counts as another host.
+    """
+    proto, _, rest = endpoint.partition("/")
+    if proto in OTHER_PROTOCOLS:
+        return True  # unix sockets, pipes, serial and vsock never leave the host
+    match = _HOST_PORT.match(re.split(r"[?#]", rest, maxsplit=1)[0])
+    if match is None:
+        return False
+    host = match["host"].strip("[]")
+    try:
+        addresses = {info[4][0] for info in socket.getaddrinfo(host, None, type=socket.SOCK_DGRAM)}
+    except OSError:
+        return False
+    for address in addresses:
+        family = socket.AF_INET6 if ":" in address else socket.AF_INET
+        with socket.socket(family, socket.SOCK_DGRAM) as probe:
+            try:
+                probe.bind((address, 0))
+            except OSError:
+                return False
+    return True
 
 
 def check_endpoint(endpoint: str, role: str = "connect") -> None:
