@@ -23,7 +23,7 @@ LAN = "10.98.7"  # 10.98.7.0/24: the router .1 on the bridge, the hosts .2 and .
 PUTS = 100
 
 # A node's session as the CLI opens it: `--connect` the router, `--mode` only when argv[1] is
-# not empty (else the CLI's default for a router on another host).
+# not empty (else the CLI's default for a router on another host), `--listen` argv[2] if any.
 OPEN = """
 import argparse, sys, time
 from carlaverse.cli.common import add_fabric_args, fabric_from_args
@@ -31,6 +31,7 @@ from carlaverse.fabric.session import open_session
 parser = argparse.ArgumentParser()
 add_fabric_args(parser)
 flags = ["--connect", "tcp/{lan}.1:7447"] + (["--mode", sys.argv[1]] if sys.argv[1] else [])
+flags += ["--listen", sys.argv[2]] if len(sys.argv) > 2 else []
 s = open_session(fabric_from_args(parser.parse_args(flags)))
 """
 LISTENER = (
@@ -90,9 +91,11 @@ def site() -> Iterator[dict[str, NetNamespace]]:
             router.wait(15)
 
 
-def _heard(site: dict[str, NetNamespace], mode: str) -> int:
+def _heard(site: dict[str, NetNamespace], mode: str, listen: bool = False) -> int:
+    """Puts of host a that host b heard; with `listen`, each listens on its LAN address."""
+    on_lan = {h: [f"tcp/{LAN}.{i}:0"] if listen else [] for h, i in (("a", 2), ("b", 3))}
     listener = subprocess.Popen(
-        site["b"].argv(sys.executable, "-c", LISTENER.format(lan=LAN), mode),
+        site["b"].argv(sys.executable, "-c", LISTENER.format(lan=LAN), mode, *on_lan["b"]),
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
@@ -100,7 +103,8 @@ def _heard(site: dict[str, NetNamespace], mode: str) -> int:
     assert listener.stdin is not None and listener.stdout is not None
     try:
         assert listener.stdout.readline().strip() == "subscribed"
-        speaker = site["a"].argv(sys.executable, "-c", SPEAKER.format(lan=LAN, puts=PUTS), mode)
+        code = SPEAKER.format(lan=LAN, puts=PUTS)
+        speaker = site["a"].argv(sys.executable, "-c", code, mode, *on_lan["a"])
         subprocess.run(speaker, check=True, timeout=60)
         listener.stdin.write("done\n")
         listener.stdin.flush()
@@ -138,3 +142,8 @@ def test_nodes_on_two_hosts_hear_each_other_with_the_default_mode(
 )
 def test_peer_nodes_on_two_hosts_hear_each_other(site: dict[str, NetNamespace]) -> None:
     assert _heard(site, "peer") >= PUTS * 0.99
+
+
+def test_peers_listening_on_the_lan_hear_each_other(site: dict[str, NetNamespace]) -> None:
+    # What a lab that wants direct links between its hosts does: --listen on a LAN address.
+    assert _heard(site, "peer", listen=True) >= PUTS * 0.99
