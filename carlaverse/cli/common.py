@@ -14,7 +14,7 @@ from typing import Any
 
 import msgspec
 
-from carlaverse.fabric.session import FabricSettings, on_this_host, open_session
+from carlaverse.fabric.session import FabricSettings, open_session, reachable
 from carlaverse.fabric.waiting import SessionWait, WaitNotice
 from carlaverse.keys import Keys
 
@@ -69,29 +69,17 @@ def fabric_from_args(
         changes["listen"] = list(args.listen)
     if getattr(args, "mode", None):
         changes["mode"] = args.mode
-    elif _router_elsewhere(base, changes):
-        changes["mode"] = "client"
     if getattr(args, "lowlatency", False):
         changes["lowlatency"] = True
     settings = msgspec.structs.replace(base, **changes)
+    if not getattr(args, "mode", None):  # an explicit --mode is kept whatever it means
+        settings = reachable(settings)
     if getattr(args, "roster", None):
         from carlaverse.security.sites import secure_fabric
 
         node_id = identity or getattr(args, "node_id", None)
         settings = secure_fabric(settings, args.roster, node_id, keep_mode=bool(args.mode))
     return settings
-
-
-def _router_elsewhere(base: FabricSettings, changes: dict[str, Any]) -> bool:
-    """A peer that is not told to listen, with a router on another host: make it a client.
-
-    A router does not relay between its peers, and a peer listens on loopback, so such a peer
-    would hear none of its site's other hosts (docs/architecture.md §2); a client's router
-    relays everything for it. Whoever gives --listen has made the peer reachable and keeps it.
-    """
-    if base.mode != "peer" or changes.get("listen", base.listen):
-        return False
-    return not all(on_this_host(e) for e in changes.get("connect", base.connect))
 
 
 def add_output_args(parser: argparse.ArgumentParser, duration: float | None = None) -> None:

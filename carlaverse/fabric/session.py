@@ -110,6 +110,21 @@ def on_this_host(endpoint: str) -> bool:
     return True
 
 
+def reachable(settings: FabricSettings) -> FabricSettings:
+    """`settings`, made a client when they describe a peer whose router is on another host.
+
+    A router does not relay between its peers, and a peer listens on loopback unless told
+    otherwise, so such a peer would hear none of its site's other hosts (docs/architecture.md
+    §2); a client's router relays everything for it. Settings that `listen` have made the peer
+    reachable and are kept, as are other modes.
+    """
+    if settings.mode != "peer" or settings.listen:
+        return settings
+    if all(on_this_host(endpoint) for endpoint in settings.connect):
+        return settings
+    return msgspec.structs.replace(settings, mode="client")
+
+
 def check_endpoint(endpoint: str, role: str = "connect") -> None:
     """Raise FabricError unless `endpoint` reads `proto/host:port[?meta][#config]`."""
     proto, slash, rest = endpoint.partition("/")

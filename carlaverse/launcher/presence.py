@@ -19,7 +19,7 @@ from carlaverse import messages as m
 from carlaverse.cli.stats import summaries
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricError, FabricSettings, open_session
+from carlaverse.fabric.session import FabricError, FabricSettings, open_session, reachable
 from carlaverse.fabric.stats import StreamSummary
 
 log = logging.getLogger(__name__)
@@ -71,7 +71,7 @@ class SessionWatch:
 
     def _run(self) -> None:
         try:
-            session = open_session(FabricSettings(connect=[self.endpoint]))
+            session = open_session(reachable(FabricSettings(connect=[self.endpoint])))
         except FabricError as exc:
             self.error = str(exc)
             return

@@ -7,7 +7,7 @@ import argparse
 import pytest
 
 from carlaverse.cli.common import add_fabric_args, fabric_from_args
-from carlaverse.fabric.session import FabricSettings, on_this_host
+from carlaverse.fabric.session import FabricSettings, on_this_host, reachable
 
 # 192.0.2.0/24 is TEST-NET-1: never an address of this host. Nothing is sent to it: the test
 # only binds (and fails to bind) a socket to learn that.
@@ -51,3 +51,10 @@ def test_an_explicit_mode_or_listen_is_kept() -> None:
     assert _settings("--connect", REMOTE, "--mode", "peer").mode == "peer"
     # who listens on an address the other hosts reach has made the peer reachable
     assert _settings("--connect", REMOTE, "--listen", "tcp/127.0.0.1:0").mode == "peer"
+
+
+def test_library_callers_get_the_same_choice() -> None:
+    # The launcher's presence watch opens its session through `reachable` too.
+    assert reachable(FabricSettings(connect=[REMOTE])).mode == "client"
+    assert reachable(FabricSettings(connect=["tcp/127.0.0.1:7447"])).mode == "peer"
+    assert reachable(FabricSettings(mode="router", connect=[REMOTE])).mode == "router"
