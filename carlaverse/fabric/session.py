@@ -83,6 +83,11 @@ def default_listen(mode: Mode) -> list[str]:
     return ["tcp/127.0.0.1:0"]
 
 
+def _host_port(address: str) -> re.Match[str] | None:
+    """`host` and `port` of an endpoint's address (after `proto/`, before `?meta` or `#cfg`)."""
+    return _HOST_PORT.match(re.split(r"[?#]", address, maxsplit=1)[0])
+
+
 def on_this_host(endpoint: str) -> bool:
     """Whether `endpoint` names an address of this host (a socket can be bound to it).
 
@@ -92,7 +97,7 @@ def on_this_host(endpoint: str) -> bool:
     proto, _, rest = endpoint.partition("/")
     if proto in OTHER_PROTOCOLS:
         return True  # unix sockets, pipes, serial and vsock never leave the host
-    match = _HOST_PORT.match(re.split(r"[?#]", rest, maxsplit=1)[0])
+    match = _host_port(rest)
     if match is None:
         return False
     host = match["host"].strip("[]")
@@ -128,7 +133,6 @@ def reachable(settings: FabricSettings) -> FabricSettings:
 def check_endpoint(endpoint: str, role: str = "connect") -> None:
     """Raise FabricError unless `endpoint` reads `proto/host:port[?meta][#config]`."""
     proto, slash, rest = endpoint.partition("/")
-    address = re.split(r"[?#]", rest, maxsplit=1)[0]
     example = "e.g. tcp/127.0.0.1:7447"
     if not slash or proto not in IP_PROTOCOLS + OTHER_PROTOCOLS:
         known = "/".join(IP_PROTOCOLS)
@@ -137,7 +141,7 @@ def check_endpoint(endpoint: str, role: str = "connect") -> None:
         )
     if proto in OTHER_PROTOCOLS:
         return
-    match = _HOST_PORT.match(address)
+    match = _host_port(rest)
     if match is None:
         raise FabricError(
             f"bad --{role} endpoint {endpoint!r}: expected {proto}/HOST:PORT ({example})"

@@ -20,6 +20,16 @@ from dataclasses import dataclass, field
 CLONE_NEWNET = 0x40000000
 NETNS_DIR = "/var/run/netns"
 
+# A TCP echo server and a client, each one line of Python run inside a namespace.
+ECHO_SERVER = (
+    "import socket;s=socket.create_server(('{addr}',9000));print('listening',flush=True);"
+    "c,_=s.accept();c.sendall(c.recv(64));c.close()"
+)
+ECHO_CLIENT = (
+    "import socket,sys;c=socket.create_connection(('{addr}',{port}),timeout=3);"
+    "c.sendall(b'hello');sys.stdout.write(c.recv(64).decode())"
+)
+
 
 class NetnsError(RuntimeError):
     """An `ip` command failed; the message carries the command and its stderr."""

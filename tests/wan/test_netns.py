@@ -11,6 +11,8 @@ import pytest
 
 from carlaverse.testing.linkemu import LinkEmulator, LinkProfile
 from tests.wan.netns import (
+    ECHO_CLIENT,
+    ECHO_SERVER,
     NamespaceSet,
     NetNamespace,
     Veth,
@@ -20,16 +22,6 @@ from tests.wan.netns import (
 )
 
 pytestmark = pytest.mark.netns
-
-# A TCP echo server and a client, each one line of Python run inside a namespace.
-SERVER = (
-    "import socket;s=socket.create_server(('{addr}',9000));print('listening',flush=True);"
-    "c,_=s.accept();c.sendall(c.recv(64));c.close()"
-)
-CLIENT = (
-    "import socket,sys;c=socket.create_connection(('{addr}',{port}),timeout=3);"
-    "c.sendall(b'hello');sys.stdout.write(c.recv(64).decode())"
-)
 
 
 @pytest.fixture
@@ -48,9 +40,9 @@ def _python(ns: NetNamespace, code: str) -> subprocess.Popen[str]:
 
 def test_sites_talk_only_through_the_relay(spaces: NamespaceSet) -> None:
     core, a, b = (spaces.spaces[k] for k in ("core", "a", "b"))
-    direct = _python(b, CLIENT.format(addr="10.99.71.2", port=9000))
+    direct = _python(b, ECHO_CLIENT.format(addr="10.99.71.2", port=9000))
     assert direct.wait(timeout=10) != 0  # no route from site b to site a
-    server = _python(a, SERVER.format(addr="10.99.71.2"))
+    server = _python(a, ECHO_SERVER.format(addr="10.99.71.2"))
     assert server.stdout is not None and server.stdout.readline() == "listening\n"
     relay = LinkEmulator(
         ("10.99.72.1", 0),
@@ -59,7 +51,7 @@ def test_sites_talk_only_through_the_relay(spaces: NamespaceSet) -> None:
         thread_setup=lambda: enter_netns(core.name),
     ).start()
     try:
-        client = _python(b, CLIENT.format(addr="10.99.72.1", port=relay.port))
+        client = _python(b, ECHO_CLIENT.format(addr="10.99.72.1", port=relay.port))
         out, err = client.communicate(timeout=10)
         assert out == "hello", err
         assert relay.counts["accepted"] == 1

@@ -15,7 +15,7 @@ from collections.abc import Iterator
 
 import pytest
 
-from tests.wan.netns import NetNamespace, Veth, owned_namespaces
+from tests.wan.netns import ECHO_CLIENT, ECHO_SERVER, NetNamespace, Veth, owned_namespaces
 
 pytestmark = pytest.mark.netns
 
@@ -43,14 +43,6 @@ print("subscribed", flush=True)
 sys.stdin.readline()  # until the speaker is done
 print(len(heard), flush=True)
 """
-)
-ECHO_SERVER = (
-    "import socket;s=socket.create_server(('{lan}.3',9000));print('listening',flush=True);"
-    "c,_=s.accept();c.sendall(c.recv(64));c.close()"
-)
-ECHO_CLIENT = (
-    "import socket,sys;c=socket.create_connection(('{lan}.3',9000),timeout=3);"
-    "c.sendall(b'hello');sys.stdout.write(c.recv(64).decode())"
 )
 SPEAKER = (
     OPEN
@@ -116,10 +108,10 @@ def _heard(site: dict[str, NetNamespace], mode: str, listen: bool = False) -> in
 
 def test_the_lan_reaches_between_hosts(site: dict[str, NetNamespace]) -> None:
     # So that a peer failing below fails for Zenoh's reasons, not the network's.
-    server = subprocess.Popen(site["b"].argv(sys.executable, "-c", ECHO_SERVER.format(lan=LAN)),
-                              stdout=subprocess.PIPE, text=True)  # fmt: skip
+    serve = site["b"].argv(sys.executable, "-c", ECHO_SERVER.format(addr=f"{LAN}.3"))
+    server = subprocess.Popen(serve, stdout=subprocess.PIPE, text=True)
     assert server.stdout is not None and server.stdout.readline().strip() == "listening"
-    client = site["a"].argv(sys.executable, "-c", ECHO_CLIENT.format(lan=LAN))
+    client = site["a"].argv(sys.executable, "-c", ECHO_CLIENT.format(addr=f"{LAN}.3", port=9000))
     assert subprocess.run(client, capture_output=True, text=True, timeout=10).stdout == "hello"
     server.wait(10)
 
