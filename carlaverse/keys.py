@@ -30,6 +30,11 @@ TILED_WORLD_CHANNELS = ("npc",)
 # Per-node channels under ego/<node_id>/...
 EGO_CHANNELS = ("pose", "skeleton", "state", "override")
 WORLD_CHANNELS = ("npc", "lights", "weather", "events")
+# `world/@egos`: the authority's pose digest (`messages.PoseDigest`), every ego's pose relayed
+# many to a message for nodes that hear the whole session. A chunk starting with `@` is
+# verbatim in Zenoh: no wildcard matches it, so a recorder or viewer subscribed to `**` does
+# not take a second copy of every pose, and only a node that names the key receives it.
+DIGEST_CHANNEL = "@egos"
 KEY_AREAS = ("node", "ego", "world", "impulse", "audio", "authority")
 AUTHORITY_QUERIES = ("clock", "join", "leave", "snapshot", "map", "scenario", "configs")
 
@@ -81,7 +86,17 @@ class Keys:
 
     @property
     def everything(self) -> str:
+        """Every key of the session but the verbatim one (`pose_digest`)."""
         return f"{self.prefix}/**"
+
+    @property
+    def pose_digest(self) -> str:
+        return f"{self.prefix}/world/{DIGEST_CHANNEL}"
+
+    @property
+    def every_key(self) -> tuple[str, ...]:
+        """Expressions that together cover every key of the session (ACL rules)."""
+        return (self.everything, self.pose_digest)
 
     # presence
     def node(self, node_id: str) -> str:
@@ -202,7 +217,7 @@ def parse(key: str) -> ParsedKey:
         return ParsedKey(session, area, rest[0], "", rest[1])
     if area in ("node", "impulse", "audio") and len(rest) == 1 and _TOKEN.match(rest[0]):
         return ParsedKey(session, area, "", rest[0])
-    if area == "world" and len(rest) == 1 and rest[0] in WORLD_CHANNELS:
+    if area == "world" and len(rest) == 1 and rest[0] in (*WORLD_CHANNELS, DIGEST_CHANNEL):
         return ParsedKey(session, area, rest[0], "")
     if area == "authority" and len(rest) == 1 and rest[0] in AUTHORITY_QUERIES:
         return ParsedKey(session, area, rest[0], "")

@@ -18,27 +18,11 @@ from __future__ import annotations
 
 from typing import Protocol
 
-import numpy as np
-
 from carlaverse import messages as m
 from carlaverse.fabric.guard import Tally
 from carlaverse.keys import KeySpaceError, parse_cached
 
 RING_CAPACITY = 32_768  # samples: 2.5 s of the session's largest roster (512 egos at 50 Hz)
-
-# messages.POSE_LAYOUT ("<BBHId3f3f3f3e3e") as a numpy record, no padding: 64 bytes.
-POSE_DTYPE = np.dtype(
-    [
-        ("version", "u1"),
-        ("flags", "u1"),
-        ("reserved", "<u2"),
-        ("seq", "<u4"),
-        ("t", "<f8"),
-        ("f32", "<f4", 9),  # x y z, roll pitch yaw, vx vy vz
-        ("f16", "<f2", 6),  # wx wy wz, ax ay az
-    ]
-)
-assert POSE_DTYPE.itemsize == m.POSE_SIZE
 
 
 class Sample(Protocol):
@@ -59,25 +43,10 @@ def decode_poses(payloads: list[bytes]) -> list[m.Pose | None]:
     """Each payload decoded as `messages.decode_pose` would, None where it would refuse."""
     out: list[m.Pose | None] = [None] * len(payloads)
     sized = [i for i, p in enumerate(payloads) if len(p) == m.POSE_SIZE]
-    if not sized:
-        return out
-    rows = np.frombuffer(b"".join([payloads[i] for i in sized]), dtype=POSE_DTYPE)
-    values = np.concatenate([rows["t"][:, None], rows["f32"], rows["f16"]], axis=1, dtype=float)
-    good = (
-        (rows["version"] == m.POSE_LAYOUT_VERSION)
-        & np.isfinite(values).all(axis=1)
-        & (np.abs(rows["t"]) <= m.TIME_LIMIT_S)
-    )
-    keep = np.flatnonzero(good)
-    columns = zip(
-        keep.tolist(),
-        rows["seq"][keep].tolist(),
-        values[keep].tolist(),
-        rows["flags"][keep].tolist(),
-        strict=True,
-    )
-    for k, seq, v, flags in columns:
-        out[sized[k]] = m.Pose(seq, *v, flags=flags)
+    if sized:
+        rows = m.decode_pose_rows(b"".join([payloads[i] for i in sized]))
+        for i, pose in zip(sized, rows, strict=True):
+            out[i] = pose
     return out
 
 
@@ -92,7 +61,7 @@ class PoseIntake:
         keys, payloads = self._take(limit)
         out = []
         for key, pose in zip(keys, decode_poses(payloads), strict=True):
-            node_id = _node_id(key) if pose is not None else None
+            node_id = pose_sender(key) if pose is not None else None
             if node_id is None:
                 self._drops.add("pose")
             else:
@@ -108,7 +77,8 @@ class PoseIntake:
         return keys, payloads
 
 
-def _node_id(key: str) -> str | None:
+def pose_sender(key: str) -> str | None:
+    """The node id of a pose key `ego/<id>/pose/<tile>` of this key space, else None."""
     try:
         parsed = parse_cached(key)
     except KeySpaceError:

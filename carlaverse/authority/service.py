@@ -29,6 +29,7 @@ from carlaverse import messages as m
 from carlaverse.authority.domain import EgoTrack, GlobalDomain
 from carlaverse.authority.membership import Roster
 from carlaverse.authority.outbox import ZenohOutbox
+from carlaverse.authority.pose_digest import DIGEST_PERIOD_S, PoseDigestRelay
 from carlaverse.authority.pose_intake import RING_CAPACITY, PoseIntake
 from carlaverse.config import StrictStruct
 from carlaverse.fabric.clock import Clock
@@ -51,6 +52,9 @@ class AuthoritySettings(StrictStruct):
     # a shared machine a tick preempted by the nodes' processes overruns however little it
     # has to do; real-time, the tick thread runs the moment its period comes.
     tick_priority: Annotated[int, msgspec.Meta(ge=0, le=99)] = 0
+    # [s] how often the pose digest (`world/@egos`) relays the poses gathered since the last
+    # one, while anything subscribes to it; 0: no digest.
+    digest_period_s: Annotated[float, msgspec.Meta(ge=0, le=1)] = DIGEST_PERIOD_S
 
 
 class TickSummary(msgspec.Struct, frozen=True):
@@ -87,6 +91,7 @@ class Authority:
         self.scheduling = "unchanged"  # how the tick thread is scheduled (`raise_priority`)
         self._lock = threading.Lock()
         self._intake: PoseIntake | None = None  # declared by start()
+        self.digest: PoseDigestRelay | None = None  # started by start()
         self._gone: deque[tuple[str, str]] = deque()  # (node id, reason) for the tick
         # Spawns and despawns decided in callbacks, announced by the tick: a callback never
         # publishes (a reliable put may block under congestion).
@@ -114,6 +119,10 @@ class Authority:
         poses = s.declare_subscriber(k.all_ego("pose"), zenoh.handlers.RingChannel(RING_CAPACITY))
         self._entities.append(poses)
         self._intake = PoseIntake(poses, self.drops)
+        if self.settings.digest_period_s > 0:
+            self.digest = PoseDigestRelay(
+                s, k, self.drops, s.new_timestamp, self.settings.digest_period_s
+            ).start()
         state = g.sample("state", self._on_state)
         self._entities.append(s.declare_subscriber(k.all_ego("state"), state))
         presence = g.sample("presence", self._on_presence)
@@ -163,6 +172,9 @@ class Authority:
         if self._token is not None:
             self._token.undeclare()
             self._token = None
+        if self.digest is not None:
+            self.digest.close()
+            self.digest = None
         for entity in self._entities:
             entity.undeclare()  # type: ignore[attr-defined]
         self._entities.clear()

@@ -10,6 +10,7 @@ import time
 from typing import Any
 
 from carlaverse.authority.domain import EmptyDomain, GlobalDomain
+from carlaverse.authority.pose_digest import DIGEST_PERIOD_S
 from carlaverse.authority.service import Authority, AuthoritySettings
 from carlaverse.cli.common import (
     add_fabric_args,
@@ -50,6 +51,17 @@ def fifo_priority(text: str) -> int:
     return value
 
 
+def digest_ms(text: str) -> float:
+    """The pose digest's period in milliseconds: 0 (no digest) up to 1000."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a number of milliseconds") from None
+    if not 0 <= value <= 1000:
+        raise argparse.ArgumentTypeError(f"{value:g} ms is out of range: 0 (off) to 1000")
+    return value
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = (
         "Run the authority of a session: joins, presence, the session clock, despawns, and the "
@@ -75,6 +87,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="N",
         help="run the tick thread real-time (SCHED_FIFO N, 1-99) where allowed, else at nice "
         "-10: ticks on time on a machine shared with nodes, at their cost (default: 0, normal)",
+    )
+    parser.add_argument(
+        "--digest-ms",
+        type=digest_ms,
+        default=DIGEST_PERIOD_S * 1e3,
+        metavar="MS",
+        help="relay every pose, gathered for MS milliseconds, as one message on world/@egos to "
+        "nodes that hear the whole session and ask for it (`--pose-digest`); nothing is "
+        "relayed while no one asks. 0 turns it off (default: %(default)g)",
     )
     add_fabric_args(parser)
     add_output_args(parser)
@@ -131,6 +152,7 @@ def run(args: argparse.Namespace) -> int:
         tick_hz=args.tick_hz or getattr(params, "tick_hz", 50.0),
         despawn_timeout_s=args.despawn_timeout or getattr(params, "despawn_timeout_s", 3.0),
         tick_priority=args.tick_priority,
+        digest_period_s=args.digest_ms / 1e3,
     )
     authority = Authority(session, settings, WallAlignedClock(), domain).start()
     watcher = threading.Thread(target=lambda: (stop.wait(), authority.stop()), daemon=True)

@@ -24,6 +24,7 @@ import msgspec.inspect as mi
 from carlaverse import messages as m
 from carlaverse.keys import (
     AUTHORITY_QUERIES,
+    DIGEST_CHANNEL,
     EGO_CHANNELS,
     KEY_AREAS,
     TILED_EGO_CHANNELS,
@@ -57,6 +58,9 @@ _KEY_FACTS: tuple[tuple[str, str, str], ...] = (
     ("world/lights", "authority", "reliable, congestion BLOCK; on change and at `status_rate_hz`"),
     ("world/weather", "authority", "reliable, congestion BLOCK; on change and at `status_rate_hz`"),
     ("world/events", "authority", "reliable, congestion BLOCK, priority interactive-high"),
+    ("world/@egos", "authority: every ego's pose as published, many to a message, for nodes "
+     "that hear the whole session (`pose_digest`); verbatim, so `**` does not match it",
+     "best effort, congestion DROP; every `--digest-ms` (2 ms) while anything subscribes"),
     ("impulse/<id>", "authority", "reliable, congestion BLOCK, priority interactive-high"),
     ("audio/<id>", "authority; read by node <id>, observers and recorders only",
      "best effort, congestion DROP; scenario `audio.rate_hz` (20 Hz)"),
@@ -94,7 +98,7 @@ def key_space_paths() -> set[str]:
     paths = {f"{area}/<id>" for area in ("node", "impulse", "audio")}
     paths |= {f"ego/<id>/{c}" for c in EGO_CHANNELS if c not in TILED_EGO_CHANNELS}
     paths |= {f"ego/<id>/{c}/<tile>" for c in TILED_EGO_CHANNELS}
-    paths |= {f"world/{c}" for c in WORLD_CHANNELS}
+    paths |= {f"world/{c}" for c in (*WORLD_CHANNELS, DIGEST_CHANNEL)}
     paths |= {f"world/{c}/<tile>" for c in TILED_WORLD_CHANNELS}
     paths |= {f"authority/{q}" for q in AUTHORITY_QUERIES}
     assert {p.split("/")[0] for p in paths} == set(KEY_AREAS)

@@ -78,14 +78,23 @@ class Inbound:
         self._contact_set: set[tuple[str, int]] = set()
         self._contacts_lock = threading.Lock()
 
-    def subscribe(self, session: zenoh.Session, keys: Keys, spatial: bool = True) -> list[object]:
+    def subscribe(
+        self, session: zenoh.Session, keys: Keys, spatial: bool = True, digest: bool = False
+    ) -> list[object]:
         """Declare the node's subscriptions. `spatial=False`: poses and NPCs come through
-        an interest area (`spatial_handlers`) instead of from the whole world."""
+        an interest area (`spatial_handlers`) instead of from the whole world; `digest`: the
+        whole world's poses come through the authority's digest, many to a sample, instead of
+        one sample each."""
         g, remote = self.guard, zenoh.Locality.REMOTE
         world = {"lights": self._on_lights, "weather": self._on_weather, "events": self._on_event}
         entities: list[object] = []
         if spatial:
             world["npc"] = self._on_npc
+        if spatial and digest:
+            entities.append(
+                session.declare_subscriber(keys.pose_digest, g.sample("digest", self._on_digest))
+            )
+        elif spatial:
             entities.append(session.declare_subscriber(
                 keys.all_ego("pose"), self.pose_handler(), allowed_origin=remote
             ))  # fmt: skip
@@ -169,6 +178,18 @@ class Inbound:
             self.dropped.add("pose")
             return
         self.world.push_pose(node_id, pose, rx_t)
+
+    def _on_digest(self, sample: zenoh.Sample) -> None:
+        """Poses relayed by the authority: each row checked as a pose of its own would be."""
+        rx_t = self.clock.now()
+        digest = self._authority_message(sample, m.POSE_DIGEST, "digest")
+        if not isinstance(digest, m.PoseDigest):
+            return
+        rows = digest.poses()
+        poses = [(n, p) for n, p in zip(digest.ids, rows, strict=True) if p is not None]
+        if len(poses) < len(rows):
+            self.dropped.add("pose", len(rows) - len(poses))
+        self.world.push_poses(poses, rx_t)
 
     def _on_state(self, sample: zenoh.Sample) -> None:
         node_id = self._sender(sample, "state")

@@ -79,6 +79,17 @@ class NodeSettings(StrictStruct):
     # host, more CPU per pose (see `Inbound.pose_handler`); part of the low-latency set-up
     # with `fabric: {lowlatency: true}`.
     direct_pose_callbacks: bool = False
+    # Hear the whole session's poses through the authority's digest (`world/@egos`): dozens
+    # of poses per sample instead of one each, for about 1 ms more delay; for a node that
+    # hears the whole session (interest radius 0, or no actor). See docs/benchmarks.md.
+    pose_digest: bool = False
+
+    def __post_init__(self) -> None:
+        if self.pose_digest and self.interest_radius_m > 0 and self.actor_kind:
+            raise ValueError(
+                "pose_digest carries the whole session's poses: set interest_radius_m: 0 "
+                f"to use it (it is {self.interest_radius_m:g})"
+            )
 
 
 class NodeClient:
@@ -166,7 +177,9 @@ class NodeClient:
 
     def start(self, pose_source: PoseSource | None = None) -> NodeClient:
         spatial = self.interest is None
-        self._entities += self.inbound.subscribe(self.session, self.keys, spatial=spatial)
+        self._entities += self.inbound.subscribe(
+            self.session, self.keys, spatial=spatial, digest=self.settings.pose_digest
+        )
         self._spawn(self._control_loop, "control")
         if self.interest is not None:
             self._spawn(self._interest_loop, "interest")

@@ -95,8 +95,9 @@ class WorldView:
         self._render: tuple[float, float] | None = None  # (now, render time) last computed
         # inbox tag -> what applies it (looked up once per item: a pose is most of them)
         self._handlers = {
-            "pose": self._on_pose, "skeleton": self._on_skeleton, "npc": self._on_npc,
-            "interest": self._on_interest, "gone": self._on_gone, "present": self._on_present,
+            "pose": self._on_pose, "poses": self._on_poses, "skeleton": self._on_skeleton,
+            "npc": self._on_npc, "interest": self._on_interest, "gone": self._on_gone,
+            "present": self._on_present,
             "notice": self._on_notice, "state": self._on_state, "snapshot": self._on_snapshot,
         }  # fmt: skip
 
@@ -114,6 +115,10 @@ class WorldView:
     def push_pose(self, node_id: str, pose: Pose, rx_t: float) -> None:
         if node_id != self.own_id:
             self.inbox.append(("pose", node_id, pose, rx_t))
+
+    def push_poses(self, poses: list[tuple[str, Pose]], rx_t: float) -> None:
+        """Many nodes' poses received together (a `PoseDigest`): one inbox item for all."""
+        self.inbox.append(("poses", poses, rx_t))
 
     def push_skeleton(self, node_id: str, skeleton: Skeleton) -> None:
         if node_id != self.own_id:
@@ -174,6 +179,12 @@ class WorldView:
             actor = self.egos[node_id] = RemoteActor(node_id, self.settings)
             self.seen.add(node_id)
         actor.add(pose, rx_t)
+
+    def _on_poses(self, poses: list[tuple[str, Pose]], rx_t: float) -> None:
+        own, on_pose = self.own_id, self._on_pose
+        for node_id, pose in poses:
+            if node_id != own:
+                on_pose(node_id, pose, rx_t)
 
     def _bound_stats(self) -> None:
         """Keep statistics of departed senders only while there is room."""

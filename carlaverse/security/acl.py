@@ -14,8 +14,8 @@ What each role may do (`S` = `carlaverse/<session>`), as verified against zenoh 
 |                  | liveliness subscriptions and queries on `S/**`;               |
 |                  | queries to `S/authority/**`                                   |
 | ego node         | + put/delete on `S/ego/<id>/**`                               |
-| authority        | + put/delete on `S/world/**`, `S/impulse/**`, `S/audio/**`;   |
-|                  | queryables on and replies from `S/authority/**`               |
+| authority        | + put/delete on `S/world/**`, `S/world/@egos`, `S/impulse/**`,|
+|                  | `S/audio/**`; queryables on and replies from `S/authority/**` |
 | observer/recorder| nothing more: read only                                      |
 | other sites      | the union of the above for the nodes not at this site        |
 
@@ -24,6 +24,10 @@ an observer/recorder) `S/audio/**` only as its own `S/audio/<id>` — replies fr
 `S/authority/**`, liveliness tokens and the declarations a peer-mode node needs for
 write-side filtering; queries only to the authority. To another site's router, every message
 on `S/**`: it applies its own rules to its own nodes. Nothing outside `S/**` passes.
+
+`S/**` does not cover `S/world/@egos` (the pose digest): an `@` chunk is verbatim in Zenoh, no
+wildcard matches it. So every rule that means "the whole session" names both
+(`Keys.every_key`), and only the authority may put the digest.
 A `liveliness_query` is answered with `liveliness_token` messages, hence the token egress.
 
 Subjects: a node is matched by everything the session uses (its certificate's common name
@@ -84,7 +88,7 @@ class Grant:
 
 def node_grants(keys: Keys, node: RosterNode) -> list[Grant]:
     """What one node of this site may send and receive."""
-    everything = (keys.everything,)
+    everything = keys.every_key
     grants = [
         Grant("presence", ("liveliness_token",), (keys.node(node.id),), "ingress"),
         Grant("read", READ_MESSAGES, everything, "ingress"),
@@ -106,14 +110,14 @@ def receivable(keys: Keys, node: RosterNode) -> tuple[str, ...]:
     gets only its own `audio/<id>` (what it can hear is private to it); read-only kinds
     (observers, recorders) keep all of it, so a recording can be rendered for any listener."""
     if node.kind in READ_ONLY_KINDS | {AUTHORITY_KIND}:
-        return (keys.everything,)
+        return keys.every_key
     areas = tuple(keys.subtree(area) for area in KEY_AREAS if area != "audio")
-    return (*areas, keys.audio(node.id))
+    return (*areas, keys.pose_digest, keys.audio(node.id))
 
 
 def authority_grants(keys: Keys) -> list[Grant]:
     """The authority writes the world and serves the session's queries."""
-    world = tuple(keys.subtree(area) for area in AUTHORITY_AREAS)
+    world = (*(keys.subtree(area) for area in AUTHORITY_AREAS), keys.pose_digest)
     serve = (keys.subtree("authority"),)
     return [
         Grant("world", ("put", "delete"), world, "ingress"),
@@ -125,9 +129,9 @@ def authority_grants(keys: Keys) -> list[Grant]:
 def peer_site_grants(keys: Keys, remote_nodes: list[RosterNode]) -> list[Grant]:
     """What another site's router may carry into this site: only its side's nodes' writes."""
     grants = [
-        Grant("read", READ_MESSAGES, (keys.everything,), "ingress"),
+        Grant("read", READ_MESSAGES, keys.every_key, "ingress"),
         Grant("ask", ("query",), (keys.subtree("authority"),), "ingress"),
-        Grant("forward", ALL_MESSAGES, (keys.everything,), "egress"),
+        Grant("forward", ALL_MESSAGES, keys.every_key, "egress"),
     ]
     if remote_nodes:
         tokens = tuple(keys.node(n.id) for n in remote_nodes)

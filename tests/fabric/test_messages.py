@@ -42,6 +42,7 @@ def examples() -> list[tuple[m.Codec, object]]:
         (m.OVERRIDE, m.Override(1, 2.0, "acc", cruise_speed_mps=13.9)),
         (m.SKELETON, m.Skeleton(1, 2.0, ["hip"], b"\x00" * 12)),
         (m.NPC_BATCH, batch),
+        (m.POSE_DIGEST, m.PoseDigest(5, ["a", "b"], m.encode_pose(POSE) * 2)),
         (m.LIGHTS, lights),
         (m.WEATHER, weather),
         (m.WORLD_EVENT, m.Spawned(1, 2.0, "n", "drive")),

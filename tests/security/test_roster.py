@@ -107,7 +107,7 @@ def test_site_acl_default_denies_and_scopes_writes(tmp_path: Path) -> None:
     tum, kth = site_acl(loaded, "tum"), site_acl(loaded, "kth")
     assert tum["enabled"] and tum["default_permission"] == "deny"
     assert _writes(tum, "node:tum-drive-1") == {K.subtree("ego", "tum-drive-1")}
-    world = {K.subtree(a) for a in ("world", "impulse", "audio")}
+    world = {K.subtree(a) for a in ("world", "impulse", "audio")} | {K.pose_digest}
     assert _writes(tum, "node:authority") == world
     assert _writes(kth, "node:kth-rec") == set()  # recorders read only
     # the other site's router may carry only what the nodes behind it may write

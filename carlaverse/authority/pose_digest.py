@@ -1,0 +1,134 @@
+"""The authority's pose digest: every ego's pose relayed many to a message, on `world/@egos`.
+
+A node that hears the whole session (an operator's map, a viewer, a node with no interest
+radius) otherwise takes one Zenoh sample per pose, and a sample costs more to receive than
+its pose costs to apply: Zenoh's own floor alone is most of the 10 µs a pose may cost
+(docs/benchmarks.md, "Receive cost per pose"). The authority receives every pose already;
+this relay gathers what arrived in the last `period_s` and puts it as one `PoseDigest`, so
+such a node takes dozens of poses per sample, for a delay of about half a period plus one
+more hop.
+
+Costs nothing while no one listens: its ring subscriber to the poses is declared only while
+the digest's publisher has a matching subscriber, and undeclared when the last one goes. It
+runs on a thread of its own, never in a Zenoh callback and never in the tick. Rows are passed
+on exactly as their nodes published them, after checking their size and key only (a bad one
+is counted in `drops` under `digest` and left out): every receiver decodes and checks each
+row anyway (`PoseDigest.poses`), and tells present nodes from intruders by presence.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections.abc import Callable
+
+import zenoh
+
+from carlaverse import messages as m
+from carlaverse.authority.pose_intake import RING_CAPACITY, pose_sender
+from carlaverse.fabric.guard import Tally
+from carlaverse.keys import Keys
+
+log = logging.getLogger(__name__)
+
+DIGEST_PERIOD_S = 0.002  # [s] a digest every 2 ms: ~26 poses each at 256 egos, +1 ms mean delay
+
+
+class PoseDigestRelay:
+    def __init__(
+        self,
+        session: zenoh.Session,
+        keys: Keys,
+        drops: Tally,
+        new_timestamp: Callable[[], zenoh.Timestamp],
+        period_s: float = DIGEST_PERIOD_S,
+    ) -> None:
+        if period_s <= 0:
+            raise ValueError(f"digest period must be > 0 s, got {period_s}")
+        self._session = session
+        self._keys = keys
+        self._drops = drops
+        self._new_timestamp = new_timestamp
+        self.period_s = period_s
+        self.digests = 0  # digests put
+        self.poses = 0  # poses relayed in them
+        self._seq = 0
+        # Best effort like the poses themselves: the next digest, a period later, supersedes.
+        self._publisher = session.declare_publisher(
+            keys.pose_digest, congestion_control=zenoh.CongestionControl.DROP
+        )
+        self._heard = threading.Event()  # something subscribes to the digest
+
+        def on_matching(status: zenoh.MatchingStatus) -> None:
+            # A Zenoh thread: set a flag, nothing that waits.
+            (self._heard.set if status.matching else self._heard.clear)()
+
+        self._listener = self._publisher.declare_matching_listener(on_matching)
+        if self._publisher.matching_status.matching:
+            self._heard.set()
+        self._ring: zenoh.Subscriber | None = None
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="pose-digest", daemon=True)
+
+    @property
+    def relaying(self) -> bool:
+        """Whether the relay is taking poses now (someone subscribes to the digest)."""
+        return self._ring is not None
+
+    def start(self) -> PoseDigestRelay:
+        self._thread.start()
+        return self
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join(timeout=2.0)
+        self._follow(False)
+        self._listener.undeclare()
+        self._publisher.undeclare()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.period_s):
+            try:
+                self.step()
+            except Exception:  # a bug must not end the relay silently: log, count, go on
+                self._drops.add("digest/error")
+                log.exception("pose digest step failed")
+
+    def step(self) -> int:
+        """Relay what arrived since the last step; the number of poses put."""
+        if not self._follow(self._heard.is_set()):
+            return 0
+        ids, rows = self._take()
+        for start in range(0, len(ids), m.DIGEST_MAX_POSES):
+            end = start + m.DIGEST_MAX_POSES
+            self._seq += 1
+            digest = m.PoseDigest(self._seq, ids[start:end], b"".join(rows[start:end]))
+            self._publisher.put(m.POSE_DIGEST.encode(digest), timestamp=self._new_timestamp())
+            self.digests += 1
+        self.poses += len(ids)
+        return len(ids)
+
+    def _follow(self, heard: bool) -> bool:
+        """Declare the ring while the digest is heard, drop it when it is not."""
+        if heard and self._ring is None:
+            ring = zenoh.handlers.RingChannel(RING_CAPACITY)
+            self._ring = self._session.declare_subscriber(self._keys.all_ego("pose"), ring)
+        elif not heard and self._ring is not None:
+            self._ring.undeclare()
+            self._ring = None
+        return self._ring is not None
+
+    def _take(self) -> tuple[list[str], list[bytes]]:
+        ids: list[str] = []
+        rows: list[bytes] = []
+        recv = self._ring.try_recv  # type: ignore[union-attr]
+        while (sample := recv()) is not None:
+            payload = sample.payload.to_bytes()
+            node_id = pose_sender(str(sample.key_expr))
+            if node_id is None or len(payload) != m.POSE_SIZE:
+                self._drops.add("digest")
+                continue
+            ids.append(node_id)
+            rows.append(payload)
+        return ids, rows

@@ -1,0 +1,166 @@
+"""The authority's pose digest (`world/@egos`): many poses per sample for nodes that hear the
+whole session. Real router, scripted nodes as processes, the authority and observers in this
+process on 127.0.0.1."""
+
+from __future__ import annotations
+
+import time
+
+import pytest
+
+from carlaverse import messages as m
+from carlaverse.fabric.clock import MonotonicClock
+from carlaverse.fabric.node_client import NodeClient, NodeSettings
+from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.keys import Keys, parse
+from tests.support import Cluster, wait_until
+
+K = Keys("t")
+
+
+def _pose(seq: int, t: float, x: float = 1.0) -> m.Pose:
+    return m.Pose(seq, t, x, 2.0, 0.5, 0.0, 0.1, 1.5, 3.0, 0.0, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0)
+
+
+# ------------------------------------------------------------------ the message
+
+
+def test_rows_decode_as_single_poses_and_bad_rows_are_none() -> None:
+    good = [m.encode_pose(_pose(i, 100.0 + i, x=i)) for i in range(3)]
+    nan = bytearray(good[0])
+    nan[16:20] = b"\x00\x00\xc0\x7f"  # x = NaN
+    version = b"\x09" + good[0][1:]
+    far = m.encode_pose(_pose(1, 2e12))
+    rows = m.decode_pose_rows(b"".join([good[0], bytes(nan), good[1], version, far, good[2]]))
+    assert rows[1] is None and rows[3] is None and rows[4] is None
+    assert [rows[0], rows[2], rows[5]] == [m.decode_pose(p) for p in good]
+    with pytest.raises(m.MessageError, match="not a multiple of 64"):
+        m.decode_pose_rows(good[0][:-1])
+
+
+def test_a_digest_whose_ids_and_rows_disagree_is_refused_naming_both() -> None:
+    wire = m.POSE_DIGEST.encode(m.PoseDigest(1, ["a", "b"], m.encode_pose(_pose(1, 1.0))))
+    with pytest.raises(m.MessageError, match="2 ids but 64 bytes"):
+        m.POSE_DIGEST.decode(wire)
+    too_many = m.PoseDigest(1, ["a"] * (m.DIGEST_MAX_POSES + 1), b"")
+    with pytest.raises(m.MessageError, match="length <= 4096"):
+        m.POSE_DIGEST.decode(m.POSE_DIGEST.encode(too_many))
+
+
+def test_the_digest_key_is_verbatim_and_parses() -> None:
+    import zenoh
+
+    digest = zenoh.KeyExpr(K.pose_digest)
+    assert not zenoh.KeyExpr(K.everything).intersects(digest)  # a recorder takes no copy
+    assert not zenoh.KeyExpr(K.prefix + "/world/*").intersects(digest)
+    assert parse(K.pose_digest).channel == "@egos"
+
+
+def test_pose_digest_with_an_interest_radius_is_a_settings_error() -> None:
+    with pytest.raises(ValueError, match="interest_radius_m: 0"):
+        NodeSettings(node_id="n", pose_digest=True)
+    NodeSettings(node_id="n", pose_digest=True, interest_radius_m=0)
+    NodeSettings(node_id="n", pose_digest=True, actor_kind="")  # an observer hears it all
+
+
+# ------------------------------------------------------------------ live
+
+
+def _digest_observer(
+    cluster: Cluster, node_id: str = "obs"
+) -> tuple[NodeClient, list[int], dict[str, list[int]]]:
+    """An observer on the digest; the sizes of the pose batches it was handed, and the
+    sequence numbers in them by sender."""
+    session = open_session(FabricSettings(connect=[cluster.endpoint]))
+    cluster.sessions.append(session)
+    settings = NodeSettings(
+        node_id=node_id, session="t", kind="observer", actor_kind="", pose_digest=True
+    )
+    client = NodeClient(session, settings, MonotonicClock())
+    sizes: list[int] = []
+    seqs: dict[str, list[int]] = {}
+    push_poses = client.world.push_poses
+
+    def noted(poses: list[tuple[str, m.Pose]], rx_t: float) -> None:
+        sizes.append(len(poses))
+        for sender, pose in poses:
+            seqs.setdefault(sender, []).append(pose.seq)
+        push_poses(poses, rx_t)
+
+    client.world.push_poses = noted  # type: ignore[method-assign]
+    client.start()
+    cluster.sessions.append(client)
+    return client, sizes, seqs
+
+
+def test_an_observer_on_the_digest_hears_every_node_and_the_relay_idles_without_one(
+    cluster: Cluster,
+) -> None:
+    cluster.router()
+    authority = cluster.in_process_authority().start()
+    relay = authority.digest
+    assert relay is not None
+    for node_id in ("a", "b", "c"):
+        cluster.scripted(node_id)
+    wait_until(lambda: len(authority.roster.tracks) == 3, 30, "three nodes joined")
+    assert not relay.relaying and relay.poses == 0  # nobody asks: no ring, nothing relayed
+    relay.period_s = 0.05  # three nodes at 50 Hz: about 7 poses in each digest
+
+    obs, sizes, seqs = _digest_observer(cluster)
+
+    def heard_all() -> bool:
+        obs.update()
+        return all(obs.world.stats.get(n) and obs.world.stats[n].count > 50 for n in "abc")
+
+    wait_until(heard_all, 30, "the observer to hear a, b and c through the digest")
+    assert relay.relaying and relay.digests > 0
+    # Every pose the view applied came in a digest (the observer has no pose subscriber) but
+    # one of each node, from the snapshot it fetched on joining; several to a sample.
+    assert sum(sizes) + 3 >= sum(obs.world.stats[n].count for n in "abc")
+    assert max(sizes) >= 3 and sum(sizes) / len(sizes) > 2, sizes[:20]
+    for node_id in "abc":  # none lost from the first relayed on, none twice, in order
+        heard = seqs[node_id]
+        assert heard == list(range(heard[0], heard[0] + len(heard))), (node_id, heard)
+    assert obs.counters().handler_errors == {}
+
+    obs.close()
+    wait_until(lambda: not relay.relaying, 10, "the relay to stop once its listener left")
+
+
+def test_a_digest_not_from_the_authority_is_refused_and_bad_rows_are_counted(
+    cluster: Cluster,
+) -> None:
+    cluster.router()
+    authority = cluster.in_process_authority().start()
+    cluster.scripted("a")
+    wait_until(lambda: "a" in authority.roster.tracks, 30, "a joined")
+    obs, _, _ = _digest_observer(cluster)
+    wait_until(lambda: obs.update() or "a" in obs.world.egos, 30, "a through the digest")
+
+    # An outsider's digest: well formed, but not stamped by the joined authority.
+    outsider = open_session(FabricSettings(connect=[cluster.endpoint]))
+    cluster.sessions.append(outsider)
+    ghost = m.PoseDigest(1, ["a"], m.encode_pose(_pose(9, time.time(), x=500.0)))
+
+    def forged() -> bool:
+        outsider.put(K.pose_digest, m.POSE_DIGEST.encode(ghost))
+        return obs.inbound.rejected["digest/not_from_authority"] > 0
+
+    wait_until(forged, 10, "the forged digest to be refused", poll=0.2)
+
+    # The authority's own session puts one good row and one NaN row for `a`.
+    nan = bytearray(m.encode_pose(_pose(7, time.time())))
+    nan[16:20] = b"\x00\x00\xc0\x7f"
+    session = authority.session
+    before = obs.dropped["pose"]
+    rows = m.encode_pose(_pose(8, time.time(), x=123.0)) + bytes(nan)
+    mixed = m.POSE_DIGEST.encode(m.PoseDigest(1, ["a", "a"], rows))
+    session.put(K.pose_digest, mixed, timestamp=session.new_timestamp())
+    wait_until(lambda: obs.dropped["pose"] > before, 10, "the NaN row to be counted")
+    assert obs.dropped["pose"] == before + 1
+    xs = wait_until(
+        lambda: obs.update() or [p.x for p in obs.world.egos["a"]._poses if p.x == 123.0], 5,
+        "the good row in a's buffer",
+    )  # fmt: skip
+    assert xs and 500.0 not in [p.x for p in obs.world.egos["a"]._poses]  # not the outsider's
+    assert obs.counters().handler_errors == {}
