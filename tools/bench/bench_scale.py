@@ -50,6 +50,7 @@ from peers.profile import py_spy
 from scale_children import SESSION, authority_main, floor_main, probe_main
 from scale_report import interest_table, receive_table, scale_table, stalls, verdicts
 
+from carlaverse.authority.pose_digest import DIGEST_PERIOD_S
 from carlaverse.authority.service import AuthoritySettings
 
 GRID_JUNCTIONS = 8  # per side (a larger generated town takes minutes to build its scenery)
@@ -120,6 +121,8 @@ class Bench:
     def hearing(self) -> Iterator[None]:
         """`probe-all` (a node hearing the whole session) and the bare-Zenoh floor, up."""
         started = {"probe-all": self._child(probe_main, "probe-all", 0.0, *CENTRE),
+                   "probe-digest": self._child(probe_main, "probe-digest", 0.0, *CENTRE,
+                                               digest=True),
                    "floor": self._child(floor_main)}  # fmt: skip
         for name, (conn, _proc) in started.items():
             assert conn.recv() == "joined", name
@@ -134,9 +137,11 @@ class Bench:
                     conn.send("quit")
                 proc.join(15)
 
-    def _child(self, target: Any, *args: Any) -> tuple[Any, Any]:
+    def _child(self, target: Any, *args: Any, **kwargs: Any) -> tuple[Any, Any]:
         ours, theirs = self.ctx.Pipe()
-        proc = self.ctx.Process(target=target, args=(self.endpoint, *args, theirs), daemon=True)
+        proc = self.ctx.Process(
+            target=target, args=(self.endpoint, *args, theirs), kwargs=kwargs, daemon=True
+        )
         proc.start()
         self.children.append(proc)
         return ours, proc
@@ -256,8 +261,11 @@ def section(
         f"{NEAR_RADIUS_M:g} m interest radius (it subscribes to the map tiles around it), with "
         f"a second participant, `probe-mate`, standing {MATE_OFFSET_M:g} m from it; the "
         "**hear-everything** window adds `probe-all`, a node with no interest radius that is "
-        "handed every pose of the session, and a bare zenoh-python subscriber to the same "
-        "poses (the floor under any Python node's receive cost). On two cores those two "
+        "handed every pose of the session, `probe-digest`, the same node taking the poses "
+        "through the authority's pose digest (`pose_digest: true`: every pose relayed on "
+        f"`world/@egos`, gathered for {DIGEST_PERIOD_S * 1e3:g} ms a message), and a bare "
+        "zenoh-python subscriber to the poses (the floor under any Python node's receive cost "
+        "when it takes a sample per pose). On two cores those three "
         "processes take a core's worth of CPU at N = 256, which is why the authority's tick is "
         f"shown beside them too. Without a swarm the authority ticked at p50 {ba['p50']:.2f} / "
         f"p99 {ba['p99']:.2f} ms with {ba['overruns']} overruns (p99 {bh['p99']:.2f} ms, "
@@ -281,7 +289,7 @@ def section(
         receive_table(runs, base),
         "",
         "Interest management: `probe-near` hears only the tiles around it; `probe-all` "
-        "hears everything.",
+        "and `probe-digest` hear everything.",
         "",
         interest_table(runs),
         "",

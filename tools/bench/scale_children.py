@@ -101,15 +101,26 @@ class Receipts:
             span[2] += 1
 
 
-def probe_main(endpoint: str, node_id: str, radius_m: float, x: float, y: float, conn: Any) -> None:
-    """A node standing at (x, y) with interest radius `radius_m` (0: hears everything)."""
+def probe_main(
+    endpoint: str,
+    node_id: str,
+    radius_m: float,
+    x: float,
+    y: float,
+    conn: Any,
+    digest: bool = False,
+) -> None:
+    """A node standing at (x, y) with interest radius `radius_m` (0: hears everything);
+    `digest`: it hears the poses through the authority's pose digest."""
     from carlaverse.fabric.clock import MonotonicClock
     from carlaverse.fabric.node_client import NodeClient, NodeSettings
     from carlaverse.fabric.session import FabricSettings, open_session
     from carlaverse.messages import Pose
 
     session = open_session(FabricSettings(connect=[endpoint]))
-    settings = NodeSettings(node_id=node_id, session=SESSION, interest_radius_m=radius_m)
+    settings = NodeSettings(
+        node_id=node_id, session=SESSION, interest_radius_m=radius_m, pose_digest=digest
+    )
     client = NodeClient(session, settings, MonotonicClock())
     receipts = Receipts()
     push_pose = client.world.push_pose
@@ -118,7 +129,15 @@ def probe_main(endpoint: str, node_id: str, radius_m: float, x: float, y: float,
         receipts.heard(sender, pose.seq, rx_t - pose.t)
         push_pose(sender, pose, rx_t)
 
+    push_poses = client.world.push_poses
+
+    def stamped_many(poses: list[tuple[str, Any]], rx_t: float) -> None:
+        for sender, pose in poses:
+            receipts.heard(sender, pose.seq, rx_t - pose.t)
+        push_poses(poses, rx_t)
+
     client.world.push_pose = stamped  # type: ignore[method-assign]
+    client.world.push_poses = stamped_many  # type: ignore[method-assign]
     client.start(lambda t: Pose(0, t, x, y))
     client.wait_joined(60)
     conn.send("joined")
