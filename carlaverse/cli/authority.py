@@ -7,6 +7,7 @@ import logging
 import sys
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 from carlaverse.authority.domain import EmptyDomain, GlobalDomain
@@ -40,26 +41,28 @@ log = logging.getLogger(__name__)
 MESH_TIMEOUT_S = 2.0
 
 
-def fifo_priority(text: str) -> int:
-    """A SCHED_FIFO priority argument: 0 (leave the scheduling alone) or 1-99."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number 0-99") from None
-    if not 0 <= value <= 99:
-        raise argparse.ArgumentTypeError(f"{value} is out of range: 0 (normal) or 1-99")
-    return value
+def bounded(
+    kind: type[int] | type[float], low: float, high: float, means: str
+) -> Callable[[str], int | float]:
+    """An argparse type: a `kind` number from `low` to `high`; `means` says what the bounds
+    are, in the one-line error a wrong value gets."""
+
+    def parse(text: str) -> int | float:
+        try:
+            value = kind(text)
+        except ValueError:
+            number = "a whole number" if kind is int else "a number"
+            raise argparse.ArgumentTypeError(f"{text!r} is not {number} ({means})") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"{value:g} is out of range: {means}")
+        return value
+
+    return parse
 
 
-def digest_ms(text: str) -> float:
-    """The pose digest's period in milliseconds: 0 (no digest) up to 1000."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a number of milliseconds") from None
-    if not 0 <= value <= 1000:
-        raise argparse.ArgumentTypeError(f"{value:g} ms is out of range: 0 (off) to 1000")
-    return value
+# SCHED_FIFO priority: 0 leaves the scheduling alone.
+fifo_priority = bounded(int, 0, 99, "0 (normal) or 1-99")
+digest_ms = bounded(float, 0, 1000, "0 (off) to 1000 ms")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

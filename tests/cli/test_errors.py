@@ -161,15 +161,20 @@ def test_a_client_told_nothing_tries_once_and_says_why() -> None:
 
 
 @pytest.mark.parametrize(
-    ("value", "says"),
-    [("120", "120 is out of range: 0 (normal) or 1-99"), ("high", "'high' is not a whole")],
+    ("flag", "value", "says"),
+    [
+        ("--tick-priority", "120", "120 is out of range: 0 (normal) or 1-99"),
+        ("--tick-priority", "high", "'high' is not a whole number"),
+        ("--digest-ms", "-1", "-1 is out of range: 0 (off) to 1000 ms"),
+        ("--digest-ms", "2ms", "'2ms' is not a number (0 (off) to 1000 ms)"),
+    ],
 )
-def test_a_bad_tick_priority_names_the_flag_and_the_range(
-    value: str, says: str, capsys: pytest.CaptureFixture[str]
+def test_a_bad_authority_number_names_the_flag_and_the_range(
+    flag: str, value: str, says: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
     with pytest.raises(SystemExit) as exited:
-        main(["authority", "--scenario", "none", "--tick-priority", value])
+        main(["authority", "--scenario", "none", flag, value])
     assert exited.value.code == 2
     last = capsys.readouterr().err.strip().splitlines()[-1]
-    assert last.startswith("carlaverse authority: error: argument --tick-priority: "), last
+    assert last.startswith(f"carlaverse authority: error: argument {flag}: "), last
     assert says in last, last
