@@ -58,10 +58,12 @@ class PoseDigestRelay:
             keys.pose_digest, congestion_control=zenoh.CongestionControl.DROP
         )
         self._heard = threading.Event()  # something subscribes to the digest
+        self._wake = threading.Event()  # the matching status changed, or close()
 
         def on_matching(status: zenoh.MatchingStatus) -> None:
-            # A Zenoh thread: set a flag, nothing that waits.
+            # A Zenoh thread: set flags, nothing that waits.
             (self._heard.set if status.matching else self._heard.clear)()
+            self._wake.set()
 
         self._listener = self._publisher.declare_matching_listener(on_matching)
         if self._publisher.matching_status.matching:
@@ -81,6 +83,7 @@ class PoseDigestRelay:
 
     def close(self) -> None:
         self._stop.set()
+        self._wake.set()
         if self._thread.is_alive():
             self._thread.join(timeout=2.0)
         self._follow(False)
@@ -88,7 +91,14 @@ class PoseDigestRelay:
         self._publisher.undeclare()
 
     def _run(self) -> None:
-        while not self._stop.wait(self.period_s):
+        while not self._stop.is_set():
+            if not self._heard.is_set():  # no one listens: sleep until someone does
+                self._follow(False)
+                self._wake.wait()
+                self._wake.clear()
+                continue
+            if self._stop.wait(self.period_s):
+                break
             try:
                 self.step()
             except Exception:  # a bug must not end the relay silently: log, count, go on

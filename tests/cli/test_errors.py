@@ -105,6 +105,17 @@ def test_a_bad_zenoh_entry_is_one_line_without_rust_internals(
     assert err == "carlaverse join: invalid zenoh setting transport/nonsense = 1: unknown key\n"
 
 
+def test_pose_digest_with_an_interest_radius_is_one_line_naming_the_fix(
+    tmp_path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    config = tmp_path / "car.yaml"
+    config.write_text("node:\n  pose_digest: true\n")
+    assert main(["join", "scripted", "--id", "c", "--config", str(config)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"carlaverse join: {config}: "), err
+    assert "pose_digest carries the whole session's poses: set interest_radius_m: 0" in err
+
+
 @pytest.mark.parametrize(
     ("args", "says"),
     [

@@ -5,7 +5,7 @@
 One router, one authority running a generated grid town with 500 NPC vehicles (SUMO), real
 nodes (`NodeClient` processes standing at the town's centre) and, for each N, one
 `carlaverse swarm --egos N` process whose egos join like nodes and drive around the town's
-blocks at 50 Hz, spread over the whole map. Two windows of `--seconds` per N:
+blocks at 50 Hz, spread over the whole map. Three windows of `--seconds` per N:
 
 - the session window: `probe-near`, a node with the default interest radius (200 m), the way
   a participant runs: it subscribes to the 3 × 3 tiles around it, so it should hear its
@@ -14,7 +14,10 @@ blocks at 50 Hz, spread over the whole map. Two windows of `--seconds` per N:
 - the hear-everything window adds `probe-all` (interest radius 0: every pose of every ego,
   the worst case for one node) and a bare zenoh-python subscriber to the same poses, the
   floor under any Python node's receive cost. They run only in this window: on two cores
-  they take a core's worth of CPU at N = 256, which the session window should not pay.
+  they take a core's worth of CPU at N = 256, which the session window should not pay;
+- the digest window: the same with `probe-digest` instead of `probe-all`, the same node
+  taking every pose through the authority's pose digest (`world/@egos`), so the two ways
+  of hearing everything are compared on the same swarm without competing for the cores.
 
 Per window: the authority's tick p50/p99/max and overruns (its own timing of
 `Authority.tick`, reset at the window start), each probe's poses received, one-way latency
@@ -82,8 +85,9 @@ traffic:
 
 
 class Bench:
-    """The processes of the bench. `probe-near` stays for the whole run; `probe-all` and the
-    floor subscriber come up only for the hear-everything windows (`hearing()`), so the
+    """The processes of the bench. `probe-near` stays for the whole run; `probe-all` or
+    `probe-digest`, and the floor subscriber, come up only for the hear-everything and
+    digest windows (`hearing()`), so the
     session windows measure the authority beside what a session has: participants that hear
     the actors around them."""
 
@@ -118,11 +122,13 @@ class Bench:
         time.sleep(self.fill_s)
 
     @contextlib.contextmanager
-    def hearing(self) -> Iterator[None]:
-        """`probe-all` (a node hearing the whole session) and the bare-Zenoh floor, up."""
-        started = {"probe-all": self._child(probe_main, "probe-all", 0.0, *CENTRE),
-                   "probe-digest": self._child(probe_main, "probe-digest", 0.0, *CENTRE,
-                                               digest=True),
+    def hearing(self, digest: bool = False) -> Iterator[None]:
+        """A node hearing the whole session and the bare-Zenoh floor, up: `probe-all`, or with
+        `digest` `probe-digest` (the same node on the pose digest). One at a time: on two
+        cores each takes about half a core at N = 256, and beside each other they would
+        measure each other's contention."""
+        name = "probe-digest" if digest else "probe-all"
+        started = {name: self._child(probe_main, name, 0.0, *CENTRE, digest=digest),
                    "floor": self._child(floor_main)}  # fmt: skip
         for name, (conn, _proc) in started.items():
             assert conn.recv() == "joined", name
@@ -177,6 +183,8 @@ class Bench:
         result = {"session": self.window(swarm_pid)}
         with self.hearing():
             result["hearing"] = self.window(swarm_pid)
+        with self.hearing(digest=True):
+            result["digest"] = self.window(swarm_pid)
         if profile_to is not None:
             result["profiled"] = self.window(swarm_pid, profile_to)
         return result
@@ -256,17 +264,18 @@ def section(
         "something subscribes to its audio key; 256 listeners' scenes are costed under "
         "Authority audio emitters). All on this machine over "
         f"loopback TCP, {runs[max(runs)]['session']['probe-near']['seconds']:.0f} s windows. "
-        "Two windows per N, one after the other on the same swarm: the **session** window has "
+        "Three windows per N, one after the other on the same swarm: the **session** window has "
         f"one real node as a participant has it, `probe-near` with the default "
         f"{NEAR_RADIUS_M:g} m interest radius (it subscribes to the map tiles around it), with "
         f"a second participant, `probe-mate`, standing {MATE_OFFSET_M:g} m from it; the "
         "**hear-everything** window adds `probe-all`, a node with no interest radius that is "
-        "handed every pose of the session, `probe-digest`, the same node taking the poses "
-        "through the authority's pose digest (`pose_digest: true`: every pose relayed on "
-        f"`world/@egos`, gathered for {DIGEST_PERIOD_S * 1e3:g} ms a message), and a bare "
-        "zenoh-python subscriber to the poses (the floor under any Python node's receive cost "
-        "when it takes a sample per pose). On two cores those three "
-        "processes take a core's worth of CPU at N = 256, which is why the authority's tick is "
+        "handed every pose of the session, and a bare zenoh-python subscriber to the poses "
+        "(the floor under any Python node's receive cost when it takes a sample per pose); "
+        "a third, the **digest** window, has the floor again beside `probe-digest`, the same "
+        "node taking the poses through the authority's pose digest (`pose_digest: true`: "
+        f"every pose relayed on `world/@egos`, gathered for {DIGEST_PERIOD_S * 1e3:g} ms a "
+        "message). On two cores the two processes of either window take a core's worth of "
+        "CPU at N = 256, which is why the authority's tick is "
         f"shown beside them too. Without a swarm the authority ticked at p50 {ba['p50']:.2f} / "
         f"p99 {ba['p99']:.2f} ms with {ba['overruns']} overruns (p99 {bh['p99']:.2f} ms, "
         f"{bh['overruns']} overruns beside probe-all). Read every figure against the load "
