@@ -519,6 +519,8 @@ class JoinReply(msgspec.Struct, frozen=True):
     despawn_timeout_s: Finite = 3.0
     tick_hz: Finite = 50.0
     authority_instance: str = ""
+    # [s] how often the authority relays the pose digest (`world/@egos`); 0: it relays none
+    pose_digest_s: Finite = 0.0
 
 
 class LeaveRequest(msgspec.Struct, frozen=True):

@@ -286,6 +286,7 @@ class Authority:
             despawn_timeout_s=self.settings.despawn_timeout_s,
             tick_hz=self.settings.tick_hz,
             authority_instance=self.instance,
+            pose_digest_s=self.settings.digest_period_s,
         )
         if not decision.accepted:
             self.rejected.add("join/refused")

@@ -77,6 +77,10 @@ class Inbound:
         self._contacts: deque[tuple[str, int]] = deque(maxlen=SEEN_CONTACTS)
         self._contact_set: set[tuple[str, int]] = set()
         self._contacts_lock = threading.Lock()
+        # The subscriber that brings other egos' poses from the whole world (None with an
+        # interest area), and what it is: "poses" (a sample each) or "digest" (`world/@egos`).
+        self.pose_feed: zenoh.Subscriber | None = None
+        self.pose_feed_kind = ""
 
     def subscribe(
         self, session: zenoh.Session, keys: Keys, spatial: bool = True, digest: bool = False
@@ -85,19 +89,12 @@ class Inbound:
         an interest area (`spatial_handlers`) instead of from the whole world; `digest`: the
         whole world's poses come through the authority's digest, many to a sample, instead of
         one sample each."""
-        g, remote = self.guard, zenoh.Locality.REMOTE
+        g = self.guard
         world = {"lights": self._on_lights, "weather": self._on_weather, "events": self._on_event}
         entities: list[object] = []
-        if spatial:
+        if spatial:  # the whole world: its poses (`pose_feed`) and its NPCs in one batch
             world["npc"] = self._on_npc
-        if spatial and digest:
-            entities.append(
-                session.declare_subscriber(keys.pose_digest, g.sample("digest", self._on_digest))
-            )
-        elif spatial:
-            entities.append(session.declare_subscriber(
-                keys.all_ego("pose"), self.pose_handler(), allowed_origin=remote
-            ))  # fmt: skip
+            self._feed(session, keys, "digest" if digest else "poses")
         entities += [
             session.declare_subscriber(keys.all_ego("state"), g.sample("state", self._on_state)),
             session.declare_subscriber(
@@ -114,6 +111,33 @@ class Inbound:
             guarded = g.sample(channel, handler)
             entities.append(session.declare_subscriber(keys.world(channel), guarded))
         return entities
+
+    def _feed(self, session: zenoh.Session, keys: Keys, kind: str) -> None:
+        if kind == "digest":
+            handler = self.guard.sample("digest", self._on_digest)
+            self.pose_feed = session.declare_subscriber(keys.pose_digest, handler)
+        else:
+            self.pose_feed = session.declare_subscriber(
+                keys.all_ego("pose"), self.pose_handler(), allowed_origin=zenoh.Locality.REMOTE
+            )
+        self.pose_feed_kind = kind
+
+    def without_digest(self, session: zenoh.Session, keys: Keys) -> None:
+        """The joined authority relays no digest: hear each pose on its own key instead
+        (for good: a later authority that does relay one changes nothing but the cost)."""
+        if self.pose_feed_kind != "digest" or self.pose_feed is None:
+            return
+        self.pose_feed.undeclare()
+        self._feed(session, keys, "poses")
+        log.warning(
+            "the authority relays no pose digest (its --digest-ms is 0): hearing every pose "
+            "on its own key instead"
+        )
+
+    def close(self) -> None:
+        if self.pose_feed is not None:
+            self.pose_feed.undeclare()
+            self.pose_feed = None
 
     def spatial_handlers(self) -> tuple[zenoh.handlers.Callback, Callable[[zenoh.Sample], None]]:
         """The guarded pose and NPC handlers, for the subscriptions of an interest area."""

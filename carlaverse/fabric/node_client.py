@@ -212,6 +212,7 @@ class NodeClient:
         for entity in self._entities:
             entity.undeclare()  # type: ignore[attr-defined]
         self._entities.clear()
+        self.inbound.close()
 
     def _spawn(self, target: Callable[[], None], name: str) -> None:
         thread = threading.Thread(target=target, name=f"{self.node_id}-{name}", daemon=True)
@@ -377,6 +378,8 @@ class NodeClient:
             return
         self.join_reply = reply
         self.inbound.authority_id = reply.authority_instance
+        if reply.pose_digest_s <= 0:
+            self.inbound.without_digest(self.session, self.keys)
         self.joins += 1
         if self._token is None:
             self._token = self.session.liveliness().declare_token(self.keys.node(self.node_id))

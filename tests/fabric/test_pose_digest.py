@@ -135,7 +135,7 @@ def test_a_digest_not_from_the_authority_is_refused_and_bad_rows_are_counted(
     cluster.scripted("a")
     wait_until(lambda: "a" in authority.roster.tracks, 30, "a joined")
     obs, _, _ = _digest_observer(cluster)
-    wait_until(lambda: obs.update() or "a" in obs.world.egos, 30, "a through the digest")
+    wait_until(lambda: obs.update() and "a" in obs.world.egos, 30, "a through the digest")
 
     # An outsider's digest: well formed, but not stamped by the joined authority.
     outsider = open_session(FabricSettings(connect=[cluster.endpoint]))
@@ -159,8 +159,39 @@ def test_a_digest_not_from_the_authority_is_refused_and_bad_rows_are_counted(
     wait_until(lambda: obs.dropped["pose"] > before, 10, "the NaN row to be counted")
     assert obs.dropped["pose"] == before + 1
     xs = wait_until(
-        lambda: obs.update() or [p.x for p in obs.world.egos["a"]._poses if p.x == 123.0], 5,
+        lambda: obs.update() and [p.x for p in obs.world.egos["a"]._poses if p.x == 123.0], 5,
         "the good row in a's buffer",
     )  # fmt: skip
     assert xs and 500.0 not in [p.x for p in obs.world.egos["a"]._poses]  # not the outsider's
     assert obs.counters().handler_errors == {}
+
+
+def test_a_node_asking_for_the_digest_hears_poses_from_an_authority_that_relays_none(
+    cluster: Cluster,
+) -> None:
+    cluster.router()
+    authority = cluster.authority("--digest-ms", "0")
+    cluster.scripted("a")
+    obs, sizes, _ = _digest_observer(cluster)
+    obs.wait_joined(30)
+    wait_until(lambda: obs.update() and "a" in obs.world.stats, 30, "a on its own pose key")
+    assert obs.inbound.pose_feed_kind == "poses" and sizes == []
+    count = obs.world.stats["a"].count
+    wait_until(lambda: obs.update() and obs.world.stats["a"].count > count + 25, 10, "a alive")
+    assert authority.alive()
+
+
+def test_stats_on_the_digest_reports_every_node(cluster: Cluster) -> None:
+    cluster.router()
+    cluster.authority()
+    for node_id in ("car-1", "car-2"):
+        cluster.scripted(node_id, None, "--duration", "8")
+    stats = cluster.start("stats", "--session", "t", "--connect", cluster.endpoint,
+                          "--pose-digest", "--duration", "5", "--json", name="stats")  # fmt: skip
+    assert stats.wait(60) == 0, stats.output()
+    observed = stats.json()
+    for node_id in ("car-1", "car-2"):
+        row = observed["nodes"][node_id]
+        assert row["samples"] > 100 and row["rate_hz"] > 40, (node_id, row)
+    assert "relays no pose digest" not in stats.output()
+    assert observed["handler_errors"] == {}
