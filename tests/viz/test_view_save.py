@@ -113,10 +113,9 @@ def _check_raw(rows: dict[str, list[dict]], published: dict[str, list], egos: li
     assert len(raw) == len(batches)
     for row in raw:
         r = _at(batches, row["sim_time"]).array()
-        got = [tuple(p[:2]) for p in row["Points3D:positions"]]
-        assert got == pytest.approx(
-            [(float(a), float(b)) for a, b in zip(r["x"], r["y"], strict=True)], abs=1e-4
-        )
+        got = [c for p in row["Points3D:positions"] for c in p[:2]]  # x0, y0, x1, y1, ...
+        want = [float(c) for xy in zip(r["x"], r["y"], strict=True) for c in xy]
+        assert got == pytest.approx(want, abs=1e-4)  # pytest 9 compares flat sequences only
 
 
 # Rerun keeps `sim_time` as integer nanoseconds, so a logged time reads back within 1 ns of
