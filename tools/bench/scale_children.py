@@ -58,11 +58,17 @@ def authority_main(endpoint: str, scenario: str, priority: int, conn: Any) -> No
     ticking = threading.Thread(target=authority.run, daemon=True)
     ticking.start()
     conn.send((os.getpid(), getattr(domain.engine, "pid", None)))  # SUMO's own process, if any
+    relay = authority.digest
     while (command := conn.recv()) != "quit":
-        if command == "start":
+        if isinstance(command, tuple) and command[0] == "digest_ms" and relay is not None:
+            relay.period_s = command[1] / 1e3  # read by the relay before its next wait
+            conn.send("ok")
+        elif command == "start":
             authority.tick_ms.clear()
             authority.overruns = 0
             pauses.ms.clear()
+            if relay is not None:
+                relay.digests = relay.poses = 0
         elif command == "stop":
             ticks = list(authority.tick_ms)
             conn.send({
@@ -71,6 +77,7 @@ def authority_main(endpoint: str, scenario: str, priority: int, conn: Any) -> No
                 "npcs": len(domain.engine.last_read().ids), "egos": len(authority.roster.tracks),
                 "gc_n": len(pauses.ms), "gc_max_ms": max(pauses.ms, default=0.0),
                 "late": getattr(domain.engine, "late_steps", 0),
+                "digests": relay.digests if relay else 0, "relayed": relay.poses if relay else 0,
             })  # fmt: skip
     authority.stop()
     ticking.join(5)  # the tick thread must be done with SUMO before close() ends it

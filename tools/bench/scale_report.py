@@ -96,6 +96,26 @@ def receive_table(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
     return "\n".join(rows)
 
 
+def digest_table(run: dict[str, Any], base: dict[str, Any], periods_ms: tuple[float, ...]) -> str:
+    """probe-digest at each relay period: poses per digest, CPU per pose, delay."""
+    rows = [
+        "| relay period ms | poses per digest | probe-digest µs per pose (all / above idle) | "
+        "one-way p50 / p99 ms | delivery | authority CPU | authority tick p99 ms / overruns |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for ms in sorted(periods_ms):
+        window, idle = run[f"digest@{ms:g}"], base[f"digest@{ms:g}"]
+        p, a = window["probe-digest"], window["authority"]
+        total_us, marginal_us = _per_pose_us(p, idle["probe-digest"])
+        per_digest = a["relayed"] / a["digests"] if a["digests"] else float("nan")
+        rows.append(
+            f"| {ms:g} | {per_digest:.1f} | {total_us:.1f} / {marginal_us:.1f} | "
+            f"{p['p50_ms']:.2f} / {p['p99_ms']:.2f} | {_delivery(p):.3%} | "
+            f"{window['cpu']['authority']:.0%} | {a['p99']:.2f} / {a['overruns']} |"
+        )
+    return "\n".join(rows)
+
+
 def interest_table(runs: dict[int, dict[str, Any]]) -> str:
     rows = [
         "| egos on the map | probe-near: egos heard | poses/s received | tiles subscribed | "
