@@ -95,25 +95,30 @@ def test_a_malformed_endpoint_is_one_line_and_exit_2(
     assert not any(bit in err for bit in RUST_INTERNALS), err
 
 
-def test_a_bad_zenoh_entry_is_one_line_without_rust_internals(
-    tmp_path, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize(
+    ("yaml", "says"),
+    [
+        (
+            "fabric:\n  zenoh:\n    transport/nonsense: 1\n",
+            "carlaverse join: invalid zenoh setting transport/nonsense = 1: unknown key",
+        ),
+        (
+            "node:\n  pose_digest: true\n",
+            "carlaverse join: {config}: pose_digest carries the whole session's poses: set "
+            "interest_radius_m: 0 to use it (it is 200)",
+        ),
+    ],
+    ids=["zenoh-entry", "pose-digest-with-interest"],
+)
+def test_a_bad_config_entry_is_one_line_naming_it(
+    yaml: str, says: str, tmp_path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     config = tmp_path / "car.yaml"
-    config.write_text("fabric:\n  zenoh:\n    transport/nonsense: 1\n")
+    config.write_text(yaml)
     assert main(["join", "scripted", "--id", "c", "--config", str(config)]) == 2
     err = capsys.readouterr().err
-    assert err == "carlaverse join: invalid zenoh setting transport/nonsense = 1: unknown key\n"
-
-
-def test_pose_digest_with_an_interest_radius_is_one_line_naming_the_fix(
-    tmp_path, capsys: pytest.CaptureFixture[str]
-) -> None:
-    config = tmp_path / "car.yaml"
-    config.write_text("node:\n  pose_digest: true\n")
-    assert main(["join", "scripted", "--id", "c", "--config", str(config)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and err.startswith(f"carlaverse join: {config}: "), err
-    assert "pose_digest carries the whole session's poses: set interest_radius_m: 0" in err
+    assert err.count("\n") == 1 and err.startswith(says.format(config=config)), err
+    assert not any(bit in err for bit in RUST_INTERNALS), err
 
 
 @pytest.mark.parametrize(
