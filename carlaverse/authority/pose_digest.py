@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import threading
+import time
 from collections.abc import Callable
 
 import zenoh
@@ -91,14 +92,21 @@ class PoseDigestRelay:
         self._publisher.undeclare()
 
     def _run(self) -> None:
+        due = time.monotonic()
         while not self._stop.is_set():
             if not self._heard.is_set():  # no one listens: sleep until someone does
                 self._follow(False)
                 self._wake.wait()
                 self._wake.clear()
+                due = time.monotonic()
                 continue
-            if self._stop.wait(self.period_s):
+            # On a cadence, not a sleep after each step: the period is what `period_s` says
+            # however long a step took, so a pose waits half a period on average.
+            due += self.period_s
+            if self._stop.wait(max(0.0, due - time.monotonic())):
                 break
+            if time.monotonic() - due > self.period_s:
+                due = time.monotonic()  # fell behind (a stalled interpreter): do not burst
             try:
                 self.step()
             except Exception:  # a bug must not end the relay silently: log, count, go on
