@@ -55,6 +55,7 @@ from scale_report import (
     digest_table,
     interest_table,
     receive_table,
+    rounds_part,
     scale_table,
     stalls,
     verdicts,
@@ -77,6 +78,7 @@ NEAR_RADIUS_M = 200.0  # [m] probe-near's interest radius (the node default)
 # [ms] the digest window runs once per relay period, the shipped one (2 ms) last
 DIGEST_SWEEP_MS = (1.0, 5.0, DIGEST_PERIOD_S * 1e3)
 SWEEP_SETTLE_S = 1.0  # [s] after the period changed, before its window
+ROUNDS = 3  # hear-everything and digest windows at the largest N, alternating
 
 SCENARIO = f"""name: scale-bench
 seed: 1
@@ -205,9 +207,12 @@ class Bench:
         return result
 
     def run_swarm(
-        self, egos: int, profile_to: Path | None, express: bool = False
+        self, egos: int, profile_to: Path | None, express: bool = False, rounds: int = 1
     ) -> dict[str, Any]:
-        """A swarm of `egos` and its windows; `express`: its poses in frames of their own."""
+        """A swarm of `egos` and its windows; `express`: its poses in frames of their own;
+        `rounds` > 1: the hear-everything and digest windows that many times, alternating
+        (`rounds` in the result), so the two ways of hearing everything are compared on
+        medians rather than on one window each."""
         cmd = [sys.executable, "-m", "carlaverse", "swarm", "--egos", str(egos), "--session",
                SESSION, "--connect", self.endpoint, "--spread", f"{SPREAD_M:g}", "--block",
                f"{BLOCK_M:g}", "--origin", f"{ATTACH_M:g}", f"{ATTACH_M:g}", "--json",
@@ -218,6 +223,14 @@ class Bench:
                 break
         time.sleep(SETTLE_S)
         result = self.both_windows(swarm.pid, profile_to)
+        result["rounds"] = [{"hearing": result["hearing"], "digest": result["digest"]}]
+        for _ in range(rounds - 1):
+            again = {}
+            with self.hearing():
+                again["hearing"] = self.window(swarm.pid)
+            with self.hearing(digest=True):
+                again["digest"] = self.window(swarm.pid)
+            result["rounds"].append(again)
         swarm.send_signal(signal.SIGINT)
         out, _ = swarm.communicate(timeout=60)
         result["swarm"] = json.loads(out)
@@ -326,6 +339,8 @@ def section(
         "",
         digest_table(runs[max(runs)], base, DIGEST_SWEEP_MS),
         "",
+        rounds_part(runs[max(runs)], base, max(runs)),
+        "",
         verdicts(runs, base),
     ]
     if express:
@@ -371,6 +386,9 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--profile-out", type=Path, help="save the largest N's split (JSON)")
     parser.add_argument("--profile-label", default="", help="what the saved split measured")
     parser.add_argument("--profile-before", type=Path, help="a saved split to compare with")
+    parser.add_argument("--rounds", type=int, default=ROUNDS, metavar="K",
+                        help="at the largest N, the hear-everything and digest windows K times, "
+                        f"alternating, judged on medians (default {ROUNDS})")  # fmt: skip
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md")
     parser.add_argument("--express-egos", type=int, metavar="N",
                         help="after the runs, N egos once more with every pose in a frame of "
@@ -392,7 +410,9 @@ def main(argv: list[str] | None = None) -> int:
             runs: dict[int, dict[str, Any]] = {}
             for n in args.egos:
                 raw = Path(tmp) / f"spy-{n}.txt"
-                runs[n] = bench.run_swarm(n, raw if args.profile and n == max(args.egos) else None)
+                largest = n == max(args.egos)
+                runs[n] = bench.run_swarm(n, raw if args.profile and largest else None,
+                                          rounds=args.rounds if largest else 1)  # fmt: skip
                 print(json.dumps({n: runs[n]}, default=str), file=sys.stderr)
             express = (
                 {express_n: bench.run_swarm(express_n, None, express=True)} if express_n else {}
