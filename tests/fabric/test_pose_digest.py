@@ -195,3 +195,33 @@ def test_stats_on_the_digest_reports_every_node(cluster: Cluster) -> None:
         assert row["samples"] > 100 and row["rate_hz"] > 40, (node_id, row)
     assert "relays no pose digest" not in stats.output()
     assert observed["handler_errors"] == {}
+
+
+def test_a_step_with_more_poses_than_a_digest_holds_puts_several_in_order() -> None:
+    from carlaverse.authority.pose_digest import PoseDigestRelay
+    from carlaverse.fabric.guard import Tally
+
+    session = open_session(FabricSettings(mode="peer", listen=[], connect=[]))
+    try:
+        got: list[m.PoseDigest] = []
+        session.declare_subscriber(
+            K.pose_digest, lambda s: got.append(m.POSE_DIGEST.decode(s.payload.to_bytes()))
+        )
+        drops = Tally()
+        relay = PoseDigestRelay(session, K, drops, session.new_timestamp)  # stepped by hand
+        wait_until(lambda: relay.step() == 0 and relay.relaying, 5, "the relay to see its reader")
+        total = m.DIGEST_MAX_POSES + 904
+        for seq in range(total):
+            session.put(K.pose(f"n{seq % 7}", "t0_0"), m.encode_pose(_pose(seq, 100.0 + seq)))
+        session.put(K.pose("n0", "t0_0"), b"short")  # counted, left out
+        relayed = [relay.step()]  # local puts reach the ring at once; a deadline all the same
+        wait_until(lambda: sum(relayed) == total or relayed.append(relay.step()), 5, "all relayed")
+        assert sum(relayed) == total and drops["digest"] == 1
+        wait_until(lambda: len(got) == 2, 5, "two digests")
+        assert [len(d.ids) for d in got] == [m.DIGEST_MAX_POSES, 904]
+        assert [d.seq for d in got] == [1, 2]
+        seqs = [p.seq for d in got for p in d.poses()]  # type: ignore[union-attr]
+        assert seqs == list(range(total))
+        relay.close()
+    finally:
+        session.close()
