@@ -97,8 +97,8 @@ class WorldView:
         self._handlers = {
             "pose": self._on_pose, "poses": self._on_poses, "skeleton": self._on_skeleton,
             "npc": self._on_npc, "interest": self._on_interest, "gone": self._on_gone,
-            "present": self._on_present,
-            "notice": self._on_notice, "state": self._on_state, "snapshot": self._on_snapshot,
+            "present": self._on_present, "notice": self._on_notice, "state": self._on_state,
+            "snapshot": self._on_snapshot,
         }  # fmt: skip
 
     @property
