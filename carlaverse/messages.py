@@ -26,6 +26,8 @@ from typing import Annotated, Any, Generic, Literal, TypeVar, get_args
 import msgspec
 import numpy as np
 
+from carlaverse.keys import DIGEST_CHANNEL
+
 # 2: the snapshot's pose is the 64-byte pose layout; `spawned` carries the actor kind;
 #    the `authority/leave` query; despawn reasons are a closed set.
 # 3: spatial keys: poses on `ego/<id>/pose/<tile>`, NPC batches also per tile.
@@ -717,7 +719,7 @@ CHANNEL_CODECS: dict[tuple[str, str], Codec[Any]] = {
     ("ego", "override"): OVERRIDE,
     ("ego", "skeleton"): SKELETON,
     ("world", "npc"): NPC_BATCH,
-    ("world", "@egos"): POSE_DIGEST,
+    ("world", DIGEST_CHANNEL): POSE_DIGEST,
     ("world", "lights"): LIGHTS,
     ("world", "weather"): WEATHER,
     ("world", "events"): WORLD_EVENT,

@@ -26,7 +26,7 @@ from collections.abc import Callable
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.authority.pose_intake import RING_CAPACITY, pose_sender
+from carlaverse.authority.pose_intake import RING_CAPACITY, pose_sender, take
 from carlaverse.fabric.guard import Tally
 from carlaverse.keys import Keys
 
@@ -138,12 +138,11 @@ class PoseDigestRelay:
         return self._ring is not None
 
     def _take(self) -> tuple[list[str], list[bytes]]:
+        """(sender, row) of every pose waiting that has a pose key and the pose's size."""
         ids: list[str] = []
         rows: list[bytes] = []
-        recv = self._ring.try_recv  # type: ignore[union-attr]
-        while (sample := recv()) is not None:
-            payload = sample.payload.to_bytes()
-            node_id = pose_sender(str(sample.key_expr))
+        for key, payload in zip(*take(self._ring), strict=True):  # type: ignore[arg-type]
+            node_id = pose_sender(key)
             if node_id is None or len(payload) != m.POSE_SIZE:
                 self._drops.add("digest")
                 continue

@@ -58,7 +58,7 @@ class PoseIntake:
         self._drops = drops
 
     def drain(self, limit: int = RING_CAPACITY) -> list[tuple[str, m.Pose]]:
-        keys, payloads = self._take(limit)
+        keys, payloads = take(self._ring, limit)
         out = []
         for key, pose in zip(keys, decode_poses(payloads), strict=True):
             node_id = pose_sender(key) if pose is not None else None
@@ -68,13 +68,15 @@ class PoseIntake:
                 out.append((node_id, pose))
         return out
 
-    def _take(self, limit: int) -> tuple[list[str], list[bytes]]:
-        keys, payloads = [], []
-        recv = self._ring.try_recv
-        while len(keys) < limit and (sample := recv()) is not None:
-            keys.append(str(sample.key_expr))
-            payloads.append(sample.payload.to_bytes())  # type: ignore[attr-defined]
-        return keys, payloads
+
+def take(ring: PoseRing, limit: int = RING_CAPACITY) -> tuple[list[str], list[bytes]]:
+    """The keys and payloads of up to `limit` samples waiting in `ring`, oldest first."""
+    keys, payloads = [], []
+    recv = ring.try_recv
+    while len(keys) < limit and (sample := recv()) is not None:
+        keys.append(str(sample.key_expr))
+        payloads.append(sample.payload.to_bytes())  # type: ignore[attr-defined]
+    return keys, payloads
 
 
 def pose_sender(key: str) -> str | None:
