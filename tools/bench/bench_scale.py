@@ -53,6 +53,7 @@ from peers.profile import py_spy
 from scale_children import SESSION, authority_main, floor_main, probe_main
 from scale_report import (
     digest_table,
+    floors_part,
     interest_table,
     receive_table,
     rounds_part,
@@ -78,6 +79,7 @@ NEAR_RADIUS_M = 200.0  # [m] probe-near's interest radius (the node default)
 # [ms] the digest window runs once per relay period, the shipped one (2 ms) last
 DIGEST_SWEEP_MS = (1.0, 5.0, DIGEST_PERIOD_S * 1e3)
 SWEEP_SETTLE_S = 1.0  # [s] after the period changed, before its window
+FLOOR_DRAIN_MS = 1.0  # [ms] how often `floor-ring` drains its ring (the digest's delay or less)
 ROUNDS = 3  # hear-everything and digest windows at the largest N, alternating
 
 SCENARIO = f"""name: scale-bench
@@ -142,6 +144,22 @@ class Bench:
         name = "probe-digest" if digest else "probe-all"
         started = {name: self._child(probe_main, name, 0.0, *CENTRE, digest=digest),
                    "floor": self._child(floor_main)}  # fmt: skip
+        with self._up(started):
+            yield
+
+    def floors(self, swarm_pid: int | None) -> dict[str, Any]:
+        """A window with two bare subscribers to every pose and no probe: `floor` (a Python
+        callback per sample) beside `floor-ring` (the samples wait in a Zenoh ring that a
+        thread drains every `FLOOR_DRAIN_MS`): whether the floor is the callback's or the
+        sample's."""
+        started = {"floor": self._child(floor_main),
+                   "floor-ring": self._child(floor_main, drain_ms=FLOOR_DRAIN_MS)}  # fmt: skip
+        with self._up(started):
+            return self.window(swarm_pid)
+
+    @contextlib.contextmanager
+    def _up(self, started: dict[str, tuple[Any, Any]]) -> Iterator[None]:
+        """`started` children measured in the windows run inside; ended after."""
         for name, (conn, _proc) in started.items():
             assert conn.recv() == "joined", name
             self.conns[name] = conn
@@ -207,12 +225,17 @@ class Bench:
         return result
 
     def run_swarm(
-        self, egos: int, profile_to: Path | None, express: bool = False, rounds: int = 1
+        self,
+        egos: int,
+        profile_to: Path | None,
+        express: bool = False,
+        rounds: int = 1,
+        floors: bool = False,
     ) -> dict[str, Any]:
         """A swarm of `egos` and its windows; `express`: its poses in frames of their own;
         `rounds` > 1: the hear-everything and digest windows that many times, alternating
         (`rounds` in the result), so the two ways of hearing everything are compared on
-        medians rather than on one window each."""
+        medians rather than on one window each; `floors`: the floors' window too."""
         cmd = [sys.executable, "-m", "carlaverse", "swarm", "--egos", str(egos), "--session",
                SESSION, "--connect", self.endpoint, "--spread", f"{SPREAD_M:g}", "--block",
                f"{BLOCK_M:g}", "--origin", f"{ATTACH_M:g}", f"{ATTACH_M:g}", "--json",
@@ -231,6 +254,8 @@ class Bench:
             with self.hearing(digest=True):
                 again["digest"] = self.window(swarm.pid)
             result["rounds"].append(again)
+        if floors:
+            result["floors"] = self.floors(swarm.pid)
         swarm.send_signal(signal.SIGINT)
         out, _ = swarm.communicate(timeout=60)
         result["swarm"] = json.loads(out)
@@ -341,6 +366,8 @@ def section(
         "",
         rounds_part(runs[max(runs)], base, max(runs)),
         "",
+        floors_part(runs[max(runs)], base, max(runs), FLOOR_DRAIN_MS),
+        "",
         verdicts(runs, base),
     ]
     if express:
@@ -407,12 +434,14 @@ def main(argv: list[str] | None = None) -> int:
         try:
             bench.start()
             base = bench.both_windows(None, None)
+            base["floors"] = bench.floors(None)
             runs: dict[int, dict[str, Any]] = {}
             for n in args.egos:
                 raw = Path(tmp) / f"spy-{n}.txt"
                 largest = n == max(args.egos)
                 runs[n] = bench.run_swarm(n, raw if args.profile and largest else None,
-                                          rounds=args.rounds if largest else 1)  # fmt: skip
+                                          rounds=args.rounds if largest else 1,
+                                          floors=largest)  # fmt: skip
                 print(json.dumps({n: runs[n]}, default=str), file=sys.stderr)
             express = (
                 {express_n: bench.run_swarm(express_n, None, express=True)} if express_n else {}

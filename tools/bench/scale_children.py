@@ -166,24 +166,41 @@ def probe_main(
     session.close()
 
 
-def floor_main(endpoint: str, conn: Any) -> None:
+def floor_main(endpoint: str, conn: Any, drain_ms: float = 0.0) -> None:
     """The floor under `probe-all`: a bare zenoh-python subscriber to every pose of the
     session, whose callback only takes the payload's bytes (no project code). Its CPU per pose
-    is what any Python node pays to be handed a sample; the fabric's share is the rest."""
+    is what any Python node pays to be handed a sample; the fabric's share is the rest.
+
+    `drain_ms` > 0: no Python callback per sample; the samples wait in a Zenoh ring that a
+    thread drains every `drain_ms`, as the authority's intake takes them, to tell what a
+    sample costs from what a callback costs."""
     import zenoh
 
+    from carlaverse.authority.pose_intake import RING_CAPACITY
     from carlaverse.fabric.session import FabricSettings, open_session
     from carlaverse.keys import Keys
 
     session = open_session(FabricSettings(connect=[endpoint]))
     count = [0]
-
-    def on_sample(sample: zenoh.Sample) -> None:
-        sample.payload.to_bytes()
-        count[0] += 1
-
+    stop = threading.Event()
     key = Keys(SESSION).all_ego("pose")
-    subscriber = session.declare_subscriber(key, zenoh.handlers.Callback(on_sample))
+    if drain_ms > 0:
+        subscriber = session.declare_subscriber(key, zenoh.handlers.RingChannel(RING_CAPACITY))
+
+        def drain() -> None:
+            while not stop.wait(drain_ms / 1e3):
+                while (sample := subscriber.try_recv()) is not None:
+                    sample.payload.to_bytes()
+                    count[0] += 1
+
+        threading.Thread(target=drain, name="floor-drain", daemon=True).start()
+    else:
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            sample.payload.to_bytes()
+            count[0] += 1
+
+        subscriber = session.declare_subscriber(key, zenoh.handlers.Callback(on_sample))
     conn.send("joined")
     started_cpu = started_t = 0.0
     while (command := conn.recv()) != "quit":
@@ -192,6 +209,7 @@ def floor_main(endpoint: str, conn: Any) -> None:
         elif command == "stop":
             seconds = time.monotonic() - started_t
             conn.send({"seconds": seconds, "cpu_s": own_cpu_s() - started_cpu, "poses": count[0]})
+    stop.set()
     subscriber.undeclare()
     session.close()
 

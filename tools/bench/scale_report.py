@@ -182,6 +182,38 @@ def rounds_part(run: dict[str, Any], base: dict[str, Any], n: int) -> str:
     return "\n".join(rows)
 
 
+def floors_part(run: dict[str, Any], base: dict[str, Any], n: int, drain_ms: float) -> str:
+    """The floor taken two ways in one window: a Python callback per sample, and a Zenoh
+    ring drained in batches (no callback): whether the floor is the callback's or the
+    sample's."""
+    window, idle = run["floors"], base["floors"]
+    callback = _per_pose_us(window["floor"], idle["floor"])
+    ring = _per_pose_us(window["floor-ring"], idle["floor-ring"])
+    if min(callback[1], ring[1]) > TARGET_RX_US:
+        reading = (
+            f"Neither is below the {TARGET_RX_US:g} µs a pose may cost: being handed a sample "
+            "costs that much however it is taken, so only fewer samples per pose (the digest) "
+            "get below it."
+        )
+    else:
+        best = "the ring" if ring[1] <= callback[1] else "the callback"
+        reading = (
+            f"Taken through {best}, a sample costs less than the {TARGET_RX_US:g} µs a pose "
+            "may cost: a node could hear every pose a sample each within the target that way."
+        )
+    return (
+        f"Where the floor comes from, at N = {n}: two bare zenoh-python subscribers to every "
+        "pose, side by side in one window and both only taking each payload's bytes, one "
+        "with a Python callback per sample (the floor above), one whose samples wait in a "
+        f"Zenoh ring that a thread drains every {drain_ms:g} ms (as the authority's intake "
+        f"takes them; no Python callback): {callback[1]:.1f} µs and {ring[1]:.1f} µs per pose "
+        f"above idle ({callback[0]:.1f} and {ring[0]:.1f} all in; "
+        f"{window['floor']['poses'] / window['floor']['seconds']:,.0f} and "
+        f"{window['floor-ring']['poses'] / window['floor-ring']['seconds']:,.0f} poses/s). "
+        + reading
+    )
+
+
 def verdicts(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
     n = max(runs)
     w, h = runs[n]["session"], runs[n]["hearing"]
