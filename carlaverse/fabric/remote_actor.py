@@ -178,6 +178,13 @@ class RemoteActor:
         self._corr_t = 0.0
         self.samples_received = 0
         self._snaps = 0
+        # Rendering prunes the buffer (`past`, `present`); a view that never draws (an
+        # observer's stats, the launcher's presence watch, a scripted node) would otherwise
+        # keep every pose it hears: ~0.6 kB each, 12,800 a second at 256 egos. So `add` also
+        # drops what no render can reach: older than the newest sample by more than the
+        # longest render delay plus the history a render keeps. Halving the buffer once it
+        # holds twice that costs one comparison per sample.
+        self._keep_s = settings.max_delay_s + settings.history_s
 
     @property
     def snaps(self) -> int:
@@ -210,6 +217,8 @@ class RemoteActor:
             ts.append(t)
             self._poses.append(pose)
             self.projector.update(pose)
+            if t - ts[0] > 2 * self._keep_s:
+                self._prune(t - self._keep_s)
         else:
             i = bisect.bisect_right(ts, t)
             ts.insert(i, t)

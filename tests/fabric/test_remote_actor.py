@@ -381,3 +381,21 @@ def test_npcs_appearing_after_an_empty_batch_are_drawn_not_raised() -> None:
             true = paths[npc_id].pose_at(frame.t)
             assert math.hypot(frame.x[i] - true.x, frame.y[i] - true.y) < 0.1, (now, npc_id)
     assert sorted(world.npcs) == sorted(paths)
+
+
+def test_a_view_that_never_draws_keeps_a_bounded_buffer_and_still_draws_after() -> None:
+    # A minute at 50 Hz with no render in between: without pruning on arrival, 3000 samples.
+    actor = RemoteActor("a", S)
+    keep_s = S.max_delay_s + S.history_s
+    for k in range(3000):
+        t = k / 50
+        actor.add(CIRCLE.pose_at(t), t + 0.01)
+    assert len(actor._t) <= 2 * keep_s * 50 + 1
+    newest = 2999 / 50
+    assert actor._t[-1] == newest and actor._t[0] >= newest - 2 * keep_s
+    # The oldest time a past render may ask for (the longest delay) still interpolates.
+    render_t = newest + 0.01 - S.max_delay_s
+    view = actor.past(render_t, newest + 0.01)
+    assert view is not None and view.phase is Phase.INTERPOLATING
+    truth = CIRCLE.pose_at(render_t)
+    assert math.hypot(view.x - truth.x, view.y - truth.y) < 0.05
