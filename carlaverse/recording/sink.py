@@ -20,7 +20,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
 
-from mcap.writer import CompressionType, Writer
+from mcap.writer import CompressionType, IndexType, Writer
 
 from carlaverse.recording.encoding import MESSAGE_ENCODING, SCHEMA_ENCODING, KeyFormat
 from carlaverse.recording.scrub import (
@@ -37,6 +37,12 @@ DEFAULT_CHUNK_SIZE = 256 * 1024  # [B] uncompressed; small enough to lose little
 # costs a channel record and index entries, and anyone in an open session can invent keys.
 DEFAULT_MAX_CHANNELS = 4096
 _U64_END = 1 << 64
+# No message indexes: the writer keeps each chunk's index in memory until the file is closed,
+# and with them an entry per channel per chunk: at 256 egos (a chunk every 70 ms, ~256 pose
+# channels each) that grew the recorder by 1.4 GB an hour. Chunk indexes stay (time seeks
+# still skip to the right chunk); readers of a chunk without message indexes decompress it
+# whole, which is what this project's readers do anyway. `recover()` writes full indexes.
+INDEX_TYPES = IndexType.ALL & ~IndexType.MESSAGE
 
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
@@ -136,7 +142,10 @@ class McapSink:
         self._max_channels = max_channels
         self._file = UnbufferedFile(self.path)
         self._writer = Writer(
-            self._file, chunk_size=chunk_size, compression=_COMPRESSION[compression]
+            self._file,
+            chunk_size=chunk_size,
+            compression=_COMPRESSION[compression],
+            index_types=INDEX_TYPES,
         )
         self._writer.start(profile=PROFILE, library="carlaverse-recorder")
         self._schemas: dict[str, int] = {}
