@@ -16,12 +16,15 @@ from __future__ import annotations
 import queue
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 
 import numpy as np
 
 from carlaverse.audio.config import AudioConfig
 from carlaverse.audio.wav import WavWriter
+
+LATENCIES_KEPT = 72_000  # an hour of scenes at 20 Hz
 
 Clock = Callable[[], float]
 
@@ -65,7 +68,9 @@ class Output:
         self.clock = clock
         self.played = 0
         self.underruns = 0  # blocks the device wanted and the renderer had not made
-        self.latencies_s: list[float] = []
+        # per scene played (~20 Hz), the newest LATENCIES_KEPT: bounded over a long session,
+        # and appending never reallocates a growing list in the device's callback
+        self.latencies_s: deque[float] = deque(maxlen=LATENCIES_KEPT)
         self.device = ""
         self.started_at: float | None = None  # clock time the device began to play
         self._last_stamp: float | None = None

@@ -226,9 +226,9 @@ def _report(summary: AudioSummary, renderer: Any, output: Any, inbox: SceneInbox
     rendered_s = renderer.blocks * renderer.block / renderer.rate
     if rendered_s > 0:
         summary.cpu_per_audio_s = round(cpu_s / rendered_s, 3)
-    if output.latencies_s:
-        summary.latency_ms_p50 = round(percentile(output.latencies_s, 0.5) * 1e3, 1)
-        summary.latency_ms_p99 = round(percentile(output.latencies_s, 0.99) * 1e3, 1)
+    if latencies := list(output.latencies_s):
+        summary.latency_ms_p50 = round(percentile(latencies, 0.5) * 1e3, 1)
+        summary.latency_ms_p99 = round(percentile(latencies, 0.99) * 1e3, 1)
 
 
 def audio_report(summary: AudioSummary) -> dict[str, Any]:

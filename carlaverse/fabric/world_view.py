@@ -58,6 +58,9 @@ INBOX_LIMIT = 100_000  # beyond this the owner is not draining; oldest input is 
 TOMBSTONE_S = 30.0  # [s] a tombstone outlives any sample still in flight by far
 STATS_LIMIT = 1024  # per-sender statistics kept at most (present senders first)
 NOTICE_LIMIT = 32  # scenario messages waiting for the node's loop; older ones are dropped
+# Despawns kept for the summary; with interest areas every ego that drives out of a node's
+# tiles is one (`far`), so over a long session the oldest go.
+DESPAWN_LIMIT = 10_000
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,7 +87,7 @@ class WorldView:
         self.lights: LightsState | None = None
         self.weather: Weather | None = None
         self.stats: dict[str, StreamStats] = {}
-        self.despawns: list[Despawn] = []
+        self.despawns: deque[Despawn] = deque(maxlen=DESPAWN_LIMIT)
         self.seen: set[str] = set()  # every ego id ever rendered
         self._tombstones: dict[str, float] = {}
         # Poses count only from nodes with a presence token (or announced by the authority):

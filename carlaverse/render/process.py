@@ -22,6 +22,7 @@ import multiprocessing as mp
 import os
 import queue
 import time
+from collections import deque
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -35,6 +36,7 @@ from carlaverse.render.rig import RenderConfig
 log = logging.getLogger(__name__)
 
 OWN, FREE = "own", "free"
+FRAME_TIMES_KEPT = 216_000  # an hour at 60 frames/s
 CLOSE_TIMEOUT_S = 10.0  # [s] for the render process to finish its frame and report
 
 
@@ -66,7 +68,10 @@ class ViewSummary:
     eye_frames_resampled: bool = False  # the rig drew another size than the headset shows
     pid: int = 0  # of the render process (a test can check it is gone)
     error: str = ""
-    frame_times_s: list[float] = field(default_factory=list, repr=False)
+    # the newest FRAME_TIMES_KEPT frames' times: the percentiles above cover the last hour
+    frame_times_s: deque[float] = field(
+        default_factory=lambda: deque(maxlen=FRAME_TIMES_KEPT), repr=False
+    )
 
     def report(self) -> dict[str, Any]:
         """The summary without the raw frame times (for a node's exit report)."""
@@ -116,10 +121,11 @@ def run_view(spec: ViewSpec, stop: Any, results: Any) -> None:
         log.exception("the view of %s failed", spec.node.node_id)
         summary.error = f"{type(exc).__name__}: {exc}"
     finally:
-        times = summary.frame_times_s
+        times = list(summary.frame_times_s)
         if times:
             summary.frame_ms_p50 = round(percentile(times, 0.5) * 1e3, 2)
             summary.frame_ms_p99 = round(percentile(times, 0.99) * 1e3, 2)
+        summary.frame_times_s.clear()  # the node reads the percentiles, not the raw times
         results.put(summary)
 
 

@@ -399,3 +399,21 @@ def test_a_view_that_never_draws_keeps_a_bounded_buffer_and_still_draws_after() 
     assert view is not None and view.phase is Phase.INTERPOLATING
     truth = CIRCLE.pose_at(render_t)
     assert math.hypot(view.x - truth.x, view.y - truth.y) < 0.05
+
+
+def test_the_despawn_log_keeps_the_newest_within_its_bound(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # With interest areas every ego driving out of a node's tiles is a despawn (`far`): over
+    # hours the log would grow without end.
+    from carlaverse.fabric import world_view
+
+    monkeypatch.setattr(world_view, "DESPAWN_LIMIT", 50)
+    world = WorldView("me", S)
+    for k in range(80):
+        node_id, t = f"n{k}", k * 0.1
+        world.push_present(node_id)
+        world.push_pose(node_id, Pose(1, t, 0, 0), t)
+        world.push_gone(node_id, "left", t + 0.05)
+        world.update(t + 0.05)
+    assert [d.actor_id for d in world.despawns] == [f"n{k}" for k in range(30, 80)]
