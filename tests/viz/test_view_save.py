@@ -15,9 +15,16 @@ import pytest
 
 from carlaverse import cli, messages
 from carlaverse.keys import parse
+from carlaverse.recording.reading import iter_samples
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.sink import McapSink
-from carlaverse.recording.synthetic import ego_pose, light_state, npc_rows, synthetic_map
+from carlaverse.recording.synthetic import (
+    SyntheticSpec,
+    ego_pose,
+    light_state,
+    npc_rows,
+    synthetic_map,
+)
 from carlaverse.viz.scene import LIGHT_COLORS
 from tests.recording.conftest import World
 from tests.support import Proc, wait_until
@@ -40,46 +47,95 @@ def _published(world: World) -> dict[str, list]:
 
 # Interpolating a 50 Hz pose stream of a 10 m/s, 20 m-radius circle with Hermite is exact
 # to ~1e-5 m; what error there is comes from frames whose render time ran past the newest
-# sample (a late delivery on a loaded machine): dead reckoning along the tangent for dt is
-# off by v² dt² / 2r, 2.5 cm at dt = 0.1 s, and is then blended out over 0.1 s. So most
-# frames are within 1 cm, nearly all within 5 cm (dt <= 0.14 s); 0.4 m is the limit of a
-# 0.25 s extrapolation (v² dt² / 2r = 0.16 m) plus the float32 wire.
+# sample: dead reckoning along the tangent for dt is off by v² dt² / 2r, 2.5 cm at
+# dt = 0.1 s, and is then blended out over 0.1 s. So most frames are within 1 cm, nearly all
+# within 5 cm (dt <= 0.14 s); 0.4 m is the limit of a 0.25 s extrapolation
+# (v² dt² / 2r = 0.16 m) plus the float32 wire.
 MEDIAN_ERROR_M = 0.01  # [m]
 P95_ERROR_M = 0.05  # [m]
 MAX_ERROR_M = 0.4  # [m]
+# A sample that came late (sent or received late: a pause of the loaded test process or of
+# its delivery) leaves the view nothing to interpolate towards: it dead-reckons, as it must,
+# while the sample is missing. Frames drawn between such a sample and the one before are
+# held to MAX_ERROR_M only. Once, in a full suite run, a tenth of a 1.5 s recording's frames
+# were drawn up to 0.19 m off, what 0.27 s of dead reckoning gives. Late: sent or received
+# more than LATE_INTERVALS send intervals after the previous sample, at the typical latency.
+LATE_INTERVALS = 3
+POSE_INTERVAL_S = 1 / SyntheticSpec().pose_hz
+NPC_INTERVAL_S = 1 / SyntheticSpec().npc_hz
+
+Errors = tuple[list[float], list[float]]  # (frames with a sample to approach, frames without)
 
 
 def _errors(
-    boxes: list[dict], truth: Callable[[float], tuple[float, float]], span: tuple[float, float]
-) -> list[float]:
-    """Distance of each logged box (at its render time) from the scripted path then."""
-    out = []
+    boxes: list[dict],
+    truth: Callable[[float], tuple[float, float]],
+    span: tuple[float, float],
+    late: list[tuple[float, float]],
+) -> Errors:
+    """Distance of each logged box (at its render time) from the scripted path then, split
+    by whether its render time lies in a `late` span."""
+    judged: list[float] = []
+    excused: list[float] = []
     for row in boxes:
         t = row["sim_time"]
         if span[0] <= t <= span[1] and row.get("Boxes3D:centers"):
             x, y, _ = row["Boxes3D:centers"][0]
             tx, ty = truth(t)
-            out.append(math.hypot(x - tx, y - ty))
-    return out
+            error = math.hypot(x - tx, y - ty)
+            (excused if any(a < t < b for a, b in late) else judged).append(error)
+    return judged, excused
 
 
-def _assert_close(errors: list[float], what: str) -> None:
-    assert len(errors) >= 10, f"{what}: only {len(errors)} frames in the published span"
-    median, p95 = statistics.median(errors), statistics.quantiles(errors, n=20)[-1]
-    summary = f"{what}: median {median:.4f} m, p95 {p95:.4f} m, max {max(errors):.4f} m"
+def _late(
+    sent: list[float], received: list[float] | None, interval_s: float
+) -> list[tuple[float, float]]:
+    """(previous sample's time, its time) for each sample that came late; without receive
+    times (a live view), from the send times alone."""
+    received = sent if received is None else received
+    typical = statistics.median(r - t for t, r in zip(sent, received, strict=True))
+    limit = typical + LATE_INTERVALS * interval_s
+    return [
+        (sent[i - 1], sent[i]) for i in range(1, len(sent)) if received[i] - sent[i - 1] > limit
+    ]
+
+
+def _assert_close(errors: Errors, what: str) -> None:
+    judged, excused = errors
+    assert len(judged) >= 10, f"{what}: only {len(judged)} frames with a sample to approach"
+    assert len(excused) <= len(judged), f"{what}: {len(excused)} frames drawn with a sample late"
+    median, p95 = statistics.median(judged), statistics.quantiles(judged, n=20)[-1]
+    worst = max(judged + excused)
+    summary = (
+        f"{what}: median {median:.4f} m, p95 {p95:.4f} m, max {worst:.4f} m "
+        f"({len(excused)} frames drawn with a sample late: max only)"
+    )
     print(summary)
     assert median <= MEDIAN_ERROR_M, summary
     assert p95 <= P95_ERROR_M, summary
-    assert max(errors) <= MAX_ERROR_M, summary
+    assert worst <= MAX_ERROR_M, summary
 
 
-def _check_actors(rows: dict[str, list[dict]], published: dict[str, list], egos: list[str]) -> None:
-    """Every ego and NPC at the scripted truth at the render times the view logged it."""
+def _check_actors(
+    rows: dict[str, list[dict]],
+    published: dict[str, list],
+    egos: list[str],
+    received: dict[str, dict[float, float]] | None = None,
+) -> None:
+    """Every ego and NPC at the scripted truth at the render times the view logged it;
+    `received`: per ego (and `npc`), each sample's receive time by its time, if known."""
+
+    def late(what: str, sent: list[float], interval_s: float) -> list[tuple[float, float]]:
+        times = None if received is None else [received[what][t] for t in sent]
+        return _late(sent, times, interval_s)
+
     for i, node_id in enumerate(egos):
         poses = published[node_id]
         span = (poses[0].t, poses[-1].t)
         boxes = rows[f"/world/egos/{node_id}"]
-        errors = _errors(boxes, lambda t, i=i: _xy(ego_pose(i, 0, t)), span)
+        sent = sorted(p.t for p in poses)
+        errors = _errors(boxes, lambda t, i=i: _xy(ego_pose(i, 0, t)), span,
+                         late(node_id, sent, POSE_INTERVAL_S))  # fmt: skip
         _assert_close(errors, node_id)
         between = [r for r in boxes if not _has_sample(poses, r["sim_time"])]
         assert len(between) > len(boxes) // 2, "drawn at render times, not at the samples' times"
@@ -96,7 +152,23 @@ def _check_actors(rows: dict[str, list[dict]], published: dict[str, list], egos:
         boxes = rows[f"/world/npcs/{npc_id}"]
         assert boxes[0]["Boxes3D:labels"] == [npc_id]
         truth = lambda t, i=i: tuple(float(v) for v in npc_rows(count, t)[i][["x", "y"]])  # noqa: E731
-        _assert_close(_errors(boxes, truth, span), npc_id)
+        sent = sorted(b.t for b in batches)
+        _assert_close(_errors(boxes, truth, span, late("npc", sent, NPC_INTERVAL_S)), npc_id)
+
+
+def _received(mcap: Path) -> dict[str, dict[float, float]]:
+    """When the recorder received each pose (per ego) and NPC batch (`npc`), by its time."""
+    out: dict[str, dict[float, float]] = {}
+    for sample in iter_samples(mcap):
+        parsed = parse(sample.key)
+        if parsed.channel == "pose":
+            what, t = parsed.node_id, messages.POSE.decode(sample.payload).t
+        elif parsed.channel == "npc":
+            what, t = "npc", messages.NPC_BATCH.decode(sample.payload).t
+        else:
+            continue
+        out.setdefault(what, {})[t] = sample.log_time_ns / 1e9
+    return out
 
 
 def _check_raw(rows: dict[str, list[dict]], published: dict[str, list], egos: list[str]) -> None:
@@ -146,8 +218,13 @@ def _xy(pose: messages.Pose) -> tuple[float, float]:
     return pose.x, pose.y
 
 
-def _check_scene(rows: dict[str, list[dict]], published: dict[str, list], egos: list[str]) -> None:
-    _check_actors(rows, published, egos)
+def _check_scene(
+    rows: dict[str, list[dict]],
+    published: dict[str, list],
+    egos: list[str],
+    received: dict[str, dict[float, float]] | None = None,
+) -> None:
+    _check_actors(rows, published, egos, received)
     # light states: one point per controlled link, labelled and coloured by its state
     # (the synthetic light program is a function of time, snapshots included)
     light_rows = rows["/world/lights/J0"]
@@ -216,16 +293,16 @@ def test_view_renders_a_recording(world: World, tmp_path: Path) -> None:
         recorder.stop()
     finally:
         session.close()
-    published = _published(world)
+    published, received = _published(world), _received(mcap)
     rrd, raw_rrd = tmp_path / "from-mcap.rrd", tmp_path / "from-mcap-raw.rrd"
     assert cli.main(["view", str(mcap), "--save", str(rrd)]) == 0
     rows = rrd_rows(rrd)
-    _check_scene(rows, published, ["ego-0", "ego-1"])
+    _check_scene(rows, published, ["ego-0", "ego-1"], received)
     assert not [path for path in rows if path.startswith("/world/raw")], "raw only with --raw"
     assert cli.main(["view", str(mcap), "--save", str(raw_rrd), "--raw"]) == 0
     raw_rows = rrd_rows(raw_rrd)
     _check_raw(raw_rows, published, ["ego-0", "ego-1"])
-    _check_actors(raw_rows, published, ["ego-0", "ego-1"])
+    _check_actors(raw_rows, published, ["ego-0", "ego-1"], received)
 
 
 def test_view_refuses_without_an_output(capsys: pytest.CaptureFixture[str]) -> None:
