@@ -22,6 +22,8 @@ import numpy as np
 
 _SEQ = struct.Struct("<Q")
 HEADER = 8
+READ_TIMEOUT_S = 0.1  # [s] how long `read` retries before a writer mid-write counts as gone
+LATEST_TIMEOUT_S = 0.002  # [s] how long `read_latest` retries before using its last copy
 
 
 class TornRead(RuntimeError):
@@ -57,6 +59,8 @@ class SharedBlock:
         self._buf = self._shm.buf
         self._record = np.ndarray((), dtype=self.dtype, buffer=self._buf, offset=HEADER)
         self.retries = 0
+        self.stale_reads = 0  # `read_latest` calls answered with the previous copy
+        self._last: np.void | None = None
         if create:
             _SEQ.pack_into(self._buf, 0, 0)
             self._record[()] = np.zeros((), dtype=self.dtype)
@@ -81,14 +85,19 @@ class SharedBlock:
         _SEQ.pack_into(self._buf, 0, seq + 2)
 
     def write_fields(self, **fields: float | int) -> None:
-        """Update some fields, keeping the others (writer side only)."""
-        seq = _SEQ.unpack_from(self._buf, 0)[0]
-        _SEQ.pack_into(self._buf, 0, seq + 1)
-        for key, value in fields.items():
-            self._record[key] = value
-        _SEQ.pack_into(self._buf, 0, seq + 2)
+        """Update some fields, keeping the others (writer side only).
 
-    def read(self, timeout_s: float = 0.1) -> np.void:
+        The new record is built first and published by `write`, in one copy: the interpreter
+        can hand its lock to another thread between any two statements, and a writer caught
+        mid-write that way (a busy node process, a loaded machine) holds every reader off
+        until it runs again; a loop over the fields gave it a statement per field to be caught.
+        """
+        record = self._record.copy()
+        for key, value in fields.items():
+            record[key] = value
+        self.write(record)
+
+    def read(self, timeout_s: float = READ_TIMEOUT_S) -> np.void:
         """A consistent copy of the record; never blocks the writer.
 
         Spins briefly, then yields the CPU: if the writer was preempted mid-write (two cores,
@@ -110,6 +119,19 @@ class SharedBlock:
                 if now > deadline:
                     raise TornRead(f"shared block {self.name}: no consistent read in {timeout_s} s")
                 time.sleep(0)
+
+    def read_latest(self, timeout_s: float = LATEST_TIMEOUT_S) -> np.void:
+        """A consistent copy of the record or, when the writer has been mid-write for longer
+        than `timeout_s` (preempted), the last consistent copy this reader took, counted in
+        `stale_reads`. For loops: they keep their rate and never end on a torn read. Before
+        its first copy it waits as `read` does, and raises `TornRead` as it does."""
+        try:
+            self._last = self.read(timeout_s if self._last is not None else READ_TIMEOUT_S)
+        except TornRead:
+            if self._last is None:
+                raise
+            self.stale_reads += 1
+        return self._last
 
     def close(self) -> None:
         del self._record

@@ -111,7 +111,7 @@ class LoopHost:
             with self._state_lock:
                 if self._state is None:
                     return None  # not started, or closed: the node is ending
-                s = self._state.read()
+                s = self._state.read_latest()
             if not s["running"]:
                 return None  # no pose before the loop's first tick
             plane = {name: float(s[name]) for name in PLANAR}

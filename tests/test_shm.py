@@ -6,12 +6,14 @@ import multiprocessing as mp
 import os
 import subprocess
 import sys
+import time
 import uuid
 from pathlib import Path
 
 import numpy as np
+import pytest
 
-from carlaverse.shm import SharedBlock, new_record
+from carlaverse.shm import LATEST_TIMEOUT_S, SharedBlock, TornRead, new_record
 
 DTYPE = np.dtype([("a", "<f8"), ("b", "<f8"), ("c", "<i8"), ("pad", "<f8", (16,))])
 
@@ -48,6 +50,62 @@ def test_reads_are_never_torn_while_another_process_writes() -> None:
         assert len(seen) > 10  # we really did read while it wrote
     finally:
         writer.join(30)
+        block.close()
+
+
+def _stalled_writer(name: str, steps) -> None:  # type: ignore[no-untyped-def]
+    """Writes 1; on `go`, stops half-way through writing 2 (its sequence odd) until `resume`,
+    as a writer the scheduler or another thread of its process took the CPU from would."""
+    wrote, go, stalled, resume = steps
+    block = SharedBlock(name, DTYPE)
+    record = new_record(DTYPE)
+    record["c"] = 1
+    block.write(record)
+    wrote.set()
+    go.wait(30)
+    seq = block.sequence()
+    block._buf[:8] = (seq + 1).to_bytes(8, "little")  # a write begun
+    stalled.set()
+    resume.wait(30)
+    record["c"] = 2
+    block._record[()] = record
+    block._buf[:8] = (seq + 2).to_bytes(8, "little")  # and finished
+    block.close()
+
+
+def test_read_latest_answers_with_the_last_copy_while_the_writer_is_stalled_mid_write() -> None:
+    name = f"cv-test-{uuid.uuid4().hex[:8]}"
+    block = SharedBlock(name, DTYPE, create=True)
+    ctx = mp.get_context("spawn")
+    wrote, go, stalled, resume = steps = [ctx.Event() for _ in range(4)]
+    writer = ctx.Process(target=_stalled_writer, args=(name, steps))
+    fresh = SharedBlock(name, DTYPE)  # a reader that takes no copy before the stall
+    try:
+        writer.start()
+        assert wrote.wait(30)
+        assert int(block.read_latest()["c"]) == 1
+        go.set()
+        assert stalled.wait(30)
+        with pytest.raises(TornRead):
+            block.read(timeout_s=0.01)
+        with pytest.raises(TornRead):  # nothing to fall back on: it says so
+            fresh.read_latest()
+        took = []
+        for _ in range(5):
+            started = time.monotonic()
+            assert int(block.read_latest()["c"]) == 1
+            took.append(time.monotonic() - started)
+        assert block.stale_reads == 5
+        # a 1 kHz loop keeps its rate: a call waits its own budget, not `read`'s 0.1 s
+        assert min(took) < LATEST_TIMEOUT_S + 0.02, took
+        resume.set()
+        writer.join(30)
+        assert int(block.read_latest()["c"]) == 2 and block.stale_reads == 5
+    finally:
+        resume.set()
+        go.set()
+        writer.join(30)
+        fresh.close()
         block.close()
 
 

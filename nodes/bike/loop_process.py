@@ -126,7 +126,7 @@ class BikeRunner:
                 self.pending.append(event)
 
     def _read_control(self) -> None:
-        c = self.control.read()
+        c = self.control.read_latest()
         self.offset = float(c["clock_offset"])
         self.wind = (float(c["wind_speed_mps"]), float(c["wind_from_deg"]))
         self.loop.grade_percent = float(c["grade_percent"])

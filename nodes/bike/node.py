@@ -108,7 +108,7 @@ class BikeNode(LoopHost):
         """[%] at the bike's position and heading; the config's where the scenario is silent."""
         fallback = self.config.road.grade_percent
         assert self._state is not None
-        s = self._state.read()
+        s = self._state.read_latest()
         if self._grades is None or not s["running"]:
             return fallback
         grade = self._grades.at(float(s["x"]), float(s["y"]), float(s["yaw"]))

@@ -157,7 +157,7 @@ class _Runner:
                 self.touch.tap(event.action)
 
     def _read_control(self) -> None:
-        c = self.control.read()
+        c = self.control.read_latest()
         self.offset = float(c["clock_offset"])
         if int(c["spawn_seq"]) != self.spawn_seq:
             self.spawn_seq = int(c["spawn_seq"])

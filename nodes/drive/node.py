@@ -76,7 +76,7 @@ class DriveNode(LoopHost):
         self._tend_loop(client)
         assert self._state is not None
         self._forwarded += self._forward(client.impulses) + self._forward(client.overrides)
-        state = self._state.read()
+        state = self._state.read_latest()
         if self._hmi is not None:
             self._hmi.clock_offset = client.clock.offset
             self._forwarded += self._hmi.forward(self._events, now, float(state["speed_mps"]))

@@ -117,7 +117,7 @@ class WalkRunner:
             self.pacer.advance()
 
     def _read_control(self) -> None:
-        c = self.control.read()
+        c = self.control.read_latest()
         self.offset = float(c["clock_offset"])
         if int(c["spawn_seq"]) != self.spawn_seq:
             self.spawn_seq = int(c["spawn_seq"])
