@@ -3,6 +3,7 @@ pages in Chromium, and this test watching the fabric as another participant woul
 
 from __future__ import annotations
 
+import itertools
 import math
 import socket
 import threading
@@ -32,8 +33,12 @@ SLOW_MPS = 2.0  # [m/s] the scripted drive's slow-down, far below the driver's 1
 class Fabric:
     """What another participant sees of the car: its poses and ego states, as they arrive."""
 
+    _ids = itertools.count(1)
+
     def __init__(self, cluster: Cluster, node_id: str) -> None:
-        self.client = cluster.observer()
+        # An id of its own: the module's cluster keeps each test's observer until it ends,
+        # and a second "obs" would be refused its join.
+        self.client = cluster.observer(f"watch-{next(Fabric._ids)}")
         session = self.client.session
         keys = Keys("t")
         self._override_key = keys.override(node_id)
