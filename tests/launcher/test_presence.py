@@ -13,6 +13,11 @@ from carlaverse.launcher.presence import PresenceRow, SessionWatch
 from tests.support import Cluster, wait_until
 
 SITES = {"car-zh": "zurich", "car-be": "berlin"}
+# One-way latency is the watch's session time on arrival minus the sender's: two clocks, each
+# synchronised to the authority within half its best round trip. On loopback the true delay
+# (~0.3 ms) is of the same order, so a measured median can come out a little below zero
+# (-0.05 ms once in a full suite run); below this it would be a clock fault, not sync error.
+SYNC_ERROR_MS = 2.0
 
 
 @pytest.fixture
@@ -47,7 +52,7 @@ def test_watch_lists_nodes_with_their_sites_rates_and_loss(cluster: Cluster) -> 
     assert {node_id: row.site for node_id, row in rows.items()} == SITES
     for row in rows.values():
         assert row.kind == "scripted"
-        assert 0 <= row.latency_p50_ms <= row.latency_p99_ms < 1000  # loopback, loaded host
+        assert -SYNC_ERROR_MS <= row.latency_p50_ms <= row.latency_p99_ms < 1000  # loaded host
         assert 0 <= row.loss <= 1
     ordered = [r.node_id for r in watch.rows() if r.node_id in SITES]
     assert ordered == ["car-be", "car-zh"]  # by site: berlin before zurich
