@@ -157,6 +157,8 @@ class BikeRunner:
             "distance_m": round(self.distance_m, 2),
             "resistance_percent": round(float(self.record["resistance_percent"]), 2),
             "trainer": dict(getattr(self.trainer, "counters", {})),
+            # control reads answered with the last copy: the node's process stalled mid-write
+            "control_stale_reads": self.control.stale_reads,
         }
 
     def close(self) -> None:

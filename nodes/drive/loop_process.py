@@ -209,6 +209,8 @@ class _Runner:
             "impulses_applied": self.impulses,
             "impulses_dropped": self.loop.impulses_dropped,  # non-finite or impossible Δv
             "distance_m": round(self.distance_m, 2),
+            # control reads answered with the last copy: the node's process stalled mid-write
+            "control_stale_reads": self.control.stale_reads,
         }
 
     def close(self) -> None:

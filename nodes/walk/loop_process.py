@@ -172,6 +172,8 @@ class WalkRunner:
             "eyes_deg": _eyes_deg(self.headset.eye_fovs()),
             "eye_frames_presented": self.eye_frames if self.eyes is not None else None,
             **_shown(self.headset),
+            # control reads answered with the last copy: the node's process stalled mid-write
+            "control_stale_reads": self.control.stale_reads,
         }
 
     def close(self) -> None:

@@ -109,6 +109,7 @@ def test_impulse_from_the_fabric_changes_the_cars_motion(cluster: Cluster) -> No
     loop = summary["extra"]["loop"]
     assert loop["impulses_applied"] == 1 and loop["impulses_dropped"] == 0
     assert loop["ticks"] > 3000 and loop["distance_m"] > 10
+    assert isinstance(loop["control_stale_reads"], int)  # counted, and the loop lived on
 
 
 def _check_velocity_jump(poses: list[m.Pose], impulse_t: float) -> None:
