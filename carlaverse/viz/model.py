@@ -24,6 +24,10 @@ from carlaverse.viz.store import Batch, Sample
 log = logging.getLogger(__name__)
 
 DEFAULT_EXTENT = m.Extent()
+# Distinct nodes with stream statistics, and keys with bad payloads counted by name, at most
+# (the recorder's channel bound): past it, counted together under OTHERS.
+COUNTED_LIMIT = 4096
+OTHERS = "(other keys)"
 
 
 @dataclass(frozen=True, slots=True)
@@ -98,7 +102,9 @@ class WorldModel:
         try:
             msg = codec.decode(sample.payload)
         except m.MessageError as exc:
-            self.bad[key.path] += 1
+            # per key, up to a bound: anyone may invent keys (node ids) to send garbage on
+            path = key.path if key.path in self.bad or len(self.bad) < COUNTED_LIMIT else OTHERS
+            self.bad[path] += 1
             log.debug("dropping a bad %s payload: %s", key.path, exc)
             return
         self._dispatch(key.node_id, msg, sample.rx_t)
@@ -128,7 +134,12 @@ class WorldModel:
         """Stream health only: the view draws the actor from its own copy of the stream."""
         if node_id not in self.looks:
             self.newcomers = True  # learn its kind and extent
-        stats = self.nodes.setdefault(node_id, NodeStats(window_start=rx_t))
+        stats = self.nodes.get(node_id)
+        if stats is None:
+            if len(self.nodes) >= COUNTED_LIMIT:  # ids past the bound: invented, or a huge run
+                self.bad[OTHERS] += 1
+                return
+            stats = self.nodes[node_id] = NodeStats(window_start=rx_t)
         if self._latency_of is not None:
             stats.latency_s = self._latency_of(rx_t, pose.t)
 

@@ -12,7 +12,7 @@ import threading
 from collections import Counter
 from dataclasses import dataclass, field
 
-from carlaverse.keys import KeySpaceError, ParsedKey, parse
+from carlaverse.keys import KeySpaceError, ParsedKey, parse_cached
 
 # Channels whose every sample matters: discrete events and on-change state.
 EVENT_CHANNELS = {("world", "events"), ("world", "lights"), ("impulse", ""), ("ego", "state")}
@@ -48,8 +48,7 @@ class SampleStore:
         self._lock = threading.Lock()
         self._events_max = events_max
         self._batch = Batch()
-        self._parsed: dict[str, ParsedKey | None] = {}
-        self.unknown_keys = 0
+        self.unknown_keys = 0  # samples on keys outside the key space
 
     def offer(self, key: str, payload: bytes, rx_t: float, kind: str = "put") -> None:
         parsed = self._parse(key)
@@ -73,10 +72,10 @@ class SampleStore:
         return batch
 
     def _parse(self, key: str) -> ParsedKey | None:
-        if key not in self._parsed:
-            try:
-                self._parsed[key] = parse(key)
-            except KeySpaceError:
-                self._parsed[key] = None
-                self.unknown_keys += 1
-        return self._parsed[key]
+        # The shared bounded cache: a cache of its own kept every key ever seen, so a peer
+        # inventing keys grew the viewer without end.
+        try:
+            return parse_cached(key)
+        except KeySpaceError:
+            self.unknown_keys += 1
+            return None

@@ -62,3 +62,31 @@ def test_feed_drops_malformed_npc_batches_and_taps_raw_samples() -> None:
     feed.npc(m.NpcBatch.pack(3, 1.2, ["n1", "n2"], rows), 1.2)
     view.update(1.2)
     assert list(view.npcs) == ["n1", "n2"] and len(feed.raw.npcs) == 1
+
+
+def test_invented_keys_and_node_ids_do_not_grow_the_viewer(monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    # Anyone in an open session may publish on keys and node ids of their own making.
+    import tracemalloc
+
+    from carlaverse.viz import model
+
+    store = SampleStore()
+    store.offer("carlaverse/w/unknown/warm-up", b"x", 0.0)
+    tracemalloc.start()
+    try:
+        before = tracemalloc.get_traced_memory()[0]
+        for i in range(5000):
+            store.offer(f"carlaverse/w/unknown/{i}", b"x", 1.0)
+        grown = tracemalloc.get_traced_memory()[0] - before
+    finally:
+        tracemalloc.stop()
+    assert store.unknown_keys == 5001 and grown < 50_000, grown  # a key each kept: ~1 MB
+    monkeypatch.setattr(model, "COUNTED_LIMIT", 3)
+    world = WorldModel()
+    for i in range(5):
+        store.offer(KEYS.pose(f"bad{i}", "t0_0"), b"\x00garbage", 1.0)
+        store.offer(KEYS.pose(f"new{i}", "t0_0"), m.POSE.encode(m.Pose(1, 1.0, 0.0, 0.0)), 1.0)
+    world.apply(store.take())
+    assert list(world.nodes) == ["new0", "new1", "new2"]
+    assert world.bad == {"ego/bad0/pose/t0_0": 1, "ego/bad1/pose/t0_0": 1,
+                         "ego/bad2/pose/t0_0": 1, model.OTHERS: 4}  # fmt: skip
