@@ -1,13 +1,28 @@
-"""The scale benchmark's report: its tables and verdicts, from the windows' figures.
+"""The scale benchmark's report: its text, tables and verdicts, from the windows' figures.
 
 `bench_scale.py` runs the windows; each is a dict of the children's reports (see
-`Bench.window` there). Pure functions of those dicts, so a saved run can be reported again.
+`Bench.window` there). Pure functions of those dicts and of the layout (`scale_layout`), so a
+saved run can be reported again.
 """
 
 from __future__ import annotations
 
 from statistics import median
 from typing import Any
+
+from scale_layout import (
+    BLOCK_M,
+    DIGEST_SWEEP_MS,
+    FLOOR_DRAIN_MS,
+    GRID_JUNCTIONS,
+    MATE_OFFSET_M,
+    NEAR_RADIUS_M,
+    SPREAD_M,
+    TOWN_M,
+    VEHICLES,
+)
+
+from carlaverse.authority.pose_digest import DIGEST_PERIOD_S
 
 TARGET_TICK_P99_MS = 20.0
 TARGET_DELIVERY = 0.999
@@ -256,3 +271,101 @@ def verdicts(runs: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
          f"probe-all's {every['p99_ms']:.2f} ms"),
     ]  # fmt: skip
     return "\n".join(f"- {what}: {'met' if ok else 'MISSED'} ({got})." for what, ok, got in checks)
+
+
+def section(
+    runs: dict[int, dict[str, Any]],
+    base: dict[str, Any],
+    profile: str,
+    express: dict[int, dict[str, Any]] | None = None,
+) -> str:
+    sync = max(r["hearing"]["probe-all"]["sync_ms"] for r in runs.values())
+    ba, bh = base["session"]["authority"], base["hearing"]["authority"]
+    parts = [
+        f"One router, one authority running a generated {GRID_JUNCTIONS} × {GRID_JUNCTIONS} "
+        f"grid town ({BLOCK_M:g} m blocks, {TOWN_M / 1000:g} km across) with {VEHICLES} NPC "
+        f"vehicles requested ({ba['npcs']} present), real nodes standing at its centre and "
+        f"`carlaverse swarm --egos N` driving blocks of the same street grid over "
+        f"{SPREAD_M / 1000:g} km × {SPREAD_M / 1000:g} km at 50 Hz per ego: every ego joins and "
+        "is in the collision matrix; those on the town's streets are carried in SUMO, the "
+        "others SUMO cannot place (retried each second). SUMO runs in a process of its own "
+        "beside the authority (`traffic.sumo_process`, the default), its CPU in a column of "
+        "its own. Swarm egos render no audio, so "
+        "the authority builds no audio scenes for them (it builds a listener's only while "
+        "something subscribes to its audio key; 256 listeners' scenes are costed under "
+        "Authority audio emitters). All on this machine over "
+        f"loopback TCP, {runs[max(runs)]['session']['probe-near']['seconds']:.0f} s windows. "
+        "Three windows per N, one after the other on the same swarm: the **session** window has "
+        f"one real node as a participant has it, `probe-near` with the default "
+        f"{NEAR_RADIUS_M:g} m interest radius (it subscribes to the map tiles around it), with "
+        f"a second participant, `probe-mate`, standing {MATE_OFFSET_M:g} m from it; the "
+        "**hear-everything** window adds `probe-all`, a node with no interest radius that is "
+        "handed every pose of the session, and a bare zenoh-python subscriber to the poses "
+        "(the floor under any Python node's receive cost when it takes a sample per pose); "
+        "a third, the **digest** window, has the floor again beside `probe-digest`, the same "
+        "node taking the poses through the authority's pose digest (`pose_digest: true`: "
+        f"every pose relayed on `world/@egos`, gathered for {DIGEST_PERIOD_S * 1e3:g} ms a "
+        "message; the window runs once per relay period, "
+        f"{', '.join(f'{ms:g}' for ms in DIGEST_SWEEP_MS)} ms, and the tables give the "
+        f"shipped {DIGEST_PERIOD_S * 1e3:g} ms but the one that compares them). On two cores "
+        "the two processes of either window take a core's worth of CPU at N = 256, which is "
+        "why the authority's tick is "
+        f"shown beside them too. Without a swarm the authority ticked at p50 {ba['p50']:.2f} / "
+        f"p99 {ba['p99']:.2f} ms with {ba['overruns']} overruns (p99 {bh['p99']:.2f} ms, "
+        f"{bh['overruns']} overruns beside probe-all). Read every figure against the load "
+        "average above: a swarm that cannot send its 50 Hz (the percentage in the second "
+        "column) and ticks far over 20 ms measure the machine's contention more than the "
+        "fabric.",
+        "",
+        "One-way latency is a probe's session time on arrival minus the pose's session time "
+        f"(both clocks synchronised to the authority; sync bound ≤ {sync:.2f} ms); delivery is "
+        "poses received over sequence numbers spanned per sender.",
+        "",
+        scale_table(runs, base),
+        "",
+        stalls(runs),
+        "",
+        "Receiving everything (the hear-everything windows): CPU per pose is the probe's "
+        "process CPU over poses received (all in: its own pose, clock sync and the NPC "
+        "batches too) and the same above its CPU in the window without swarm.",
+        "",
+        receive_table(runs, base),
+        "",
+        "Interest management: `probe-near` hears only the tiles around it; `probe-all` "
+        "and `probe-digest` hear everything.",
+        "",
+        interest_table(runs),
+        "",
+        f"The digest's period trades CPU against delay: the digest window at N = {max(runs)} "
+        "run once per period, one after the other on the same swarm (the shipped "
+        f"`--digest-ms` is {DIGEST_PERIOD_S * 1e3:g}).",
+        "",
+        digest_table(runs[max(runs)], base, DIGEST_SWEEP_MS),
+        "",
+        rounds_part(runs[max(runs)], base, max(runs)),
+        "",
+        floors_part(runs[max(runs)], base, max(runs), FLOOR_DRAIN_MS),
+        "",
+        verdicts(runs, base),
+    ]
+    if express:
+        parts += ["", express_part(express, base)]
+    if profile:
+        parts += ["", profile]
+    return "\n".join(parts)
+
+
+def express_part(express: dict[int, dict[str, Any]], base: dict[str, Any]) -> str:
+    """The same windows while every pose travels in a frame of its own."""
+    return "\n".join([
+        "A swarm is one process, so its egos' poses share frames on every link, which N "
+        "machines with links of their own would not: receiving them is cheaper here than in "
+        "such a session. The same windows once more with `carlaverse swarm --express` (every "
+        "pose in a frame of its own), after the runs above, on the same router and authority:",
+        "",
+        scale_table(express, base),
+        "",
+        receive_table(express, base),
+        "",
+        verdicts(express, base),
+    ])  # fmt: skip
