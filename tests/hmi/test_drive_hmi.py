@@ -184,7 +184,9 @@ def test_cruise_set_and_cancel_from_the_touchscreen(
         return fabric.state_holds(lambda s: s.adas != "")
 
     wait_until(adas_on_fabric, 10, "the cruise override in the car's EgoState.adas")
-    page.wait_for_function("hmi.last.cruise_active && hmi.last.cruise_speed_mps > 5")
+    # `hmi.drawn`, not `hmi.last`: widgets draw the newest values at the next display frame,
+    # so right after `last` changes the readout can still show the frame before (it did once)
+    page.wait_for_function("hmi.drawn?.cruise_active && hmi.drawn.cruise_speed_mps > 5")
     readout = page.locator('.cruise_panel [data-readout="cruise"]')
     assert readout.text_content().startswith("holding ")
     save_screenshot(page, screenshot_dir, "hmi-drive-cruise")
