@@ -169,15 +169,18 @@ class Authority:
 
     def close(self) -> None:
         self._stop.set()
-        if self._token is not None:
-            self._token.undeclare()
-            self._token = None
         if self.digest is not None:
             self.digest.close()
             self.digest = None
+        # The reverse of start(): queryables go before the token. A node that hears the
+        # token's DELETE asks to join again at once; were the join queryable still up, this
+        # closing authority would accept it and the node would stay joined to no one.
         for entity in self._entities:
             entity.undeclare()  # type: ignore[attr-defined]
         self._entities.clear()
+        if self._token is not None:
+            self._token.undeclare()
+            self._token = None
         self.domain.close()
 
     @property
@@ -269,6 +272,8 @@ class Authority:
             return None
 
     def _on_join(self, query: zenoh.Query) -> None:
+        if self._stop.is_set():
+            return  # closing: no reply, so the node asks again and finds the next authority
         req = self._request(query, "join")
         if not isinstance(req, m.JoinRequest):
             return

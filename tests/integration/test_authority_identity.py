@@ -6,17 +6,19 @@ session forges well-formed world messages and impulses.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Iterator
 
 import numpy as np
 import pytest
+import zenoh
 
 from carlaverse import messages as m
 from carlaverse.authority.service import Authority
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import JoinRefused, NodeClient, NodeSettings
 from carlaverse.fabric.session import FabricSettings, open_session
-from carlaverse.keys import Keys
+from carlaverse.keys import AUTHORITY_ID, Keys
 from tests.support import Cluster, wait_until
 
 KEYS = Keys("t")
@@ -114,6 +116,39 @@ def test_impulses_are_deduplicated_by_authority_and_contact_across_a_restart(rig
     wait_until(lambda: node.counters().impulses_accepted == 2, 5, "the new authority's impulse")
     assert [i.contact_id for i in node.impulses] == [1, 1]
     assert node.counters().rejected["impulse/duplicate"] == 1
+
+
+def test_a_closing_authority_accepts_no_join_once_its_token_is_gone(rig: Rig) -> None:
+    """A node asks to join again the moment it hears the authority's token go. Were the
+    closing authority to accept it, the node would stay joined to no one (a full suite once
+    saw it: a node that never noticed its authority had left)."""
+    authority = rig.start_authority()
+    request = m.JoinRequest(m.SCHEMA_VERSION, "late", "i1", "observer", actor_kind="")
+    payload = m.JOIN_REQUEST.encode(request)
+    accepted: list[bool] = []
+    done = threading.Event()
+
+    def on_reply(reply: zenoh.Reply) -> None:
+        if reply.ok is not None:
+            accepted.append(m.JOIN_REPLY.decode(reply.ok.payload.to_bytes()).accepted)
+
+    def on_presence(sample: zenoh.Sample) -> None:
+        # As a node does, but sooner: asked on Zenoh's network thread, the instant the
+        # DELETE arrives (a callback handler: the query does not block this thread).
+        if (
+            str(sample.key_expr) == KEYS.node(AUTHORITY_ID)
+            and sample.kind == zenoh.SampleKind.DELETE
+        ):
+            replies = zenoh.handlers.Callback(on_reply, drop=done.set, indirect=False)
+            rig.outsider.get(KEYS.authority("join"), replies, payload=payload, timeout=2.0)
+
+    presence = zenoh.handlers.Callback(on_presence, indirect=False)
+    rig.outsider.liveliness().declare_subscriber(KEYS.all_nodes, presence)
+    before = list(rig.outsider.get(KEYS.authority("join"), payload=payload, timeout=5.0))
+    assert [m.JOIN_REPLY.decode(r.ok.payload.to_bytes()).accepted for r in before] == [True]
+    authority.close()
+    assert done.wait(5), "the join asked on the token's DELETE to finish"
+    assert accepted == []
 
 
 def test_a_node_despawned_for_silence_is_told_and_joins_again(rig: Rig) -> None:
