@@ -235,6 +235,9 @@ class Inbound:
             if alive:
                 self._appeared()
             else:
+                # The authority we joined is gone: what a next one says before we join it is
+                # early (`before_join`), not forged (`not_from_authority`).
+                self.authority_id = ""
                 self._lost()
         elif node_id != self.node_id:
             if alive:

@@ -118,6 +118,22 @@ def test_impulses_are_deduplicated_by_authority_and_contact_across_a_restart(rig
     assert node.counters().rejected["impulse/duplicate"] == 1
 
 
+def test_world_messages_between_two_authorities_are_early_not_forged(rig: Rig) -> None:
+    """Once the joined authority's token goes, what comes before the next join cannot be
+    checked against anyone: it is dropped and counted as early (`before_join`), not as
+    forged; a new authority's first ticks would otherwise read as an attack."""
+    rig.start_authority()
+    node = rig.node("drv", kind="observer", actor_kind="").start()
+    assert node.wait_joined(10)
+    rig.stop_authority()
+    wait_until(lambda: not node.joined.is_set(), 5, "the node to notice the authority left")
+    weather = m.WEATHER.encode(m.Weather(1, 0.0, cloudiness=1.0))
+    rig.outsider.put(KEYS.world("weather"), weather)
+    wait_until(lambda: node.counters().before_join.get("weather"), 5, "the early weather")
+    assert not [k for k in node.counters().rejected if k.endswith("/not_from_authority")]
+    assert node.world.weather is None
+
+
 def test_a_closing_authority_accepts_no_join_once_its_token_is_gone(rig: Rig) -> None:
     """A node asks to join again the moment it hears the authority's token go. Were the
     closing authority to accept it, the node would stay joined to no one (a full suite once
