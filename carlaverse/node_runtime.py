@@ -11,8 +11,9 @@ A node kind (registered under the entry-point group `carlaverse.nodes`) is a cla
     def report(self) -> dict[str, object]          # extra fields for the exit summary
 
 `run_node` owns the rest: opening the session, joining, the loop, a clean exit. Until the
-authority admits the node it says (through `on_wait`) what it waits for; `duration_s` bounds
-the whole run, waiting included.
+authority admits the node it says (through `on_wait`) what it waits for, and after, what it
+lost mid-session (the authority, the router) and when that is back: the node's own loop runs
+on meanwhile. `duration_s` bounds the whole run, waiting included.
 """
 
 from __future__ import annotations
@@ -149,18 +150,19 @@ def run_node(
             client = NodeClient(
                 session, node_settings, MonotonicClock(), config_yaml=redact_yaml(to_yaml(config))
             )
-            wait = SessionWait(session, fabric, client.keys)
+            notice = WaitNotice(SessionWait(session, fabric, client.keys), say)
             try:
                 client.start(pose_source=node.pose_source())
-                missing = _wait_admitted(client, WaitNotice(wait, say), stop, limits)
+                missing = _wait_admitted(client, notice, stop, limits)
                 if not missing:
+                    notice.watch()  # an authority that goes mid-session is said, and its return
                     _loop(node, client, limits, stop, 1.0 / loop_hz, on_notice)
                 close_node()  # first: its report (e.g. the control loop's timing) is final
                 client.close()  # then publishing stops, so the counts below are final too
                 summary = _summary(node, client, time.monotonic() - limits.started)
                 return msgspec.structs.replace(summary, waiting_for=missing)
             finally:
-                wait.close()
+                notice.close()
                 client.close()
         finally:
             session.close()

@@ -112,6 +112,14 @@ class WaitNotice:
             self.say(message)
             self.said, self.spoke = None, False
 
+    def watch(self) -> WaitNotice:
+        """From now on, poll from a thread after a fresh grace period: for a process that
+        was admitted and runs on, so that a router or authority that goes mid-session is
+        said, and its return. The grace restarts because a join reply can come before the
+        authority's token."""
+        self.started = self.clock()
+        return self.start()
+
     def start(self) -> WaitNotice:
         """Poll from a daemon thread until close(): for processes whose loop is not ours."""
         self._thread = threading.Thread(target=self._run, name="wait-notice", daemon=True)

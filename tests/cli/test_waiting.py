@@ -80,6 +80,33 @@ def test_node_names_the_missing_authority_then_joins_when_it_comes(
     assert node.json()["joined"] is True
 
 
+def test_a_joined_node_says_when_its_authority_goes_and_comes_back(cluster: Cluster) -> None:
+    """Mid-session, the node runs on without its authority, and its operator is told: one
+    line when the authority goes, one when it is back; and the node joins again."""
+    cluster.router()
+    first = cluster.authority()
+    node = cluster.start(
+        "join", "observer", "--id", "o", "--session", "t", "--connect", cluster.endpoint,
+        "--json", "-v", name="node",
+    )  # fmt: skip
+    wait_until(lambda: "(join #1)" in node.output(), 20, "the first join")
+    assert first.stop(signal.SIGINT) == 0, first.output()
+    gone = f"carlaverse join: waiting for the authority of session 't' via {cluster.endpoint}"
+    wait_until(lambda: gone in node.output(), 10, "the line saying it went")
+    cluster.authority()
+    back = "carlaverse join: reached the router and the authority of session 't'"
+    wait_until(lambda: back in node.output(), 20, "the line saying it is back")
+    wait_until(lambda: "(join #2)" in node.output(), 20, "the second join")
+    code, _ = _exit_after(node, signal.SIGINT)
+    assert code == 0, node.output()
+    summary = node.json()
+    assert summary["joins"] == 2
+    # the new authority's messages before the re-join are early, not forged
+    assert not [k for k in summary["rejected"] if k.endswith("/not_from_authority")], summary
+    said = [line.strip() for line in node.stderr if line.startswith("carlaverse join: ")]
+    assert len(said) == 2 and said[0].startswith(gone) and said[1] == back, said
+
+
 @pytest.mark.parametrize("mode", ["client", "peer"])
 def test_duration_bounds_the_run_waiting_included(mode: str) -> None:
     endpoint = _dead_endpoint()
