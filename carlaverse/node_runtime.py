@@ -157,6 +157,7 @@ def run_node(
                 if not missing:
                     notice.watch()  # an authority that goes mid-session is said, and its return
                     _loop(node, client, limits, stop, 1.0 / loop_hz, on_notice)
+                notice.close()  # silent from here: the authority may stop beside us
                 close_node()  # first: its report (e.g. the control loop's timing) is final
                 client.close()  # then publishing stops, so the counts below are final too
                 summary = _summary(node, client, time.monotonic() - limits.started)

@@ -40,7 +40,7 @@ class SessionWait:
         self.keys = keys
         self.authority = threading.Event()
         # history=True: a token declared before we subscribed is delivered at once.
-        self._sub = session.liveliness().declare_subscriber(
+        self._sub: zenoh.Subscriber | None = session.liveliness().declare_subscriber(
             keys.node(AUTHORITY_ID), self._on_authority, history=True
         )
 
@@ -70,7 +70,9 @@ class SessionWait:
         return None
 
     def close(self) -> None:
-        self._sub.undeclare()
+        if self._sub is not None:
+            self._sub.undeclare()
+            self._sub = None
 
 
 class WaitNotice:
