@@ -79,7 +79,7 @@ class NodeSummary(msgspec.Struct):
     extra: dict[str, Any] = {}
     # Never admitted: what it was still waiting for when stopped or out of time.
     waiting_for: str = ""
-    before_join: dict[str, int] = {}  # world messages that came before the authority was known
+    before_join: dict[str, int] = {}  # world messages that came while no authority was joined
 
 
 class UnknownNodeKind(LookupError):

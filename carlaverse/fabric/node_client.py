@@ -56,7 +56,7 @@ class FabricCounters(msgspec.Struct, frozen=True):
     rejected: dict[str, int]  # well-formed but refused, by `<channel>/<why>`
     handler_errors: dict[str, int]  # unexpected exceptions in callbacks, by handler
     impulses_accepted: int  # impulses handed to the node after de-duplication
-    before_join: dict[str, int] = {}  # world messages ignored before the authority was known
+    before_join: dict[str, int] = {}  # world messages ignored while no authority was joined
 
 
 class NodeSettings(StrictStruct):
