@@ -88,6 +88,12 @@ class Lab:
             return []
         return [row for row in self.watch.rows() if row.node_id != self.watch.settings.node_id]
 
+    def authority_line(self) -> str:
+        """Whether the session's authority runs, in one line for the page."""
+        if self.watch is None:
+            return f"session {self.session!r} is watched once a router runs here"
+        return self.watch.authority_line()
+
     def close(self) -> None:
         """Stop every child and the watch; nothing the launcher started is left running."""
         self.supervisor.stop_all()

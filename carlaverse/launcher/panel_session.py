@@ -168,11 +168,13 @@ def _presence(lab: Lab) -> None:
         ui.label("as `carlaverse stats` measures it: pose rate, one-way latency, loss").classes(
             "text-xs text-gray-500"
         )
+        authority = ui.label(lab.authority_line()).props("data-testid=authority-status")
         table = ui.table(rows=[], columns=PRESENCE_COLUMNS, row_key="node_id")
         table.classes("w-full").props("dense flat data-testid=presence")
         table.props('no-data-label="nobody is in the session"')
 
     def refresh() -> None:
+        authority.text = lab.authority_line()
         rows = [_presence_row(r) for r in lab.presence()]
         if rows != table.rows:
             table.rows = rows

@@ -19,7 +19,13 @@ from carlaverse import messages as m
 from carlaverse.cli.stats import summaries
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricError, FabricSettings, open_session, reachable
+from carlaverse.fabric.session import (
+    FabricError,
+    FabricSettings,
+    open_session,
+    reachable,
+    reaches_anyone,
+)
 from carlaverse.fabric.stats import StreamSummary
 
 log = logging.getLogger(__name__)
@@ -51,6 +57,7 @@ class SessionWatch:
             node_id=observer_id, session=session, kind="observer", actor_kind=""
         )
         self.error = ""
+        self._client: NodeClient | None = None  # set once the session is open
         self._rows: list[PresenceRow] = []
         self._roster: dict[str, m.EgoInfo] = {}
         self._lock = threading.Lock()
@@ -65,6 +72,22 @@ class SessionWatch:
         with self._lock:
             return list(self._rows)
 
+    def authority_line(self) -> str:
+        """One line: whether the session's authority is there, as this watch sees it now
+        (joined to it means it runs; a watch that lost it is waiting to join again)."""
+        client, session = self._client, self.session_name
+        if self.error:
+            return self.error
+        if client is None:
+            return f"connecting to the router at {self.endpoint}"
+        if not reaches_anyone(client.session):
+            return f"the router at {self.endpoint} does not answer (retrying)"
+        if client.refused is not None:
+            return f"the authority of session {session!r} refused this watch: {client.refused}"
+        if client.joined.is_set():
+            return f"the authority of session {session!r} is running"
+        return f"no authority of session {session!r} is running (start one, or a demo)"
+
     def close(self) -> None:
         self._stop.set()
         self._thread.join(timeout=10.0)
@@ -75,7 +98,7 @@ class SessionWatch:
         except FabricError as exc:
             self.error = str(exc)
             return
-        client = NodeClient(session, self.settings, MonotonicClock()).start()
+        client = self._client = NodeClient(session, self.settings, MonotonicClock()).start()
         try:
             self._observe(client)
         finally:

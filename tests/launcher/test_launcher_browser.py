@@ -74,6 +74,7 @@ def test_demo_shows_its_nodes_and_stop_leaves_nothing_running(
         SEEN_TIMEOUT_S,
         f"{DEMO_NODES} in the presence table with a pose rate",
     )
+    shows(page.get_by_test_id("authority-status"), "the authority of session 'lab' is running")
     page.get_by_test_id("processes").get_by_text("authority", exact=True).first.click()
     shows(page.get_by_test_id("log"), "--scenario none")  # the demo's choice
     shows(page.get_by_test_id("log"), "authority of session 'lab' ticking")  # its own output
@@ -86,6 +87,7 @@ def test_demo_shows_its_nodes_and_stop_leaves_nothing_running(
     wait_until(lambda: not _session_children(launcher), 15, "no session process left")
     wait_until(lambda: not any(n in presence.inner_text() for n in DEMO_NODES), 15, "nobody listed")
     assert _session_children(launcher) == []
+    shows(page.get_by_test_id("authority-status"), "does not answer")  # the router went too
     save_screenshot(page, screenshot_dir, "launcher-stopped")
 
 

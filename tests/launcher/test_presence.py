@@ -56,3 +56,23 @@ def test_watch_lists_nodes_with_their_sites_rates_and_loss(cluster: Cluster) -> 
         assert 0 <= row.loss <= 1
     ordered = [r.node_id for r in watch.rows() if r.node_id in SITES]
     assert ordered == ["car-be", "car-zh"]  # by site: berlin before zurich
+
+
+def test_watch_says_whether_the_authority_runs_and_when_the_router_is_gone(
+    cluster: Cluster,
+) -> None:
+    router = cluster.router()
+    watch = SessionWatch(cluster.endpoint, "t", observer_id="launcher-test").start()
+    try:
+        absent = "no authority of session 't' is running (start one, or a demo)"
+        wait_until(lambda: watch.authority_line() == absent, 20, "the missing authority")
+        authority = cluster.authority()
+        running = "the authority of session 't' is running"
+        wait_until(lambda: watch.authority_line() == running, 30, "the authority")
+        assert authority.stop() == 0, authority.output()
+        wait_until(lambda: watch.authority_line() == absent, 20, "the authority gone")
+        router.stop()
+        gone = f"the router at {cluster.endpoint} does not answer (retrying)"
+        wait_until(lambda: watch.authority_line() == gone, 20, "the router gone")
+    finally:
+        watch.close()
