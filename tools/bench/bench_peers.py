@@ -84,7 +84,8 @@ def measure(
         for name in names[k % len(names) :] + names[: k % len(names)]:
             outcome = "done"
             try:
-                runs[name].append(run_once(name, args.rate, args.seconds, args.receivers))
+                result = run_once(name, args.rate, args.seconds, args.receivers)
+                runs[name].append(result | {"round": k + 1})
             except RunFailed as exc:
                 failed.append(f"round {k + 1}, {load(name).label}: {exc}")
                 outcome = f"FAILED: {exc}"
@@ -159,7 +160,7 @@ def main(argv: list[str] | None = None) -> int:
     runs, failed = measure(args, names)
     rows = [pool(name, runs[name]) for name in names if runs[name]]
     lines = [workload(args), versions(), *([VARIANTS] if args.diagnose else [])]
-    lines += ["", *table(rows), "", *verdict(rows), *split(rows, runs)]
+    lines += ["", *table(rows), "", *verdict(rows, runs), *split(rows, runs)]
     lines += [f"- Not run: {reason}." for reason in not_run]
     lines += [f"- Failed run (left out): {why}." for why in failed]
     if args.diagnose:
