@@ -95,8 +95,8 @@ def verdict(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]
 
     Judged on the pooled rounds; each round's own ratio follows, as the pose path and
     CycloneDDS ran minutes apart within a round while the machine's speed drifts between
-    rounds (CycloneDDS's p50 ranged from 0.52 to 0.73 ms over eight runs in 35 minutes of
-    one afternoon on the 2-core machine of docs/benchmarks.md).
+    rounds (on the 2-core machine of docs/benchmarks.md, CycloneDDS's p50 ranged from 0.52
+    to 0.73 ms over eight runs in ten minutes, and from 0.28 to 0.73 ms within the hour).
     """
     by_name = {r.name: r for r in rows}
     if "dds" not in by_name:
