@@ -78,6 +78,8 @@ class SessionWatch:
         client, session = self._client, self.session_name
         if self.error:
             return self.error
+        if self._stop.is_set():
+            return f"session {session!r} is no longer watched"
         if client is None:
             return f"connecting to the router at {self.endpoint}"
         if not reaches_anyone(client.session):
@@ -102,6 +104,7 @@ class SessionWatch:
         try:
             self._observe(client)
         finally:
+            self._client = None  # the page may still ask authority_line(): not of a closed session
             client.close()
             session.close()
 
