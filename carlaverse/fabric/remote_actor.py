@@ -212,7 +212,9 @@ class RemoteActor:
             return  # duplicate or too old to matter
         self.samples_received += 1
         self.timing.observe(t, rx_t)
-        before = self._raw_at_last_render()
+        # Only a view drawn in the past (`past`) has a render a new sample can correct; in
+        # present mode there is none, and neither call is made (this runs once per pose).
+        before = None if self._last_render_t is None else self._raw_at_last_render()
         if newest:  # nearly every sample: in order, so no search
             ts.append(t)
             self._poses.append(pose)
@@ -223,7 +225,8 @@ class RemoteActor:
             i = bisect.bisect_right(ts, t)
             ts.insert(i, t)
             self._poses.insert(i, pose)
-        self._correct(before, pose, rx_t)
+        if before is not None or pose.flags & POSE_FLAG_TELEPORT:
+            self._correct(before, pose, rx_t)
 
     def _raw_at_last_render(self) -> _Vec4 | None:
         t = self._last_render_t

@@ -39,16 +39,19 @@ class StreamStats:
         self.last_rx_t = float("nan")
 
     def add(self, seq: int, sent_t: float, rx_t: float) -> None:
+        # Once per pose of every sender a node hears: plain comparisons, no helper calls.
         transit = rx_t - sent_t
-        if self._last_transit is not None:
-            self._jitter += (abs(transit - self._last_transit) - self._jitter) / 16
+        last = self._last_transit
+        if last is not None:
+            self._jitter += (abs(transit - last) - self._jitter) * 0.0625  # gain 1/16
         self._last_transit = transit
         self._latency.append(transit)
         self._rx.append(rx_t)
         self.count += 1
         if self._first_seq is None:
             self._first_seq = seq
-        self._max_seq = max(self._max_seq, seq)
+        if seq > self._max_seq:
+            self._max_seq = seq
         self.last_rx_t = rx_t
 
     def summary(self, now: float) -> StreamSummary:

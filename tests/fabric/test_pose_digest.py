@@ -38,6 +38,22 @@ def test_rows_decode_as_single_poses_and_bad_rows_are_none() -> None:
         m.decode_pose_rows(good[0][:-1])
 
 
+def test_rows_that_are_all_good_decode_field_for_field_as_single_poses() -> None:
+    # The common case takes a path of its own (no row refused): every field, its type too.
+    poses = [
+        m.Pose(7 + i, 1.7e9 + i / 3, i - 0.5, 2.25, 0.5, 0.1, -0.2, 1.5, 3.0, -1.0, 0.5,
+               0.25, -0.5, 1.0, 2.0, -3.0, 0.125, flags=i % 2)  # fmt: skip
+        for i in range(5)
+    ]
+    wires = [m.encode_pose(p) for p in poses]
+    rows = m.decode_pose_rows(b"".join(wires))
+    assert rows == [m.decode_pose(w) for w in wires]
+    assert [type(p.seq) for p in rows] == [int] * 5  # type: ignore[union-attr]
+    assert [type(p.flags) for p in rows] == [int] * 5  # type: ignore[union-attr]
+    assert [p.flags for p in rows] == [0, 1, 0, 1, 0]  # type: ignore[union-attr]
+    assert m.decode_pose_rows(b"") == []
+
+
 def test_a_digest_whose_ids_and_rows_disagree_is_refused_naming_both() -> None:
     wire = m.POSE_DIGEST.encode(m.PoseDigest(1, ["a", "b"], m.encode_pose(_pose(1, 1.0))))
     with pytest.raises(m.MessageError, match="2 ids but 64 bytes"):
