@@ -8,12 +8,14 @@ this relay gathers what arrived in the last `period_s` and puts it as one `PoseD
 such a node takes dozens of poses per sample, for a delay of about half a period plus one
 more hop.
 
-Costs nothing while no one listens: its ring subscriber to the poses is declared only while
-the digest's publisher has a matching subscriber, and undeclared when the last one goes. It
-runs on a thread of its own, never in a Zenoh callback and never in the tick. Rows are passed
-on exactly as their nodes published them, after checking their size and key only (a bad one
-is counted in `drops` under `digest` and left out): every receiver decodes and checks each
-row anyway (`PoseDigest.poses`), and tells present nodes from intruders by presence.
+Costs nothing while no one listens: only while the digest's publisher has a matching
+subscriber does the relay read the poses, from the authority's own pose ring (`pose_intake`):
+it takes what waits there and hands the same rows on to the tick, so the authority receives
+each pose once whether or not it relays. It runs on a thread of its own, never in a Zenoh
+callback and never in the tick. Rows are passed on exactly as their nodes published them,
+after checking their size and key only (a bad one is counted in `drops` under `pose` and left
+out): every receiver decodes and checks each row anyway (`PoseDigest.poses`), and tells
+present nodes from intruders by presence.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from collections.abc import Callable
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.authority.pose_intake import RING_CAPACITY, pose_sender, take
+from carlaverse.authority.pose_intake import PoseIntake
 from carlaverse.fabric.guard import Tally
 from carlaverse.keys import Keys
 
@@ -40,14 +42,14 @@ class PoseDigestRelay:
         self,
         session: zenoh.Session,
         keys: Keys,
+        intake: PoseIntake,
         drops: Tally,
         new_timestamp: Callable[[], zenoh.Timestamp],
         period_s: float = DIGEST_PERIOD_S,
     ) -> None:
         if period_s <= 0:
             raise ValueError(f"digest period must be > 0 s, got {period_s}")
-        self._session = session
-        self._keys = keys
+        self._intake = intake
         self._drops = drops
         self._new_timestamp = new_timestamp
         self.period_s = period_s
@@ -69,14 +71,13 @@ class PoseDigestRelay:
         self._listener = self._publisher.declare_matching_listener(on_matching)
         if self._publisher.matching_status.matching:
             self._heard.set()
-        self._ring: zenoh.Subscriber | None = None
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="pose-digest", daemon=True)
 
     @property
     def relaying(self) -> bool:
         """Whether the relay is taking poses now (someone subscribes to the digest)."""
-        return self._ring is not None
+        return self._intake.relayed
 
     def start(self) -> PoseDigestRelay:
         self._thread.start()
@@ -117,7 +118,7 @@ class PoseDigestRelay:
         """Relay what arrived since the last step; the number of poses put."""
         if not self._follow(self._heard.is_set()):
             return 0
-        ids, rows = self._take()
+        ids, rows = self._intake.relay_take()
         for start in range(0, len(ids), m.DIGEST_MAX_POSES):
             end = start + m.DIGEST_MAX_POSES
             self._seq += 1
@@ -128,24 +129,6 @@ class PoseDigestRelay:
         return len(ids)
 
     def _follow(self, heard: bool) -> bool:
-        """Declare the ring while the digest is heard, drop it when it is not."""
-        if heard and self._ring is None:
-            ring = zenoh.handlers.RingChannel(RING_CAPACITY)
-            self._ring = self._session.declare_subscriber(self._keys.all_ego("pose"), ring)
-        elif not heard and self._ring is not None:
-            self._ring.undeclare()
-            self._ring = None
-        return self._ring is not None
-
-    def _take(self) -> tuple[list[str], list[bytes]]:
-        """(sender, row) of every pose waiting that has a pose key and the pose's size."""
-        ids: list[str] = []
-        rows: list[bytes] = []
-        for key, payload in zip(*take(self._ring), strict=True):  # type: ignore[arg-type]
-            node_id = pose_sender(key)
-            if node_id is None or len(payload) != m.POSE_SIZE:
-                self._drops.add("digest")
-                continue
-            ids.append(node_id)
-            rows.append(payload)
-        return ids, rows
+        """Read the pose ring while the digest is heard; leave it to the tick when not."""
+        self._intake.relayed = heard
+        return heard

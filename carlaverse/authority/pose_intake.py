@@ -12,10 +12,17 @@ every value finite, the time in range; a key that is not `ego/<id>/pose[/<tile>]
 key space is refused too. Each bad sample is counted in `drops` under `pose` and dropped;
 nothing raises into the tick. A pose's arrival time is the drain's time, at most one tick
 after it arrived (the roster only judges it against seconds: skew and despawn timeout).
+
+While the pose digest is heard (`pose_digest`), its relay is the ring's only reader: every
+`--digest-ms` it takes what waits (`relay_take`), puts it on `world/@egos` and hands the same
+checked rows to the tick, which then takes those instead of draining the ring itself. So the
+authority receives each pose once, not once per reader: a second ring would cost a Zenoh
+sample and a Python `try_recv` more per pose, under the interpreter's lock the tick needs.
 """
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Protocol
 
 from carlaverse import messages as m
@@ -39,34 +46,64 @@ class PoseRing(Protocol):
     def try_recv(self) -> Sample | None: ...
 
 
-def decode_poses(payloads: list[bytes]) -> list[m.Pose | None]:
-    """Each payload decoded as `messages.decode_pose` would, None where it would refuse."""
-    out: list[m.Pose | None] = [None] * len(payloads)
-    sized = [i for i, p in enumerate(payloads) if len(p) == m.POSE_SIZE]
-    if sized:
-        rows = m.decode_pose_rows(b"".join([payloads[i] for i in sized]))
-        for i, pose in zip(sized, rows, strict=True):
-            out[i] = pose
-    return out
-
-
 class PoseIntake:
     """Drains the pose ring: (node id, pose) of every good sample, in arrival order."""
 
     def __init__(self, ring: PoseRing, drops: Tally) -> None:
         self._ring = ring
         self._drops = drops
+        # (senders, rows) the digest relay took from the ring, oldest first, for the tick
+        self._handed: deque[tuple[list[str], list[bytes]]] = deque()
+        # Whether the relay reads the ring now (set by it; the tick then does not). At the
+        # moment it starts, the tick may still take a few poses the first digest lacks;
+        # when it stops, the next tick drains again, so the tick never loses one.
+        self.relayed = False
+
+    def relay_take(self) -> tuple[list[str], list[bytes]]:
+        """For the digest relay: the sender and row of every good-sized pose waiting, oldest
+        first; the tick gets the same at its next `drain`."""
+        taken = checked(*take(self._ring), self._drops)
+        self._handed.append(taken)
+        return taken
 
     def drain(self, limit: int = RING_CAPACITY) -> list[tuple[str, m.Pose]]:
-        keys, payloads = take(self._ring, limit)
+        """Every pose the relay handed over, then, unless it reads the ring, up to `limit`
+        more from the ring."""
+        senders: list[str] = []
+        rows: list[bytes] = []
+        handed = self._handed
+        while handed:
+            ids, batch = handed.popleft()
+            senders += ids
+            rows += batch
+        if not self.relayed:
+            ids, batch = checked(*take(self._ring, limit), self._drops)
+            senders += ids
+            rows += batch
+        if not rows:
+            return []
         out = []
-        for key, pose in zip(keys, decode_poses(payloads), strict=True):
-            node_id = pose_sender(key) if pose is not None else None
-            if node_id is None:
+        for node_id, pose in zip(senders, m.decode_pose_rows(b"".join(rows)), strict=True):
+            if pose is None:
                 self._drops.add("pose")
             else:
                 out.append((node_id, pose))
         return out
+
+
+def checked(keys: list[str], payloads: list[bytes], drops: Tally) -> tuple[list[str], list[bytes]]:
+    """(sender, payload) of each sample with a pose key of this key space and the pose's
+    size, in order; each other one counted in `drops` under `pose`."""
+    senders: list[str] = []
+    rows: list[bytes] = []
+    for key, payload in zip(keys, payloads, strict=True):
+        node_id = pose_sender(key)
+        if node_id is None or len(payload) != m.POSE_SIZE:
+            drops.add("pose")
+        else:
+            senders.append(node_id)
+            rows.append(payload)
+    return senders, rows
 
 
 def take(ring: PoseRing, limit: int = RING_CAPACITY) -> tuple[list[str], list[bytes]]:

@@ -121,7 +121,7 @@ class Authority:
         self._intake = PoseIntake(poses, self.drops)
         if self.settings.digest_period_s > 0:
             self.digest = PoseDigestRelay(
-                s, k, self.drops, s.new_timestamp, self.settings.digest_period_s
+                s, k, self._intake, self.drops, s.new_timestamp, self.settings.digest_period_s
             ).start()
         state = g.sample("state", self._on_state)
         self._entities.append(s.declare_subscriber(k.all_ego("state"), state))

@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from carlaverse import messages as m
 from carlaverse.authority.actors import EgoColumns, EgoNow, build_actors, egos_at, has_actor
 from carlaverse.authority.domain import EgoTrack
-from carlaverse.authority.pose_intake import PoseIntake, decode_poses
+from carlaverse.authority.pose_intake import PoseIntake
 from carlaverse.authority.sound_audibility import audible, emitters
 from carlaverse.authority.sound_sources import EVERY_LISTENER, SoundSources, actor_columns
 from carlaverse.fabric.guard import Tally
@@ -200,7 +200,13 @@ def payloads(draw: st.DrawFn) -> bytes:
 @given(st.lists(payloads(), max_size=30))
 @settings(max_examples=150, deadline=None)
 def test_batch_decode_equals_decode_pose(batch: list[bytes]) -> None:
-    assert decode_poses(batch) == [decode_one_by_one(p) for p in batch]
+    samples = [FakeSample(f"carlaverse/s/ego/e{i}/pose", p) for i, p in enumerate(batch)]
+    drops = Tally()
+    taken = PoseIntake(FakeRing(samples), drops).drain()
+    one_by_one = [(f"e{i}", decode_one_by_one(p)) for i, p in enumerate(batch)]
+    expected = [(node_id, pose) for node_id, pose in one_by_one if pose is not None]
+    assert taken == expected
+    assert drops["pose"] == len(batch) - len(expected)
 
 
 class Payload(bytes):
@@ -248,6 +254,25 @@ def test_intake_takes_at_most_its_limit_per_drain() -> None:
     ring = FakeRing([FakeSample(f"carlaverse/s/ego/e{i}/pose", pose) for i in range(5)])
     intake = PoseIntake(ring, Tally())
     assert len(intake.drain(limit=3)) == 3 and len(intake.drain()) == 2 and intake.drain() == []
+
+
+def test_while_the_digest_relays_the_tick_takes_its_rows_and_leaves_the_ring_alone() -> None:
+    def sample(node_id: str, seq: int) -> FakeSample:
+        return FakeSample(f"carlaverse/s/ego/{node_id}/pose", m.encode_pose(Pose(seq, 1.0, 0, 0)))
+
+    ring = FakeRing([sample("a", 1), FakeSample("carlaverse/s/ego/b/pose", b"short")])
+    drops = Tally()
+    intake = PoseIntake(ring, drops)
+    intake.relayed = True
+    assert intake.drain() == [] and len(ring.samples) == 2  # the ring is the relay's now
+    ids, rows = intake.relay_take()
+    assert ids == ["a"] and len(rows) == 1 and drops["pose"] == 1  # counted once, here
+    ring.samples.append(sample("c", 2))
+    assert [(n, p.seq) for n, p in intake.drain()] == [("a", 1)]  # what the relay took
+    assert len(ring.samples) == 1
+    intake.relayed = False  # nobody hears the digest: the tick drains the ring again
+    assert [(n, p.seq) for n, p in intake.drain()] == [("c", 2)]
+    assert drops["pose"] == 1
 
 
 # ------------------------------------------------------------------ audio

@@ -40,11 +40,8 @@ def test_rows_decode_as_single_poses_and_bad_rows_are_none() -> None:
 
 def test_rows_that_are_all_good_decode_field_for_field_as_single_poses() -> None:
     # The common case takes a path of its own (no row refused): every field, its type too.
-    poses = [
-        m.Pose(7 + i, 1.7e9 + i / 3, i - 0.5, 2.25, 0.5, 0.1, -0.2, 1.5, 3.0, -1.0, 0.5,
-               0.25, -0.5, 1.0, 2.0, -3.0, 0.125, flags=i % 2)  # fmt: skip
-        for i in range(5)
-    ]
+    values = (2.25, 0.5, 0.1, -0.2, 1.5, 3.0, -1.0, 0.5, 0.25, -0.5, 1.0, 2.0, -3.0, 0.125)
+    poses = [m.Pose(7 + i, 1.7e9 + i / 3, i - 0.5, *values, flags=i % 2) for i in range(5)]
     wires = [m.encode_pose(p) for p in poses]
     rows = m.decode_pose_rows(b"".join(wires))
     assert rows == [m.decode_pose(w) for w in wires]
@@ -130,6 +127,12 @@ def test_an_observer_on_the_digest_hears_every_node_and_the_relay_idles_without_
 
     wait_until(heard_all, 30, "the observer to hear a, b and c through the digest")
     assert relay.relaying and relay.digests > 0
+    # The relay reads the authority's one pose ring now: the tick still gets every pose.
+    seen = {n: authority.roster.tracks[n].last_pose.seq for n in "abc"}  # type: ignore[union-attr]
+    wait_until(
+        lambda: all(authority.roster.tracks[n].last_pose.seq > seen[n] + 10 for n in "abc"),  # type: ignore[union-attr]
+        10, "the tick to apply newer poses while the relay reads the ring",
+    )  # fmt: skip
     # Every pose the view applied came in a digest (the observer has no pose subscriber) but
     # one of each node, from the snapshot it fetched on joining; several to a sample.
     assert sum(sizes) + 3 >= sum(obs.world.stats[n].count for n in "abc")
@@ -141,6 +144,11 @@ def test_an_observer_on_the_digest_hears_every_node_and_the_relay_idles_without_
 
     obs.close()
     wait_until(lambda: not relay.relaying, 10, "the relay to stop once its listener left")
+    seen = {n: authority.roster.tracks[n].last_pose.seq for n in "abc"}  # type: ignore[union-attr]
+    wait_until(
+        lambda: all(authority.roster.tracks[n].last_pose.seq > seen[n] + 10 for n in "abc"),  # type: ignore[union-attr]
+        10, "the tick to drain the ring itself again",
+    )  # fmt: skip
 
 
 def test_a_digest_not_from_the_authority_is_refused_and_bad_rows_are_counted(
@@ -214,7 +222,10 @@ def test_stats_on_the_digest_reports_every_node(cluster: Cluster) -> None:
 
 
 def test_a_step_with_more_poses_than_a_digest_holds_puts_several_in_order() -> None:
+    import zenoh
+
     from carlaverse.authority.pose_digest import PoseDigestRelay
+    from carlaverse.authority.pose_intake import RING_CAPACITY, PoseIntake
     from carlaverse.fabric.guard import Tally
 
     session = open_session(FabricSettings(mode="peer", listen=[], connect=[]))
@@ -224,7 +235,9 @@ def test_a_step_with_more_poses_than_a_digest_holds_puts_several_in_order() -> N
             K.pose_digest, lambda s: got.append(m.POSE_DIGEST.decode(s.payload.to_bytes()))
         )
         drops = Tally()
-        relay = PoseDigestRelay(session, K, drops, session.new_timestamp)  # stepped by hand
+        ring = zenoh.handlers.RingChannel(RING_CAPACITY)
+        intake = PoseIntake(session.declare_subscriber(K.all_ego("pose"), ring), drops)
+        relay = PoseDigestRelay(session, K, intake, drops, session.new_timestamp)  # by hand
         wait_until(lambda: relay.step() == 0 and relay.relaying, 5, "the relay to see its reader")
         total = m.DIGEST_MAX_POSES + 904
         for seq in range(total):
@@ -232,12 +245,15 @@ def test_a_step_with_more_poses_than_a_digest_holds_puts_several_in_order() -> N
         session.put(K.pose("n0", "t0_0"), b"short")  # counted, left out
         relayed = [relay.step()]  # local puts reach the ring at once; a deadline all the same
         wait_until(lambda: sum(relayed) == total or relayed.append(relay.step()), 5, "all relayed")
-        assert sum(relayed) == total and drops["digest"] == 1
+        assert sum(relayed) == total and drops["pose"] == 1
         wait_until(lambda: len(got) == 2, 5, "two digests")
         assert [len(d.ids) for d in got] == [m.DIGEST_MAX_POSES, 904]
         assert [d.seq for d in got] == [1, 2]
         seqs = [p.seq for d in got for p in d.poses()]  # type: ignore[union-attr]
         assert seqs == list(range(total))
+        # The tick takes the same poses, once each, in order, from what the relay handed on.
+        assert [p.seq for _, p in intake.drain()] == list(range(total))
+        assert intake.drain() == []
         relay.close()
     finally:
         session.close()
