@@ -94,6 +94,20 @@ def test_the_period_table_gives_poses_per_digest_from_the_relay_s_counts(
     ]  # fmt: skip
 
 
+def test_the_period_table_splits_the_digest_s_delay_at_the_authority_s_put(
+    report: ModuleType,
+) -> None:
+    largest = {f"digest@{ms:g}": window("probe-digest", 9.0, 4.0, 4000) for ms in (1, 2, 5)}
+    largest["digest@2"]["probe-digest"].update(
+        to_relay_p50_ms=1.25, to_relay_p99_ms=3.5, hop_p50_ms=0.4, hop_p99_ms=1.75
+    )
+    rows = report.digest_table(largest, idle(), (1.0, 5.0, 2.0)).splitlines()
+    assert "to the authority's put p50 / p99 ms" in rows[0]
+    cells = {r.split(" | ")[0]: r.split(" | ") for r in rows[2:]}
+    assert cells["| 2"][4:6] == ["1.25 / 3.50", "0.40 / 1.75"]
+    assert cells["| 1"][4:6] == ["–", "–"]  # a window saved before the split was measured
+
+
 def with_floors(callback_us: float, ring_us: float) -> tuple[dict[str, Any], dict[str, Any]]:
     """(a run whose digest paid 9 µs per pose, with the floors' window, and the idle run with
     its own), each floor paying `*_us` per pose above an idle of 0.1 s."""

@@ -95,6 +95,12 @@ class Receipts:
         self.recording = False
         self.latency_s: list[float] = []
         self.seqs: dict[str, list[int]] = {}  # sender -> [first, last, count]
+        # On the digest, each pose's delay in two parts at the authority's timestamp of the
+        # digest that carried it: reaching the authority and waiting for the relay, then the
+        # digest's hop to this node (the same clocks: the session's is the authority's).
+        self.stamp_s = float("nan")  # the digest being applied: when the authority put it
+        self.to_relay_s: list[float] = []
+        self.hop_s: list[float] = []
 
     def heard(self, node_id: str, seq: int, latency_s: float) -> None:
         if not self.recording:
@@ -141,7 +147,23 @@ def probe_main(
     def stamped_many(poses: list[tuple[str, Any]], rx_t: float) -> None:
         for sender, pose in poses:
             receipts.heard(sender, pose.seq, rx_t - pose.t)
+        if receipts.recording:
+            stamp = receipts.stamp_s
+            receipts.to_relay_s += [stamp - pose.t for _, pose in poses]
+            receipts.hop_s += [rx_t - stamp] * len(poses)
         push_poses(poses, rx_t)
+
+    if digest:  # the digest's timestamp, noted before the node's own handler applies it
+        from carlaverse.fabric.inbound import Inbound
+
+        on_digest = Inbound._on_digest
+
+        def noted(self: Inbound, sample: Any) -> None:
+            stamp = sample.timestamp
+            receipts.stamp_s = stamp.get_time().timestamp() if stamp else float("nan")
+            on_digest(self, sample)
+
+        Inbound._on_digest = noted  # type: ignore[method-assign]  # this child's class only
 
     client.world.push_pose = stamped  # type: ignore[method-assign]
     client.world.push_poses = stamped_many  # type: ignore[method-assign]
@@ -156,6 +178,7 @@ def probe_main(
                 break
             if command == "start":
                 receipts.latency_s, receipts.seqs = [], {}
+                receipts.to_relay_s, receipts.hop_s = [], []
                 started_cpu, started_t = own_cpu_s(), time.monotonic()
                 receipts.recording = True
             elif command == "stop":
@@ -224,4 +247,8 @@ def _probe_report(receipts: Receipts, cpu0: float, t0: float, client: Any) -> di
         "max_ms": max(lat, default=float("nan")) * 1e3,
         "sync_ms": client.clock.uncertainty_s * 1e3, "tiles": len(client.interest.tiles)
         if client.interest else 0,
+        **({"to_relay_p50_ms": percentile(receipts.to_relay_s, 0.5) * 1e3,
+            "to_relay_p99_ms": percentile(receipts.to_relay_s, 0.99) * 1e3,
+            "hop_p50_ms": percentile(receipts.hop_s, 0.5) * 1e3,
+            "hop_p99_ms": percentile(receipts.hop_s, 0.99) * 1e3} if receipts.hop_s else {}),
     }  # fmt: skip
