@@ -61,7 +61,11 @@ class SumoProcessError(EngineFailed):
 
 
 class SumoProcess:
-    """A `TrafficEngine`: a `SumoEngine` in a child process, stepped one step ahead."""
+    """A `TrafficEngine`: a `SumoEngine` in a child process, stepped one step ahead.
+
+    Not thread-safe: one thread at a time (the authority's tick) talks on its pipe. Two would
+    take each other's replies; one's check for a step come back would then find none, and
+    end the process as unanswering."""
 
     def __init__(self, settings: SumoSettings) -> None:
         # A fresh interpreter, not a fork: the authority may already run Zenoh's threads, and

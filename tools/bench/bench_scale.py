@@ -217,6 +217,21 @@ class Bench:
                f"{BLOCK_M:g}", "--origin", f"{ATTACH_M:g}", f"{ATTACH_M:g}", "--json",
                *(["--express"] if express else [])]  # fmt: skip
         swarm = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        try:
+            result = self._swarm_windows(swarm, profile_to, rounds, floors)
+            swarm.send_signal(signal.SIGINT)
+            out, _ = swarm.communicate(timeout=60)
+        finally:  # a window that failed must not leave 256 egos sending into the next run
+            if swarm.poll() is None:
+                swarm.kill()
+                swarm.wait(15)
+        result["swarm"] = json.loads(out)
+        time.sleep(2.0)  # the egos leave; the next N starts from an empty roster
+        return result
+
+    def _swarm_windows(
+        self, swarm: subprocess.Popen[str], profile_to: Path | None, rounds: int, floors: bool
+    ) -> dict[str, Any]:
         for line in swarm.stderr:  # type: ignore[union-attr]
             if "egos joined" in line:
                 break
@@ -232,10 +247,6 @@ class Bench:
             result["rounds"].append(again)
         if floors:
             result["floors"] = self.floors(swarm.pid)
-        swarm.send_signal(signal.SIGINT)
-        out, _ = swarm.communicate(timeout=60)
-        result["swarm"] = json.loads(out)
-        time.sleep(2.0)  # the egos leave; the next N starts from an empty roster
         return result
 
     def close(self) -> None:

@@ -74,7 +74,7 @@ def authority_main(endpoint: str, scenario: str, priority: int, conn: Any) -> No
             conn.send({
                 "ticks": len(ticks), "p50": percentile(ticks, 0.5), "p99": percentile(ticks, 0.99),
                 "max": max(ticks, default=float("nan")), "overruns": authority.overruns,
-                "npcs": len(domain.engine.last_read().ids), "egos": len(authority.roster.tracks),
+                "npcs": npcs(domain), "egos": len(authority.roster.tracks),
                 "gc_n": len(pauses.ms), "gc_max_ms": max(pauses.ms, default=0.0),
                 "late": getattr(domain.engine, "late_steps", 0),
                 "digests": relay.digests if relay else 0, "relayed": relay.poses if relay else 0,
@@ -83,6 +83,13 @@ def authority_main(endpoint: str, scenario: str, priority: int, conn: Any) -> No
     ticking.join(5)  # the tick thread must be done with SUMO before close() ends it
     authority.close()
     session.close()
+
+
+def npcs(domain: Any) -> int:
+    """NPCs in the batch the tick last published. Not read from the engine: it belongs to the
+    tick thread (`SumoProcess`), and this runs on another."""
+    batch = domain.snapshot_parts()[0]
+    return 0 if batch is None else len(batch.ids)
 
 
 # ---------------------------------------------------------------- a real node (a child)
