@@ -114,8 +114,7 @@ class Inbound:
 
     def _feed(self, session: zenoh.Session, keys: Keys, kind: str) -> None:
         if kind == "digest":
-            handler = self.guard.sample("digest", self._on_digest)
-            self.pose_feed = session.declare_subscriber(keys.pose_digest, handler)
+            self.pose_feed = session.declare_subscriber(keys.pose_digest, self.digest_handler())
         else:
             self.pose_feed = session.declare_subscriber(
                 keys.all_ego("pose"), self.pose_handler(), allowed_origin=zenoh.Locality.REMOTE
@@ -153,6 +152,11 @@ class Inbound:
         """
         guarded = self.guard.sample("pose", self._on_pose)
         return zenoh.handlers.Callback(guarded, indirect=not self.direct_poses)
+
+    def digest_handler(self) -> Callable[[zenoh.Sample], None]:
+        """The guarded callback for the authority's pose digest (`world/@egos`), on
+        zenoh-python's callback thread: one sample brings dozens of poses."""
+        return self.guard.sample("digest", self._on_digest)
 
     # ------------------------------------------------------------ checks
 

@@ -19,6 +19,11 @@ threads, Zenoh's Rust ones too). The layers, each one more of a node's receive p
 - node: as inbound, plus a thread applying the inbox (`WorldView.update`) every 10 ms as a
   node's 100 Hz loop does; that thread's own CPU per pose is reported apart as well.
 
+Then `zenoh`, `node` again with every pose put express (a frame of its own), and `zenoh`,
+`handoff`, `node` with the poses put as the authority's pose digest relays them (`+digest`:
+a tenth of the egos' poses to a sample, every 2 ms at 50 Hz, as the relay's shipped period
+gathers them), the node trusting the publisher as its authority.
+
 An idle window per mode (a session subscribed to the poses, the publisher paused) gives what
 a session costs with nothing arriving; it is subtracted. A round runs every window once in
 turn, so the machine's drift hits all layers alike; the report gives the median over rounds
@@ -44,7 +49,7 @@ from typing import Any
 from benchdoc import RunInfo, command_line, write_section
 from peers.transport import free_ports, wait_for_port
 from receive_children import IDLE, publisher_main, subscriber_main
-from receive_report import EXPRESS_LAYERS, LAYERS, poses, section, summarise
+from receive_report import DIGEST_LAYERS, EXPRESS_LAYERS, LAYERS, poses, section, summarise
 
 TITLE = "Receive cost per pose, layer by layer"
 MODES = ("peer", "client")
@@ -113,6 +118,7 @@ class Bench:
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.router: subprocess.Popen[bytes] | None = None
         self.publisher: Child | None = None
+        self.publisher_id = ""  # its session's id: the digest layers trust it as authority
 
     def start(self) -> None:
         cli = [sys.executable, "-m", "carlaverse", "router", "--listen", self.endpoint]
@@ -120,10 +126,10 @@ class Bench:
         self.router = subprocess.Popen(cli, stdout=quiet, stderr=quiet)
         _wait_listening(self.router, self.port, JOIN_S)
         self.publisher = self._spawn("publisher", publisher_main, self.args.egos, self.args.rate)
-        self.publisher.reply(JOIN_S)
+        self.publisher_id = self.publisher.reply(JOIN_S)
 
     def sending(self, how: str) -> None:
-        """`publish`, `publish-express` or `pause`."""
+        """`publish`, `publish-express`, `publish-digest` or `pause`."""
         assert self.publisher is not None
         self.publisher.ask(how)
 
@@ -131,7 +137,7 @@ class Bench:
         """One subscriber process of `layer`: joined, warmed up, measured, gone."""
         assert self.publisher is not None
         child = self._spawn(f"subscriber {mode}/{layer}", subscriber_main, mode, layer,
-                            self.args.egos)  # fmt: skip
+                            self.args.egos, self.publisher_id)  # fmt: skip
         try:
             child.reply(JOIN_S)
             child.hold(self.args.warmup)
@@ -187,7 +193,8 @@ def run_rounds(bench: Bench, args: argparse.Namespace) -> list[dict[str, Any]]:
     windows = []
     for r in range(args.rounds):
         for how, layers in (("pause", [IDLE]), ("publish", LAYERS),
-                            ("publish-express", EXPRESS_LAYERS)):  # fmt: skip
+                            ("publish-express", EXPRESS_LAYERS),
+                            ("publish-digest", DIGEST_LAYERS)):  # fmt: skip
             bench.sending(how)
             for mode in args.modes:
                 for layer in layers:

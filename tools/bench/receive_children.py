@@ -21,6 +21,7 @@ SESSION = "recv"
 NODE_ID = "listener"
 IDLE = "idle"  # the window with the publisher paused
 EXPRESS = "+express"  # a layer's name ends so when the publisher puts express
+DIGEST = "+digest"  # ... and so when the poses come many to a sample, as the authority relays
 RING_CAPACITY = 4096  # samples; a ring nobody drains keeps only the newest
 UPDATE_PERIOD_S = 0.01  # [s] a node's loop at 100 Hz
 ORPHAN_S = 300.0  # [s] of silence after which a child decides its orchestrator is gone
@@ -44,9 +45,15 @@ def _commands(conn: Connection) -> Iterator[Any]:
 
 
 class Flock:
-    """`egos` egos driving east on parallel lanes, each publishing its pose at `rate_hz`."""
+    """`egos` egos driving east on parallel lanes, each publishing its pose at `rate_hz`; or
+    (`digesting`) the same poses put as the authority's relay puts them: a slice's poses in
+    one `PoseDigest` on `world/@egos`, stamped by this session (the subscribers trust it as
+    their authority). A slice lasts 2 ms at 50 Hz, the relay's shipped period, so a digest
+    holds what the relay's would: a tenth of the egos, ~26 poses at 256."""
 
     def __init__(self, session: Any, egos: int, rate_hz: float) -> None:
+        import zenoh
+
         from carlaverse.fabric.interest import POSE_QOS
         from carlaverse.keys import Keys
 
@@ -60,6 +67,12 @@ class Flock:
         self.batched = publishers()
         self.express = publishers(express=True)  # one frame per pose, never batched
         self.publishers = self.batched  # the set `_send` puts with
+        self.digest = session.declare_publisher(
+            keys.pose_digest, congestion_control=zenoh.CongestionControl.DROP
+        )  # as the relay declares it
+        self.new_timestamp = session.new_timestamp
+        self.digesting = False
+        self.ids = [f"e{i}" for i in range(egos)]
         self.speeds = [BASE_SPEED + i % 8 for i in range(egos)]  # [m/s]
         self.period_s = 1.0 / rate_hz
         self.sending = threading.Event()
@@ -89,6 +102,7 @@ class Flock:
                 deadline = time.monotonic()
 
     def _send(self, part: int) -> None:
+        from carlaverse import messages as m
         from carlaverse.messages import Pose, encode_pose
 
         # Wall time is session time here: a subscriber's SessionClock(MonotonicClock()) before
@@ -98,28 +112,38 @@ class Flock:
         # one stamp for the whole burst would count the burst's length (ms) as delay.
         if part == 0:  # a new period: every ego's next pose
             self.seq += 1
+        rows = []
         for i in range(part, len(self.publishers), SLICES):
             t, vx = time.time(), self.speeds[i]
             pose = Pose(self.seq, t, vx * (t - self.t0), LANE_M * i, vx=vx)
-            self.publishers[i].put(encode_pose(pose))
+            if self.digesting:
+                rows.append(encode_pose(pose))
+            else:
+                self.publishers[i].put(encode_pose(pose))
             self.sent += 1
+        if rows:
+            digest = m.PoseDigest(self.seq * SLICES + part, self.ids[part::SLICES], b"".join(rows))
+            self.digest.put(m.POSE_DIGEST.encode(digest), timestamp=self.new_timestamp())
 
 
 def publisher_main(endpoint: str, egos: int, rate_hz: float, conn: Connection) -> None:
-    """The publisher (a child). Commands: `publish` (as nodes put), `publish-express` (each
-    pose in a frame of its own) and `pause` switch sending; `mark` asks for the poses sent so
-    far. Each is answered with (poses sent, monotonic time), so the orchestrator also learns
-    that the publisher is alive."""
+    """The publisher (a child). First it sends its session's id (the digest layers trust it
+    as their authority). Commands: `publish` (as nodes put), `publish-express` (each pose in a
+    frame of its own), `publish-digest` (many to a sample, as the authority relays) and
+    `pause` switch sending; `mark` asks for the poses sent so far. Each is answered with
+    (poses sent, monotonic time), so the orchestrator also learns that the publisher is
+    alive."""
     from carlaverse.fabric.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(connect=[endpoint]))
     flock = Flock(session, egos, rate_hz)
     sender = threading.Thread(target=flock.run, name="flock", daemon=True)
     sender.start()
-    conn.send("ready")
+    conn.send(str(session.zid()))  # what a timestamp of this session names
     for command in _commands(conn):
-        if command in ("publish", "publish-express"):
+        if command in ("publish", "publish-express", "publish-digest"):
             flock.publishers = flock.express if command == "publish-express" else flock.batched
+            flock.digesting = command == "publish-digest"
             flock.sending.set()
         elif command == "pause":
             flock.sending.clear()
@@ -178,45 +202,54 @@ class Receiver:
             entity.undeclare()
 
 
-def _pose_key() -> str:
-    from carlaverse.keys import Keys
+class Feed(NamedTuple):
+    """What a layer subscribes to: every ego's pose key, or (`authority` set) the pose digest
+    that session puts."""
 
-    return Keys(SESSION).all_ego("pose")
+    authority: str = ""  # the digest publisher's session id; "" for a sample per pose
+
+    @property
+    def key(self) -> str:
+        from carlaverse.keys import Keys
+
+        keys = Keys(SESSION)
+        return keys.pose_digest if self.authority else keys.all_ego("pose")
 
 
-def _ring(session: Any, egos: int) -> Receiver:
+def _ring(session: Any, egos: int, feed: Feed) -> Receiver:
     import zenoh
 
     receiver = Receiver(counts=False)
     ring = zenoh.handlers.RingChannel(RING_CAPACITY)
-    receiver.entities.append(session.declare_subscriber(_pose_key(), ring))
+    receiver.entities.append(session.declare_subscriber(feed.key, ring))
     return receiver
 
 
-def _handoff(session: Any, egos: int) -> Receiver:
-    """Like the scale bench's floor subscriber (scale_children.floor_main)."""
+def _handoff(session: Any, egos: int, feed: Feed) -> Receiver:
+    """Like the scale bench's floor subscriber (scale_children.floor_main). A digest's poses
+    cannot be counted without decoding it, which is the project's work: sent stands in."""
     import zenoh
 
-    receiver = Receiver()
+    receiver = Receiver(counts=not feed.authority)
 
     def on_sample(sample: zenoh.Sample) -> None:
         sample.payload.to_bytes()
         receiver.received += 1
 
     callback = zenoh.handlers.Callback(on_sample)
-    receiver.entities.append(session.declare_subscriber(_pose_key(), callback))
+    receiver.entities.append(session.declare_subscriber(feed.key, callback))
     return receiver
 
 
-def _inbound(session: Any, egos: int) -> Receiver:
-    return _project(session, egos, updating=False)
+def _inbound(session: Any, egos: int, feed: Feed) -> Receiver:
+    return _project(session, egos, feed, updating=False)
 
 
-def _node(session: Any, egos: int) -> Receiver:
-    return _project(session, egos, updating=True)
+def _node(session: Any, egos: int, feed: Feed) -> Receiver:
+    return _project(session, egos, feed, updating=True)
 
 
-def _project(session: Any, egos: int, updating: bool) -> Receiver:
+def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
     """The project's pose path as a `NodeClient` declares it, without the rest of a node."""
     from carlaverse.fabric.clock import MonotonicClock, SessionClock
     from carlaverse.fabric.inbound import Inbound
@@ -237,8 +270,21 @@ def _project(session: Any, egos: int, updating: bool) -> Receiver:
         latency.append(rx_t - pose.t)
         push_pose(node_id, pose, rx_t)
 
+    push_poses = world.push_poses
+
+    def counted_many(poses: list[tuple[str, Any]], rx_t: float) -> None:  # one call per digest
+        receiver.received += len(poses)
+        latency.extend([rx_t - pose.t for _, pose in poses])
+        push_poses(poses, rx_t)
+
     world.push_pose = counted  # type: ignore[method-assign]
-    receiver.entities.append(session.declare_subscriber(_pose_key(), inbound.pose_handler()))
+    world.push_poses = counted_many  # type: ignore[method-assign]
+    if feed.authority:
+        inbound.authority_id = feed.authority  # as a join reply names it
+        handler = inbound.digest_handler()
+    else:
+        handler = inbound.pose_handler()
+    receiver.entities.append(session.declare_subscriber(feed.key, handler))
     if updating:
         loop = threading.Thread(target=_update_loop, args=(world, clock, receiver), daemon=True)
         receiver.threads.append(loop)
@@ -257,7 +303,7 @@ def _update_loop(world: Any, clock: Any, receiver: Receiver) -> None:
         receiver.stop.wait(max(0.0, deadline - time.monotonic()))
 
 
-SETUPS: dict[str, Callable[[Any, int], Receiver]] = {
+SETUPS: dict[str, Callable[[Any, int, Feed], Receiver]] = {
     IDLE: _handoff,  # the idle window's session is subscribed, as the layers' are
     "zenoh": _ring,
     "handoff": _handoff,
@@ -266,13 +312,17 @@ SETUPS: dict[str, Callable[[Any, int], Receiver]] = {
 }
 
 
-def subscriber_main(endpoint: str, mode: str, layer: str, egos: int, conn: Connection) -> None:
-    """A subscriber (a child) of one layer. Commands: `start` opens the measured window,
-    `stop` closes it and answers the window's report."""
+def subscriber_main(
+    endpoint: str, mode: str, layer: str, egos: int, publisher: str, conn: Connection
+) -> None:
+    """A subscriber (a child) of one layer; `publisher` is the publisher's session id, which a
+    digest layer trusts as its authority. Commands: `start` opens the measured window, `stop`
+    closes it and answers the window's report."""
     from carlaverse.fabric.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(mode=mode, connect=[endpoint]))  # type: ignore[arg-type]
-    receiver = SETUPS[layer.removesuffix(EXPRESS)](session, egos)
+    feed = Feed(publisher if layer.endswith(DIGEST) else "")
+    receiver = SETUPS[layer.removesuffix(EXPRESS).removesuffix(DIGEST)](session, egos, feed)
     conn.send("joined")
     start = receiver.reading()
     for command in _commands(conn):

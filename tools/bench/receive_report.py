@@ -11,13 +11,16 @@ import statistics
 from dataclasses import dataclass, field
 from typing import Any
 
-from receive_children import EXPRESS, IDLE
+from receive_children import DIGEST, EXPRESS, IDLE, SLICES
 
 LAYERS = ("zenoh", "handoff", "inbound", "node")  # each adds to the one before
 # The same layers while the publisher puts `express`: one frame per pose, as a node meets
 # egos that are machines of their own with direct links (peer mode); one process's egos, and
 # a router's fan-out, otherwise share frames.
 EXPRESS_LAYERS = ("zenoh" + EXPRESS, "node" + EXPRESS)
+# The layers again with the poses many to a sample, as the authority's digest relays them
+# (`world/@egos`) for a node that hears the whole session.
+DIGEST_LAYERS = ("zenoh" + DIGEST, "handoff" + DIGEST, "node" + DIGEST)
 TARGET_US = 10.0  # [µs] the issue's target: receive cost per pose
 WHAT = {
     IDLE: "a session subscribed to the poses, the publisher paused",
@@ -27,7 +30,11 @@ WHAT = {
     "node": "as inbound, plus `WorldView.update` at 100 Hz",
     "zenoh" + EXPRESS: "as `zenoh`, every pose put express (a frame of its own)",
     "node" + EXPRESS: "as `node`, every pose put express (a frame of its own)",
+    "zenoh" + DIGEST: "as `zenoh`, the poses relayed as the authority's digest",
+    "handoff" + DIGEST: "as `handoff`, a digest's bytes per sample",
+    "node" + DIGEST: "as `node`, each digest decoded, checked and applied row by row",
 }
+ALL_LAYERS = (*LAYERS, *EXPRESS_LAYERS, *DIGEST_LAYERS)
 
 
 def poses(window: dict[str, Any]) -> float:
@@ -58,12 +65,12 @@ def summarise(windows: list[dict[str, Any]], modes: list[str]) -> dict[str, dict
     rounds = sorted({w["round"] for w in windows})
     out: dict[str, dict[str, Figures]] = {}
     for mode in modes:
-        out[mode] = {layer: Figures() for layer in (IDLE, *LAYERS, *EXPRESS_LAYERS)}
+        out[mode] = {layer: Figures() for layer in (IDLE, *ALL_LAYERS)}
         for r in rounds:
             idle = by[(r, mode, IDLE)]
             out[mode][IDLE].share.append(idle["cpu_s"] / idle["seconds"])
             us: dict[str, float] = {}
-            for layer in (*LAYERS, *EXPRESS_LAYERS):
+            for layer in ALL_LAYERS:
                 us[layer] = _add(out[mode][layer], by[(r, mode, layer)], idle)
                 if (under := _under(layer)) is not None:
                     out[mode][layer].step.append(us[layer] - us[under])
@@ -71,11 +78,13 @@ def summarise(windows: list[dict[str, Any]], modes: list[str]) -> dict[str, dict
 
 
 def _under(layer: str) -> str | None:
-    """What a layer's step is taken over: the layer before it, or itself put batched."""
+    """What a layer's step is taken over: the layer before it (of the digest's, for a digest
+    layer), or itself put batched (an express layer)."""
     if layer.endswith(EXPRESS):
         return layer.removesuffix(EXPRESS)
-    at = LAYERS.index(layer)
-    return LAYERS[at - 1] if at else None
+    chain = DIGEST_LAYERS if layer.endswith(DIGEST) else LAYERS
+    at = chain.index(layer)
+    return chain[at - 1] if at else None
 
 
 def _add(figures: Figures, w: dict[str, Any], idle: dict[str, Any]) -> float:
@@ -105,7 +114,7 @@ def _spread(values: list[float], digits: int = 1, scale: float = 1.0, unit: str 
 def table(figures: dict[str, Figures]) -> str:
     head = [
         "| layer | what it does | poses/s | µs per pose above idle | over the layer before "
-        "(express: over the same layer put as nodes do) "
+        "(express: over the same layer put as nodes do; digest: over the digest layer before) "
         "| share of a core | of which the update thread, µs per pose |",
         "|---|---|---:|---:|---:|---:|---:|",
     ]
@@ -125,7 +134,7 @@ def delays(summary: dict[str, dict[str, Figures]]) -> str:
         "one host's clock), p50 / p99:"
     ]
     for mode, f in summary.items():
-        for layer in ("node", "node" + EXPRESS):
+        for layer in ("node", "node" + EXPRESS, "node" + DIGEST):
             node = f[layer]
             lines.append(f"{mode} mode, `{layer}`: {_spread(node.p50_ms, 2)} / "
                          f"{_spread(node.p99_ms, 2)} ms.")  # fmt: skip
@@ -153,6 +162,13 @@ def verdict(summary: dict[str, dict[str, Figures]]) -> str:
         lines.append(
             f"With a frame per pose (`+express`) Zenoh's floor is {alone:.1f} µs and the node "
             f"pays {node_alone:.1f} µs."
+        )
+        floor, handed, node = (statistics.median(f[k + DIGEST].us)
+                               for k in ("zenoh", "handoff", "node"))  # fmt: skip
+        lines.append(
+            f"Through the authority's digest (`+digest`) Zenoh's floor is {floor:.1f} µs per "
+            f"pose, being handed the digests in Python {handed:.1f} µs, and the node pays "
+            f"{node:.1f} µs per pose, {_against(node)}."
         )
     return " ".join(lines)
 
@@ -198,8 +214,13 @@ def section(
         "Each layer is a subscriber process of its own, alone on the stream while it is "
         "measured (its whole process: getrusage over all threads, Zenoh's own included), "
         f"{args.warmup:g} s after it subscribed, for {args.seconds:g} s. The `zenoh` layer "
-        "cannot count what reaches it: its poses are those the publisher sent in its window "
-        "(the `handoff` row shows how many arrive). The idle window's CPU, scaled to each "
+        "cannot count what reaches it, nor can `handoff+digest` (it would have to decode the "
+        "digests): their poses are those the publisher sent in the window (the `handoff` and "
+        "`node+digest` rows show how many arrive). Digests hold "
+        f"{args.egos / SLICES:.1f} poses each (one every {1e3 / args.rate / SLICES:g} ms; the "
+        "relay ships with 2 ms; the "
+        "one-way delay of `node+digest` leaves out the relay's wait, which the scale "
+        "benchmark measures). The idle window's CPU, scaled to each "
         "window's length, is subtracted; the `node` layer's update thread idling at 100 Hz "
         "is not in it. The `inbound` and `node` layers count each pose and note its delay in "
         f"one wrapper call more per pose than a node makes. {_rounds(args.rounds)}"
