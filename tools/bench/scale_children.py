@@ -223,7 +223,8 @@ def floor_main(endpoint: str, conn: Any, drain_ms: float = 0.0) -> None:
                     sample.payload.to_bytes()
                     count[0] += 1
 
-        threading.Thread(target=drain, name="floor-drain", daemon=True).start()
+        drainer = threading.Thread(target=drain, name="floor-drain", daemon=True)
+        drainer.start()
     else:
 
         def on_sample(sample: zenoh.Sample) -> None:
@@ -240,6 +241,8 @@ def floor_main(endpoint: str, conn: Any, drain_ms: float = 0.0) -> None:
             seconds = time.monotonic() - started_t
             conn.send({"seconds": seconds, "cpu_s": own_cpu_s() - started_cpu, "poses": count[0]})
     stop.set()
+    if drain_ms > 0:  # done with the ring before it goes: undeclaring it under a reader fails
+        drainer.join(5)
     subscriber.undeclare()
     session.close()
 
