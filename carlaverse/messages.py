@@ -150,16 +150,16 @@ def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
         & np.isfinite(values).all(axis=1)
         & (np.abs(values[:, 0]) <= TIME_LIMIT_S)
     )
-    if good.all():  # nearly always: one Pose per row, built column by column without a loop
-        return list(map(Pose, table["seq"].tolist(), *values.T.tolist(), table["flags"].tolist()))
+    # Poses built column by column, without a Python loop; nearly always every row is good.
+    keep = None if good.all() else np.flatnonzero(good)
+    rows_kept, values_kept = (table, values) if keep is None else (table[keep], values[keep])
+    poses = list(map(Pose, rows_kept["seq"].tolist(), *values_kept.T.tolist(),
+                     rows_kept["flags"].tolist()))  # fmt: skip
+    if keep is None:
+        return poses
     out: list[Pose | None] = [None] * len(table)
-    keep = np.flatnonzero(good)
-    columns = zip(
-        keep.tolist(), table["seq"][keep].tolist(), values[keep].tolist(),
-        table["flags"][keep].tolist(), strict=True,
-    )  # fmt: skip
-    for k, seq, v, flags in columns:
-        out[k] = Pose(seq, *v, flags)
+    for k, pose in zip(keep.tolist(), poses, strict=True):
+        out[k] = pose
     return out
 
 
