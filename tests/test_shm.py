@@ -53,6 +53,32 @@ def test_reads_are_never_torn_while_another_process_writes() -> None:
         block.close()
 
 
+def test_the_counter_never_goes_back_while_another_process_writes() -> None:
+    """Every read of the counter is at least the one before: a write must never show a reader
+    a counter it had already passed (struct's pack_into zero-filled it on every write, and a
+    reader that saw 0 around its copy took a torn record for a whole one)."""
+    name = f"cv-test-{uuid.uuid4().hex[:8]}"
+    block = SharedBlock(name, DTYPE, create=True)
+    ctx = mp.get_context("spawn")
+    started = ctx.Event()
+    writer = ctx.Process(target=_writer, args=(name, 200_000, started))
+    writer.start()
+    try:
+        assert started.wait(30)
+        last, reads, back = 0, 0, []
+        while writer.is_alive():
+            seq = block.sequence()
+            if seq < last:
+                back.append((last, seq))
+            last = max(last, seq)
+            reads += 1
+        assert not back, f"{len(back)} of {reads} reads went back, first {back[:3]}"
+        assert block.sequence() == 2 * 200_000
+    finally:
+        writer.join(30)
+        block.close()
+
+
 def _stalled_writer(name: str, steps) -> None:  # type: ignore[no-untyped-def]
     """Writes 1; on `go`, stops half-way through writing 2 (its sequence odd) until `resume`,
     as a writer the scheduler or another thread of its process took the CPU from would."""
@@ -64,12 +90,12 @@ def _stalled_writer(name: str, steps) -> None:  # type: ignore[no-untyped-def]
     wrote.set()
     go.wait(30)
     seq = block.sequence()
-    block._buf[:8] = (seq + 1).to_bytes(8, "little")  # a write begun
+    block._buf[:8] = (seq + 1).to_bytes(8, sys.byteorder)  # a write begun
     stalled.set()
     resume.wait(30)
     record["c"] = 2
     block._record[()] = record
-    block._buf[:8] = (seq + 2).to_bytes(8, "little")  # and finished
+    block._buf[:8] = (seq + 2).to_bytes(8, sys.byteorder)  # and finished
     block.close()
 
 
