@@ -8,6 +8,9 @@ import subprocess
 import sys
 import time
 import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
+from multiprocessing.process import BaseProcess
 from pathlib import Path
 
 import numpy as np
@@ -31,15 +34,28 @@ def _writer(name: str, count: int, started) -> None:  # type: ignore[no-untyped-
     block.close()
 
 
-def test_reads_are_never_torn_while_another_process_writes() -> None:
+WRITES = 200_000
+
+
+@contextmanager
+def _written_flat_out() -> Iterator[tuple[SharedBlock, BaseProcess]]:
+    """A block and a process writing WRITES records into it as fast as it can."""
     name = f"cv-test-{uuid.uuid4().hex[:8]}"
     block = SharedBlock(name, DTYPE, create=True)
     ctx = mp.get_context("spawn")
     started = ctx.Event()
-    writer = ctx.Process(target=_writer, args=(name, 200_000, started))
+    writer = ctx.Process(target=_writer, args=(name, WRITES, started))
     writer.start()
     try:
         assert started.wait(30)
+        yield block, writer
+    finally:
+        writer.join(30)
+        block.close()
+
+
+def test_reads_are_never_torn_while_another_process_writes() -> None:
+    with _written_flat_out() as (block, writer):
         seen = set()
         while writer.is_alive() or not seen:
             r = block.read()
@@ -48,23 +64,13 @@ def test_reads_are_never_torn_while_another_process_writes() -> None:
             assert r["a"] == k and r["b"] == -k and (r["pad"] == k).all()
             seen.add(int(k))
         assert len(seen) > 10  # we really did read while it wrote
-    finally:
-        writer.join(30)
-        block.close()
 
 
 def test_the_counter_never_goes_back_while_another_process_writes() -> None:
     """Every read of the counter is at least the one before: a write must never show a reader
     a counter it had already passed (struct's pack_into zero-filled it on every write, and a
     reader that saw 0 around its copy took a torn record for a whole one)."""
-    name = f"cv-test-{uuid.uuid4().hex[:8]}"
-    block = SharedBlock(name, DTYPE, create=True)
-    ctx = mp.get_context("spawn")
-    started = ctx.Event()
-    writer = ctx.Process(target=_writer, args=(name, 200_000, started))
-    writer.start()
-    try:
-        assert started.wait(30)
+    with _written_flat_out() as (block, writer):
         last, reads, back = 0, 0, []
         while writer.is_alive():
             seq = block.sequence()
@@ -72,11 +78,9 @@ def test_the_counter_never_goes_back_while_another_process_writes() -> None:
                 back.append((last, seq))
             last = max(last, seq)
             reads += 1
-        assert not back, f"{len(back)} of {reads} reads went back, first {back[:3]}"
-        assert block.sequence() == 2 * 200_000
-    finally:
         writer.join(30)
-        block.close()
+        assert not back, f"{len(back)} of {reads} reads went back, first {back[:3]}"
+        assert block.sequence() == 2 * WRITES
 
 
 def _stalled_writer(name: str, steps) -> None:  # type: ignore[no-untyped-def]
