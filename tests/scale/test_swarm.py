@@ -5,10 +5,14 @@ from __future__ import annotations
 import argparse
 import math
 
+import numpy as np
 import pytest
 
 from carlaverse.cli import main
 from carlaverse.cli.swarm import add_arguments, settings_from_args
+from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.messages import Pose, decode_pose
+from carlaverse.swarm import Swarm, SwarmSettings
 from tests.support import Cluster, wait_until
 
 EGOS = 12
@@ -66,3 +70,41 @@ def test_swarm_express_reaches_its_settings() -> None:
     add_arguments(parser)
     assert settings_from_args(parser.parse_args(["--express"])).express is True
     assert settings_from_args(parser.parse_args([])).express is False
+
+
+class _SteppingClock:
+    """Session time that moves on 5 ms at every reading, as a preempted sender's would."""
+
+    def __init__(self) -> None:
+        self.t = 100.0
+
+    def now(self) -> float:
+        self.t += 0.005
+        return self.t
+
+
+def test_each_swarm_pose_is_stamped_when_it_is_put_and_placed_for_that_moment() -> None:
+    """A slot's poses go out one after the other; a stamp taken once for the slot would
+    count the wait behind the slot's earlier puts as every receiver's delay."""
+    session = open_session(FabricSettings(connect=[], listen=["tcp/127.0.0.1:0"]))
+    heard: list[Pose] = []
+    subscriber = session.declare_subscriber(
+        "**", lambda sample: heard.append(decode_pose(sample.payload.to_bytes()))
+    )
+    swarm = Swarm(session, SwarmSettings(egos=6, spread_m=600.0))
+    try:
+        swarm.members.joined = [True] * 6
+        swarm.clock = _SteppingClock()  # type: ignore[assignment]
+        swarm._send(np.arange(6))
+        wait_until(lambda: len(heard) == 6, 10, "the slot's six poses")
+    finally:
+        subscriber.undeclare()
+        session.close()
+    stamps = sorted(p.t for p in heard)
+    # the group's state at 100.005, then one reading per pose
+    assert stamps == pytest.approx([100.005 + 0.005 * k for k in range(1, 7)])
+    for pose in heard:
+        i = round((pose.t - 100.01) / 0.005)
+        truth = swarm.loops.at(pose.t, np.array([i]))
+        # off only across a corner, by at most speed × the time since the group's state
+        assert math.hypot(pose.x - truth.x[0], pose.y - truth.y[0]) < 14.0 * (pose.t - 100.005)
