@@ -170,10 +170,11 @@ class Swarm:
         receiver's one-way delay counted that wait, which is the load generator's and no
         node's. So each pose carries its own moment: the group's state, computed once, is
         carried on at its velocity for the microseconds to milliseconds since (on a block's
-        straight sides exact; across a corner off by at most speed × that time).
+        straight sides exact; across a corner off by at most speed × that time). The
+        moment is read from the local clock: 0.16 µs, where a session-clock reading is 0.8.
         """
-        now = self.clock.now
-        t0 = now()
+        local = self.clock.local.now  # session time moves with it: its offset slews by µs/s
+        local0, t0 = local(), self.clock.now()
         state = self.loops.at(t0, group)
         joined, seq, pubs = self.members.joined, self._seq, self._publishers
         pack, version = m.POSE_LAYOUT.pack, m.POSE_LAYOUT_VERSION
@@ -183,8 +184,8 @@ class Swarm:
             if not joined[i]:
                 continue
             seq[i] += 1
-            t = now()
-            x, y = x + vx * (t - t0), y + vy * (t - t0)
+            dt = local() - local0
+            t, x, y = t0 + dt, x + vx * dt, y + vy * dt
             payload = pack(version, 0, 0, seq[i] & 0xFFFFFFFF, t, x, y, 0.0, 0.0, 0.0, yaw,
                            vx, vy, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)  # fmt: skip
             pubs[i].put(payload, x, y)

@@ -73,14 +73,24 @@ def test_swarm_express_reaches_its_settings() -> None:
 
 
 class _SteppingClock:
-    """Session time that moves on 5 ms at every reading, as a preempted sender's would."""
+    """A local clock that moves on 5 ms at every reading, as a preempted sender's would."""
 
     def __init__(self) -> None:
-        self.t = 100.0
+        self.t = 0.0
 
     def now(self) -> float:
         self.t += 0.005
         return self.t
+
+
+class _SessionClock:
+    """Session time 100 s ahead of the stepping local clock."""
+
+    def __init__(self) -> None:
+        self.local = _SteppingClock()
+
+    def now(self) -> float:
+        return self.local.now() + 100.0
 
 
 def test_each_swarm_pose_is_stamped_when_it_is_put_and_placed_for_that_moment() -> None:
@@ -94,17 +104,18 @@ def test_each_swarm_pose_is_stamped_when_it_is_put_and_placed_for_that_moment() 
     swarm = Swarm(session, SwarmSettings(egos=6, spread_m=600.0))
     try:
         swarm.members.joined = [True] * 6
-        swarm.clock = _SteppingClock()  # type: ignore[assignment]
+        swarm.clock = _SessionClock()  # type: ignore[assignment]
         swarm._send(np.arange(6))
         wait_until(lambda: len(heard) == 6, 10, "the slot's six poses")
     finally:
         subscriber.undeclare()
         session.close()
-    stamps = sorted(p.t for p in heard)
-    # the group's state at 100.005, then one reading per pose
-    assert stamps == pytest.approx([100.005 + 0.005 * k for k in range(1, 7)])
+    # The slot reads the local clock (0.005) and the session clock (100.010) once, then the
+    # local clock once per pose (0.015, 0.020, ...): each stamp is its own moment.
+    t0, stamps = 100.010, sorted(p.t for p in heard)
+    assert stamps == pytest.approx([t0 + 0.005 * k for k in range(2, 8)])
     for pose in heard:
-        i = round((pose.t - 100.01) / 0.005)
+        i = round((pose.t - t0) / 0.005) - 2
         truth = swarm.loops.at(pose.t, np.array([i]))
         # off only across a corner, by at most speed × the time since the group's state
-        assert math.hypot(pose.x - truth.x[0], pose.y - truth.y[0]) < 14.0 * (pose.t - 100.005)
+        assert math.hypot(pose.x - truth.x[0], pose.y - truth.y[0]) < 14.0 * (pose.t - t0)
