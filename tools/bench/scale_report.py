@@ -329,10 +329,9 @@ def section(
         "",
         "One-way latency is a probe's session time on arrival minus the pose's session time "
         f"(both clocks synchronised to the authority; sync bound ≤ {sync:.2f} ms); the swarm "
-        "stamps each pose as it puts it, as a node does (a stamp per slot of 26 egos counted "
-        "the wait behind the slot's earlier puts, 0.4 ms p50 and 3.9 ms p99 on this machine, "
-        "in every receiver's delay); delivery is poses received over sequence numbers "
-        "spanned per sender.",
+        "stamps each pose as it puts it, as a node does (one stamp for a slot's 26 egos "
+        "would count the wait behind the slot's earlier puts in every receiver's delay); "
+        "delivery is poses received over sequence numbers spanned per sender.",
         "",
         scale_table(runs, base),
         "",
