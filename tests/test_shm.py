@@ -94,12 +94,12 @@ def _stalled_writer(name: str, steps) -> None:  # type: ignore[no-untyped-def]
     wrote.set()
     go.wait(30)
     seq = block.sequence()
-    block._buf[:8] = (seq + 1).to_bytes(8, sys.byteorder)  # a write begun
+    block._seq[0] = seq + 1  # a write begun
     stalled.set()
     resume.wait(30)
     record["c"] = 2
     block._record[()] = record
-    block._buf[:8] = (seq + 2).to_bytes(8, sys.byteorder)  # and finished
+    block._seq[0] = seq + 2  # and finished
     block.close()
 
 
