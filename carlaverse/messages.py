@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import struct
 from collections.abc import Callable
-from typing import Annotated, Any, Generic, Literal, TypeVar, get_args
+from typing import Annotated, Any, Generic, Literal, NamedTuple, TypeVar, get_args
 
 import msgspec
 import numpy as np
@@ -134,10 +134,17 @@ POSE_DTYPE = np.dtype(
 assert POSE_DTYPE.itemsize == POSE_SIZE
 
 
-def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
-    """Consecutive 64-byte poses, each decoded as `decode_pose` would; None where it would
-    refuse (layout version, a non-finite value, the time out of range). One numpy pass over
-    all of them: a relay's batch costs a fraction of a `decode_pose` call per pose."""
+class PoseColumns(NamedTuple):
+    """Consecutive poses as columns: what a receiver applies many at once."""
+
+    seq: np.ndarray  # int64
+    values: np.ndarray  # float64, (n, 16): t, x y z, roll pitch yaw, vx vy vz, wx wy wz, ax ay az
+    flags: np.ndarray  # int64
+
+
+def pose_columns(rows: bytes | bytearray | memoryview) -> tuple[PoseColumns, np.ndarray]:
+    """Consecutive 64-byte poses as columns, and which rows `decode_pose` would accept (layout
+    version, every value finite, the time in range). One numpy pass over all of them."""
     if len(rows) % POSE_SIZE:
         raise MessageError(f"pose rows: {len(rows)} bytes is not a multiple of {POSE_SIZE}")
     table = np.frombuffer(rows, dtype=POSE_DTYPE)
@@ -150,14 +157,22 @@ def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
         & np.isfinite(values).all(axis=1)
         & (np.abs(values[:, 0]) <= TIME_LIMIT_S)
     )
+    columns = PoseColumns(table["seq"].astype(np.int64), values, table["flags"].astype(np.int64))
+    return columns, good
+
+
+def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
+    """Consecutive 64-byte poses, each decoded as `decode_pose` would; None where it would
+    refuse. A relay's batch costs a fraction of a `decode_pose` call per pose."""
+    (seq, values, flags), good = pose_columns(rows)
     # Poses built column by column, without a Python loop; nearly always every row is good.
     keep = None if good.all() else np.flatnonzero(good)
-    rows_kept, values_kept = (table, values) if keep is None else (table[keep], values[keep])
-    poses = list(map(Pose, rows_kept["seq"].tolist(), *values_kept.T.tolist(),
-                     rows_kept["flags"].tolist()))  # fmt: skip
+    if keep is not None:
+        seq, values, flags = seq[keep], values[keep], flags[keep]
+    poses = list(map(Pose, seq.tolist(), *values.T.tolist(), flags.tolist()))
     if keep is None:
         return poses
-    out: list[Pose | None] = [None] * len(table)
+    out: list[Pose | None] = [None] * len(good)
     for k, pose in zip(keep.tolist(), poses, strict=True):
         out[k] = pose
     return out
