@@ -25,6 +25,7 @@ import threading
 from collections import deque
 from collections.abc import Callable
 
+import numpy as np
 import zenoh
 
 from carlaverse import messages as m
@@ -213,11 +214,14 @@ class Inbound:
         digest = self._authority_message(sample, m.POSE_DIGEST, "digest")
         if not isinstance(digest, m.PoseDigest):
             return
-        rows = digest.poses()
-        poses = [(n, p) for n, p in zip(digest.ids, rows, strict=True) if p is not None]
-        if len(poses) < len(rows):
-            self.dropped.add("pose", len(rows) - len(poses))
-        self.world.push_poses(poses, rx_t)
+        columns, good = m.pose_columns(digest.rows)
+        ids = digest.ids
+        if not good.all():
+            keep = np.flatnonzero(good)
+            self.dropped.add("pose", len(ids) - len(keep))
+            columns = m.PoseColumns(*(column[keep] for column in columns))
+            ids = [ids[k] for k in keep.tolist()]
+        self.world.push_rows(ids, columns, rx_t)
 
     def _on_state(self, sample: zenoh.Sample) -> None:
         node_id = self._sender(sample, "state")

@@ -2,7 +2,8 @@
 
 Zenoh callbacks only push into `inbox` (a deque append is atomic under the GIL, so they never
 wait); the owner of the view drains it in `update(now)` on its own thread. That keeps every
-`RemoteActor` single-threaded and the callbacks cheap.
+`RemoteActor` single-threaded and the callbacks cheap. The poses drained in one update are
+applied together, as arrays (`ego_streams`); an actor takes its samples when it is read.
 
 One render time per view: every actor of a view, egos and NPCs, is drawn at the same session
 time, so that their relative positions are true (two actors drawn at different times are
@@ -29,16 +30,19 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
+import numpy as np
+
+from carlaverse.fabric.ego_streams import (
+    Batch,
+    EgoActors,
+    EgoStreams,
+    StreamStatsTable,
+    batch_of_poses,
+    join_batches,
+)
 from carlaverse.fabric.interest_npcs import WHOLE_WORLD, NpcTiles
 from carlaverse.fabric.npc_table import NpcFrame
-from carlaverse.fabric.remote_actor import (
-    ActorView,
-    DelaySlew,
-    InterpolationSettings,
-    Phase,
-    RemoteActor,
-)
-from carlaverse.fabric.stats import StreamStats
+from carlaverse.fabric.remote_actor import ActorView, DelaySlew, InterpolationSettings, Phase
 from carlaverse.keys import AUTHORITY_ID, tile_of, tile_token
 from carlaverse.messages import (
     EgoInfo,
@@ -47,6 +51,7 @@ from carlaverse.messages import (
     Notice,
     NpcBatch,
     Pose,
+    PoseColumns,
     Skeleton,
     Snapshot,
     Weather,
@@ -56,7 +61,7 @@ log = logging.getLogger(__name__)
 
 INBOX_LIMIT = 100_000  # beyond this the owner is not draining; oldest input is dropped
 TOMBSTONE_S = 30.0  # [s] a tombstone outlives any sample still in flight by far
-STATS_LIMIT = 1024  # per-sender statistics kept at most (present senders first)
+STATS_LIMIT = 1024  # senders kept at most; beyond, a departed one's place is reused
 NOTICE_LIMIT = 32  # scenario messages waiting for the node's loop; older ones are dropped
 # Despawns kept for the summary; with interest areas every ego that drives out of a node's
 # tiles is one (`far`), so over a long session the oldest go.
@@ -77,7 +82,8 @@ class WorldView:
         self.inbox: deque[tuple[Any, ...]] = deque(maxlen=INBOX_LIMIT)
         # scenario messages for this participant, oldest first; the node's loop takes them
         self.notices: deque[Notice] = deque(maxlen=NOTICE_LIMIT)
-        self.egos: dict[str, RemoteActor] = {}
+        self.streams = EgoStreams(own_id, settings)
+        self.egos = EgoActors(self.streams, settings)
         self.npcs = NpcTiles(settings)
         # The tiles this view hears (None: the whole world); set by the node's interest area.
         self.interest: frozenset[str] | None = None
@@ -86,7 +92,7 @@ class WorldView:
         self.skeletons: dict[str, Skeleton] = {}  # the newest per present walker
         self.lights: LightsState | None = None
         self.weather: Weather | None = None
-        self.stats: dict[str, StreamStats] = {}
+        self.stats = StreamStatsTable(self.streams)
         self.despawns: deque[Despawn] = deque(maxlen=DESPAWN_LIMIT)
         self.seen: set[str] = set()  # every ego id ever rendered
         self._tombstones: dict[str, float] = {}
@@ -96,12 +102,11 @@ class WorldView:
         self.rejected: Counter[str] = Counter()
         self._delay = DelaySlew(settings)
         self._render: tuple[float, float] | None = None  # (now, render time) last computed
-        # inbox tag -> what applies it (looked up once per item: a pose is most of them)
+        # inbox tag -> what applies it (poses, most of the items, are gathered instead)
         self._handlers = {
-            "pose": self._on_pose, "poses": self._on_poses, "skeleton": self._on_skeleton,
-            "npc": self._on_npc, "interest": self._on_interest, "gone": self._on_gone,
-            "present": self._on_present, "notice": self._on_notice, "state": self._on_state,
-            "snapshot": self._on_snapshot,
+            "skeleton": self._on_skeleton, "npc": self._on_npc, "interest": self._on_interest,
+            "gone": self._on_gone, "present": self._on_present, "notice": self._on_notice,
+            "state": self._on_state, "snapshot": self._on_snapshot,
         }  # fmt: skip
 
     @property
@@ -119,9 +124,9 @@ class WorldView:
         if node_id != self.own_id:
             self.inbox.append(("pose", node_id, pose, rx_t))
 
-    def push_poses(self, poses: list[tuple[str, Pose]], rx_t: float) -> None:
-        """Many nodes' poses received together (a `PoseDigest`): one inbox item for all."""
-        self.inbox.append(("poses", poses, rx_t))
+    def push_rows(self, ids: list[str], columns: PoseColumns, rx_t: float) -> None:
+        """Many nodes' poses received together (a `PoseDigest`'s checked rows): one inbox item."""
+        self.inbox.append(("rows", Batch(ids, columns, np.full(len(ids), rx_t))))
 
     def push_skeleton(self, node_id: str, skeleton: Skeleton) -> None:
         if node_id != self.own_id:
@@ -145,58 +150,65 @@ class WorldView:
     # ------------------------------------------------------------ owner thread
 
     def update(self, now: float) -> None:
-        """Apply everything received so far, then expire silent actors."""
-        inbox, handlers, on_pose = self.inbox, self._handlers, self._on_pose
+        """Apply everything received so far, then expire silent actors.
+
+        Poses are gathered and applied together; anything else applies the poses before it
+        first, so that order holds (a pose in flight after its node left is refused)."""
+        inbox, handlers = self.inbox, self._handlers
+        ids: list[str] = []
+        poses: list[Pose] = []
+        rx: list[float] = []
+        batches: list[Batch] = []
         while inbox:
             item = inbox.popleft()
-            if item[0] == "pose":  # nearly every item: called without building an argument tuple
-                on_pose(item[1], item[2], item[3])
-            else:
-                handlers[item[0]](*item[1:])
-        timeout = self.settings.despawn_timeout_s
-        # Silent for the despawn timeout: expired. Every actor is scanned on every update, so
-        # the test reads the newest arrival directly (a method call each cost more than it).
-        expired = [a for a in self.egos.values() if now - a.timing.last_rx_t > timeout]
-        for actor in expired:
-            self._remove(actor.actor_id, "timeout" if self.hears(actor.newest) else "far", now)
+            tag = item[0]
+            if tag == "pose":  # nearly every item, unless the poses come as digests
+                ids.append(item[1])
+                poses.append(item[2])
+                rx.append(item[3])
+                continue
+            if poses:
+                batches.append(batch_of_poses(ids, poses, rx))
+                ids, poses, rx = [], [], []
+            if tag == "rows":
+                batches.append(item[1])
+                continue
+            if batches:
+                self._apply(join_batches(batches))
+                batches = []
+            handlers[tag](*item[1:])
+        if poses:
+            batches.append(batch_of_poses(ids, poses, rx))
+        if batches:
+            self._apply(join_batches(batches))
+        self._expire(now)
         self.npcs.drop_expired(now)
         self._forget_tombstones(now)
 
+    def _apply(self, batch: Batch) -> None:
+        applied = self.streams.apply(batch)
+        if applied.absent:
+            self.rejected["pose_from_absent_node"] += applied.absent
+        if applied.implausible:
+            self.rejected["pose_time_implausible"] += applied.implausible
+        ids, active = self.streams.ids, self.streams.active
+        for slot in applied.fresh[~active[applied.fresh]].tolist():  # senders new to the view
+            self.egos.open(ids[slot])
+            self.seen.add(ids[slot])
+
+    def _expire(self, now: float) -> None:
+        """Remove the actors silent for the despawn timeout (every actor is looked at on every
+        update: one array comparison, no actor brought up to date unless it expired)."""
+        streams = self.streams
+        n = len(streams.ids)
+        silent = streams.active[:n] & (now - streams.last_rx[:n] > self.settings.despawn_timeout_s)
+        for slot in np.flatnonzero(silent).tolist():
+            node_id = streams.ids[slot]
+            reason = "timeout" if self.hears(self.egos[node_id].newest) else "far"
+            self._remove(node_id, reason, now)
+
     def _on_notice(self, notice: Notice) -> None:
         self.notices.append(notice)
-
-    def _on_pose(self, node_id: str, pose: Pose, rx_t: float) -> None:
-        if node_id in self._tombstones or node_id not in self.present:
-            self.rejected["pose_from_absent_node"] += 1
-            return
-        if not abs(pose.t - rx_t) <= self.settings.implausible_s:
-            self.rejected["pose_time_implausible"] += 1
-            return
-        stats = self.stats.get(node_id)
-        if stats is None:
-            self._bound_stats()
-            stats = self.stats[node_id] = StreamStats()
-        stats.add(pose.seq, pose.t, rx_t)
-        actor = self.egos.get(node_id)
-        if actor is None:
-            actor = self.egos[node_id] = RemoteActor(node_id, self.settings)
-            self.seen.add(node_id)
-        actor.add(pose, rx_t)
-
-    def _on_poses(self, poses: list[tuple[str, Pose]], rx_t: float) -> None:
-        own, on_pose = self.own_id, self._on_pose
-        for node_id, pose in poses:
-            if node_id != own:
-                on_pose(node_id, pose, rx_t)
-
-    def _bound_stats(self) -> None:
-        """Keep statistics of departed senders only while there is room."""
-        if len(self.stats) < STATS_LIMIT:
-            return
-        for node_id in [n for n in self.stats if n not in self.present]:
-            del self.stats[node_id]
-            if len(self.stats) < STATS_LIMIT:
-                return
 
     def _on_npc(self, batch: NpcBatch, rx_t: float, tile: str = WHOLE_WORLD) -> None:
         if not self.npcs.add(batch, rx_t, tile):
@@ -230,7 +242,7 @@ class WorldView:
             node_id = ego.node_id
             if node_id in (self.own_id, AUTHORITY_ID) or node_id in self._tombstones:
                 continue
-            self.present.add(node_id)
+            self._admit(node_id)
             if ego.state is not None:
                 self.ego_states.setdefault(node_id, ego.state)
             if self.interest is not None and not self.interest:
@@ -241,7 +253,7 @@ class WorldView:
     def _snapshot_pose(self, ego: EgoInfo, rx_t: float) -> None:
         pose = ego.pose
         if pose is not None and self.hears(pose):
-            self._on_pose(ego.node_id, pose, rx_t)
+            self._apply(batch_of_poses([ego.node_id], [pose], [rx_t]))
             if ego.node_id in self.egos:
                 self.egos[ego.node_id].kind = ego.actor_kind
 
@@ -262,6 +274,7 @@ class WorldView:
             self._amend_loss(node_id)
         self._tombstones[node_id] = t
         self.present.discard(node_id)
+        self.streams.refuse(node_id)
         self._remove(node_id, reason, t)
 
     def _amend_loss(self, node_id: str) -> None:
@@ -283,14 +296,19 @@ class WorldView:
             self.rejected["reserved_id"] += 1
             return
         self._tombstones.pop(node_id, None)
+        self._admit(node_id)
+
+    def _admit(self, node_id: str) -> None:
         self.present.add(node_id)
+        self.streams.admit(node_id, STATS_LIMIT)
 
     def _remove(self, node_id: str, reason: str, t: float) -> None:
-        if self.egos.pop(node_id, None) is not None:
+        if self.egos.close(node_id) is not None:
             self.despawns.append(Despawn(node_id, reason, t))
             log.info("despawned %s (%s)", node_id, reason)
-        if reason == "far":  # it is alive, only out of earshot: its sequence gap is no loss
-            self.stats.pop(node_id, None)
+        slot = self.streams.index.get(node_id)
+        if reason == "far" and slot is not None:  # alive, only out of earshot: a gap is no loss
+            self.streams.reset_statistics(slot)
         self.ego_states.pop(node_id, None)
         self.skeletons.pop(node_id, None)
 

@@ -92,15 +92,15 @@ def _digest_observer(
     client = NodeClient(session, settings, MonotonicClock())
     sizes: list[int] = []
     seqs: dict[str, list[int]] = {}
-    push_poses = client.world.push_poses
+    push_rows = client.world.push_rows
 
-    def noted(poses: list[tuple[str, m.Pose]], rx_t: float) -> None:
-        sizes.append(len(poses))
-        for sender, pose in poses:
-            seqs.setdefault(sender, []).append(pose.seq)
-        push_poses(poses, rx_t)
+    def noted(ids: list[str], columns: m.PoseColumns, rx_t: float) -> None:
+        sizes.append(len(ids))
+        for sender, seq in zip(ids, columns.seq.tolist(), strict=True):
+            seqs.setdefault(sender, []).append(seq)
+        push_rows(ids, columns, rx_t)
 
-    client.world.push_poses = noted  # type: ignore[method-assign]
+    client.world.push_rows = noted  # type: ignore[method-assign]
     client.start()
     cluster.sessions.append(client)
     return client, sizes, seqs

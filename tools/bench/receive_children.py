@@ -257,7 +257,9 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
     from carlaverse.fabric.world_view import WorldView
 
     world = WorldView(NODE_ID, InterpolationSettings())
-    world.present.update(f"e{i}" for i in range(egos))  # as if their tokens had come
+    for i in range(egos):  # as if their tokens had come
+        world.push_present(f"e{i}")
+    world.update(0.0)
     clock = SessionClock(MonotonicClock())
     inbound = Inbound(NODE_ID, world, clock, lost=lambda: None, appeared=lambda: None)
     receiver = Receiver(world=world)
@@ -270,15 +272,15 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
         latency.append(rx_t - pose.t)
         push_pose(node_id, pose, rx_t)
 
-    push_poses = world.push_poses
+    push_rows = world.push_rows
 
-    def counted_many(poses: list[tuple[str, Any]], rx_t: float) -> None:  # one call per digest
-        receiver.received += len(poses)
-        latency.extend([rx_t - pose.t for _, pose in poses])
-        push_poses(poses, rx_t)
+    def counted_many(ids: list[str], columns: Any, rx_t: float) -> None:  # one call per digest
+        receiver.received += len(ids)
+        latency.extend((rx_t - columns.values[:, 0]).tolist())
+        push_rows(ids, columns, rx_t)
 
     world.push_pose = counted  # type: ignore[method-assign]
-    world.push_poses = counted_many  # type: ignore[method-assign]
+    world.push_rows = counted_many  # type: ignore[method-assign]
     if feed.authority:
         inbound.authority_id = feed.authority  # as a join reply names it
         handler = inbound.digest_handler()

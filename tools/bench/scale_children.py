@@ -149,16 +149,17 @@ def probe_main(
         receipts.heard(sender, pose.seq, rx_t - pose.t)
         push_pose(sender, pose, rx_t)
 
-    push_poses = client.world.push_poses
+    push_rows = client.world.push_rows
 
-    def stamped_many(poses: list[tuple[str, Any]], rx_t: float) -> None:
-        for sender, pose in poses:
-            receipts.heard(sender, pose.seq, rx_t - pose.t)
+    def stamped_many(ids: list[str], columns: Any, rx_t: float) -> None:
+        sent = columns.values[:, 0].tolist()
+        for sender, seq, t in zip(ids, columns.seq.tolist(), sent, strict=True):
+            receipts.heard(sender, seq, rx_t - t)
         if receipts.recording:
             stamp = receipts.stamp_s
-            receipts.to_relay_s += [stamp - pose.t for _, pose in poses]
-            receipts.hop_s += [rx_t - stamp] * len(poses)
-        push_poses(poses, rx_t)
+            receipts.to_relay_s += [stamp - t for t in sent]
+            receipts.hop_s += [rx_t - stamp] * len(ids)
+        push_rows(ids, columns, rx_t)
 
     if digest:  # the digest's timestamp, noted before the node's own handler applies it
         from carlaverse.fabric.inbound import Inbound
@@ -173,7 +174,7 @@ def probe_main(
         Inbound._on_digest = noted  # type: ignore[method-assign]  # this child's class only
 
     client.world.push_pose = stamped  # type: ignore[method-assign]
-    client.world.push_poses = stamped_many  # type: ignore[method-assign]
+    client.world.push_rows = stamped_many  # type: ignore[method-assign]
     client.start(lambda t: Pose(0, t, x, y))
     client.wait_joined(60)
     conn.send("joined")

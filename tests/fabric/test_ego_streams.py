@@ -1,0 +1,134 @@
+"""The world view's egos as columns (`fabric/ego_streams.py`): poses applied a batch at a time,
+actors fed only when read, statistics per sender without an object per pose."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+from carlaverse_nodes.scripted.trajectories import CirclePath
+
+from carlaverse import messages as m
+from carlaverse.fabric import ego_streams, world_view
+from carlaverse.fabric.remote_actor import InterpolationSettings, RemoteActor
+from carlaverse.fabric.stats import percentile
+from carlaverse.fabric.world_view import WorldView
+
+CIRCLE = CirclePath(radius=30.0, speed_mps=14.0)
+
+
+def rows(ids_poses: list[tuple[str, m.Pose]]) -> tuple[list[str], m.PoseColumns]:
+    """A digest's checked rows, as the inbound handler hands them over."""
+    columns, good = m.pose_columns(b"".join(m.encode_pose(p) for _, p in ids_poses))
+    assert good.all()
+    return [i for i, _ in ids_poses], columns
+
+
+def joined(*node_ids: str, mode: str = "present") -> WorldView:
+    world = WorldView("me", InterpolationSettings(render_mode=mode))  # type: ignore[arg-type]
+    for node_id in node_ids:
+        world.push_present(node_id)
+    world.update(0.0)
+    return world
+
+
+def test_two_samples_of_one_sender_in_one_update_are_both_applied_in_order() -> None:
+    world = joined("a", "b")
+    world.push_rows(*rows([("a", CIRCLE.pose_at(1.00)), ("b", CIRCLE.pose_at(1.00))]), 1.01)
+    world.push_rows(*rows([("a", CIRCLE.pose_at(1.02)), ("a", CIRCLE.pose_at(1.04))]), 1.05)
+    world.update(1.05)
+    assert world.stats["a"].count == 3 and world.stats["b"].count == 1
+    actor = world.egos["a"]
+    assert actor.samples_received == 3
+    assert actor.newest is not None and actor.newest.t == pytest.approx(1.04)
+    assert actor.timing.interval_s == pytest.approx(0.02, abs=1e-6)
+
+
+def test_lazy_actors_draw_exactly_what_eagerly_fed_actors_draw() -> None:
+    """The same samples, given to a world view a batch per update and to a `RemoteActor` one by
+    one: every frame drawn is the same, in both render modes."""
+    for mode in ("present", "past"):
+        settings = InterpolationSettings(render_mode=mode)  # type: ignore[arg-type]
+        world = joined("a", mode=mode)
+        eager = RemoteActor("a", settings)
+        for k in range(1, 120):
+            t = 10.0 + 0.02 * k
+            pose = CIRCLE.pose_at(t)
+            rx = t + 0.004 + 0.003 * math.sin(k)  # jittered latency
+            world.push_pose("a", pose, rx)
+            eager.add(pose, rx)
+            if k % 3 == 0:  # a frame every 60 ms, after the samples that arrived by then
+                now = rx + 0.001
+                world.update(now)
+                (lazy,) = world.ego_views(now)
+                mine = eager.present(now) if mode == "present" else eager.past(lazy.render_t, now)
+                assert mine is not None
+                assert (lazy.x, lazy.y, lazy.yaw, lazy.phase) == pytest.approx(
+                    (mine.x, mine.y, mine.yaw, mine.phase)
+                ), (mode, k)
+
+
+def test_a_view_that_is_not_read_keeps_a_bounded_ring_per_sender() -> None:
+    world = joined("a")
+    for k in range(1, 500):
+        t = 0.02 * k
+        world.push_pose("a", m.Pose(k, t, float(k), 0.0), t)
+    world.update(10.0)
+    assert world.stats["a"].count == 499  # every sample counted ...
+    actor = world.egos["a"]  # ... but the actor, read now, takes only the ring's newest
+    assert actor.samples_received == ego_streams.RING
+    assert actor.newest is not None and actor.newest.seq == 499
+
+
+def test_our_own_row_in_a_digest_is_skipped_and_an_intruder_grows_nothing() -> None:
+    world = joined("a")
+    slots = len(world.streams.ids)
+    pose = m.Pose(1, 1.0, 0.0, 0.0)
+    world.push_rows(*rows([("me", pose), ("a", pose), ("mallory", pose), ("authority", pose)]), 1.0)
+    world.update(1.0)
+    assert set(world.egos) == {"a"} and set(world.stats) == {"a"}
+    assert world.rejected == {"pose_from_absent_node": 2}  # not our own row
+    assert len(world.streams.ids) == slots  # no place kept for who never joined
+
+
+def test_statistics_match_their_definitions() -> None:
+    """Loss from the sequence gaps, RFC 3550 jitter, latency percentiles and rate, against a
+    plain computation over the same samples."""
+    world = joined("a")
+    latencies, transit_prev, jitter = [], None, 0.0
+    sent = [k for k in range(1, 301) if k % 10 != 0]  # every tenth sample lost
+    for k in sent:
+        t = 0.02 * k
+        latency = 0.005 + 0.002 * ((k * 7) % 5)
+        world.push_pose("a", m.Pose(k, t, 0.0, 0.0), t + latency)
+        latencies.append(latency)
+        if transit_prev is not None:
+            jitter += (abs(latency - transit_prev) - jitter) / 16
+        transit_prev = latency
+    world.update(6.1)
+    summary = world.stats["a"].summary(6.1)
+    span = (0.02 * sent[-1] + latencies[-1]) - (0.02 * sent[0] + latencies[0])
+    assert summary.samples == len(sent)
+    assert summary.loss == pytest.approx(1 - len(sent) / (sent[-1] - sent[0] + 1), abs=1e-4)
+    assert summary.jitter_ms == pytest.approx(jitter * 1e3, abs=1e-3)
+    assert summary.latency_p50_ms == pytest.approx(percentile(latencies, 0.5) * 1e3, abs=1e-3)
+    assert summary.latency_p99_ms == pytest.approx(percentile(latencies, 0.99) * 1e3, abs=1e-3)
+    assert summary.rate_hz == pytest.approx((len(sent) - 1) / span, abs=0.01)
+
+
+def test_a_departed_senders_place_is_reused_beyond_the_limit(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(world_view, "STATS_LIMIT", 8)
+    world = joined()
+    for k in range(20):
+        node = f"n{k}"
+        world.push_present(node)
+        world.push_pose(node, m.Pose(1, 0.0, 0.0, 0.0), 0.0)
+        world.push_gone(node, "left", 0.0)
+    world.push_present("last")
+    world.push_pose("last", m.Pose(7, 0.0, 0.0, 0.0), 0.0)
+    world.update(0.0)
+    assert len(world.streams.ids) <= 8 and "last" in world.egos
+    assert world.stats["last"].summary(0.0).samples == 1  # nothing of the slot's former owner
+    assert world.egos["last"].newest == m.Pose(7, 0.0, 0.0, 0.0)
