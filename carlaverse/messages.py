@@ -141,6 +141,14 @@ class PoseColumns(NamedTuple):
     values: np.ndarray  # float64, (n, 16): t, x y z, roll pitch yaw, vx vy vz, wx wy wz, ax ay az
     flags: np.ndarray  # int64
 
+    def take(self, rows: np.ndarray) -> PoseColumns:
+        """Only these rows (indices or a mask)."""
+        return PoseColumns(self.seq[rows], self.values[rows], self.flags[rows])
+
+    def poses(self) -> list[Pose]:
+        """A `Pose` per row, built column by column without a Python loop."""
+        return list(map(Pose, self.seq.tolist(), *self.values.T.tolist(), self.flags.tolist()))
+
 
 def pose_columns(rows: bytes | bytearray | memoryview) -> tuple[PoseColumns, np.ndarray]:
     """Consecutive 64-byte poses as columns, and which rows `decode_pose` would accept (layout
@@ -164,14 +172,11 @@ def pose_columns(rows: bytes | bytearray | memoryview) -> tuple[PoseColumns, np.
 def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
     """Consecutive 64-byte poses, each decoded as `decode_pose` would; None where it would
     refuse. A relay's batch costs a fraction of a `decode_pose` call per pose."""
-    (seq, values, flags), good = pose_columns(rows)
-    # Poses built column by column, without a Python loop; nearly always every row is good.
-    keep = None if good.all() else np.flatnonzero(good)
-    if keep is not None:
-        seq, values, flags = seq[keep], values[keep], flags[keep]
-    poses = list(map(Pose, seq.tolist(), *values.T.tolist(), flags.tolist()))
-    if keep is None:
-        return poses
+    columns, good = pose_columns(rows)
+    if good.all():  # nearly always
+        return columns.poses()
+    keep = np.flatnonzero(good)
+    poses = columns.take(keep).poses()
     out: list[Pose | None] = [None] * len(good)
     for k, pose in zip(keep.tolist(), poses, strict=True):
         out[k] = pose

@@ -189,30 +189,23 @@ class EgoStreams:
         values, rx = batch.columns.values, batch.rx_t
         admitted = (slots >= 0) & self.admitted[np.maximum(slots, 0)]
         plausible = np.abs(values[:, 0] - rx) <= self.s.implausible_s
-        keep = admitted & plausible
-        applied = Applied(
-            int(np.count_nonzero(~admitted & (slots != self._own))),
-            int(np.count_nonzero(admitted & ~plausible)),
-            np.empty(0, np.int64),
-        )
-        rows = np.flatnonzero(keep)
-        fresh: list[np.ndarray] = []
-        if len(rows) and np.bincount(slots[rows]).max() == 1:  # nearly always: one round
-            fresh.append(self._round(slots[rows], batch.columns, rows, rx[rows]))
-            rows = rows[:0]
+        rows = np.flatnonzero(admitted & plausible)
+        fresh = [np.empty(0, np.int64)]
         while len(rows):
-            # Each round takes every sender's first remaining row: no slot twice in a round.
-            _, first = np.unique(slots[rows], return_index=True)
-            if len(first) == len(rows):
+            if np.bincount(slots[rows]).max() == 1:  # nearly always: every sender once
                 fresh.append(self._round(slots[rows], batch.columns, rows, rx[rows]))
                 break
+            # a round takes every sender's first remaining row, so no slot twice in a round
+            _, first = np.unique(slots[rows], return_index=True)
             first.sort()
             now = rows[first]
             fresh.append(self._round(slots[now], batch.columns, now, rx[now]))
             rows = np.delete(rows, first)
-        if fresh:
-            applied = applied._replace(fresh=np.unique(np.concatenate(fresh)))
-        return applied
+        return Applied(
+            int(np.count_nonzero(~admitted & (slots != self._own))),
+            int(np.count_nonzero(admitted & ~plausible)),
+            np.unique(np.concatenate(fresh)),
+        )
 
     def _round(
         self, s: np.ndarray, columns: PoseColumns, rows: np.ndarray, rx: np.ndarray
@@ -257,10 +250,9 @@ class EgoStreams:
         if start >= end:
             return [], []
         at = np.arange(start, end) % RING
-        values = self.ring_values[slot, at]
-        poses = list(map(Pose, self.ring_seq[slot, at].tolist(), *values.T.tolist(),
-                         self.ring_flags[slot, at].tolist()))  # fmt: skip
-        return poses, self.ring_rx[slot, at].tolist()
+        kept = PoseColumns(self.ring_seq[slot, at], self.ring_values[slot, at],
+                           self.ring_flags[slot, at])  # fmt: skip
+        return kept.poses(), self.ring_rx[slot, at].tolist()
 
     def summary(self, slot: int, now: float) -> StreamSummary:
         n = min(int(self.stat_pos[slot]), WINDOW)
@@ -293,10 +285,6 @@ class SenderStats:
     @property
     def count(self) -> int:
         return int(self._streams.count[self._slot])
-
-    @property
-    def last_rx_t(self) -> float:
-        return float(self._streams.last_rx[self._slot])
 
     def summary(self, now: float) -> StreamSummary:
         return self._streams.summary(self._slot, now)
@@ -376,7 +364,3 @@ class EgoActors(Mapping[str, RemoteActor]):
 
     def __len__(self) -> int:
         return len(self._actors)
-
-    def last_rx(self, node_id: str) -> float:
-        """When `node_id`'s newest sample arrived, without bringing its actor up to date."""
-        return float(self._streams.last_rx[self._streams.index[node_id]])

@@ -219,7 +219,7 @@ class Inbound:
         if not good.all():
             keep = np.flatnonzero(good)
             self.dropped.add("pose", len(ids) - len(keep))
-            columns = m.PoseColumns(*(column[keep] for column in columns))
+            columns = columns.take(keep)
             ids = [ids[k] for k in keep.tolist()]
         self.world.push_rows(ids, columns, rx_t)
 
