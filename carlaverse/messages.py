@@ -103,20 +103,42 @@ def encode_pose(p: Pose, seq: int | None = None) -> bytes:
         raise MessageError(f"pose does not fit the wire layout: {exc}") from exc
 
 
-def decode_pose(buf: bytes | bytearray | memoryview) -> Pose:
+def _checked_pose_fields(buf: bytes | bytearray | memoryview) -> tuple[Any, ...]:
+    """The wire pose's fields, unpacked, once the receiver's checks pass (layout, every value
+    finite, the time in range); MessageError naming what failed otherwise."""
     if len(buf) != POSE_SIZE:
         raise MessageError(f"pose: expected {POSE_SIZE} bytes, got {len(buf)}")
     v = POSE_LAYOUT.unpack(buf)
     if v[0] != POSE_LAYOUT_VERSION:
         raise MessageError(f"pose: unknown layout version {v[0]}")
-    values = v[4:]
     # One sum instead of 18 checks: a NaN or an infinity in any field makes it non-finite,
     # and finite fields cannot overflow it (f32/f16 ranges; an absurd time is refused anyway).
-    if not math.isfinite(sum(values)):
+    if not math.isfinite(sum(v[4:])):
         raise MessageError("pose: non-finite value")
     if abs(v[4]) > TIME_LIMIT_S:
         raise MessageError(f"pose: time {v[4]!r} s is out of range")
-    return Pose(v[3], *values, flags=v[1])
+    return v
+
+
+def decode_pose(buf: bytes | bytearray | memoryview) -> Pose:
+    v = _checked_pose_fields(buf)
+    return Pose(v[3], *v[4:], flags=v[1])
+
+
+def check_pose(buf: bytes) -> bytes:
+    """`buf` itself if `decode_pose` would accept it (MessageError if not), without building
+    the `Pose`: a receiver that applies many poses at once turns the bytes into columns."""
+    _checked_pose_fields(buf)
+    return buf
+
+
+_POSE_STAMP = struct.Struct("<4xId")  # seq u32 at byte 4, t f64 at byte 8 (POSE_LAYOUT)
+
+
+def pose_stamp(buf: bytes | bytearray | memoryview) -> tuple[int, float]:
+    """The sequence number and time of a wire pose, read without decoding the rest."""
+    seq, t = _POSE_STAMP.unpack_from(buf)
+    return seq, t
 
 
 # POSE_LAYOUT as a numpy record, no padding: 64 bytes. Many poses are checked at once with it.

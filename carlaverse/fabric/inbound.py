@@ -202,11 +202,11 @@ class Inbound:
         rx_t = self.clock.now()
         try:
             node_id = parse_cached(str(sample.key_expr)).node_id
-            pose = m.decode_pose(sample.payload.to_bytes())
+            payload = m.check_pose(sample.payload.to_bytes())
         except (KeySpaceError, m.MessageError):
             self.dropped.add("pose")
             return
-        self.world.push_pose(node_id, pose, rx_t)
+        self.world.push_wire(node_id, payload, rx_t)
 
     def _on_digest(self, sample: zenoh.Sample) -> None:
         """Poses relayed by the authority: each row checked as a pose of its own would be."""

@@ -38,6 +38,7 @@ from carlaverse.fabric.ego_streams import (
     EgoStreams,
     StreamStatsTable,
     batch_of_poses,
+    batch_of_wire,
     join_batches,
 )
 from carlaverse.fabric.interest_npcs import WHOLE_WORLD, NpcTiles
@@ -66,6 +67,10 @@ NOTICE_LIMIT = 32  # scenario messages waiting for the node's loop; older ones a
 # Despawns kept for the summary; with interest areas every ego that drives out of a node's
 # tiles is one (`far`), so over a long session the oldest go.
 DESPAWN_LIMIT = 10_000
+
+
+# inbox tags of single poses -> what makes a batch of a run of them
+_RUNS = {"wire": batch_of_wire, "pose": batch_of_poses}
 
 
 @dataclass(frozen=True, slots=True)
@@ -121,8 +126,15 @@ class WorldView:
     # ------------------------------------------------------------ called from callbacks
 
     def push_pose(self, node_id: str, pose: Pose, rx_t: float) -> None:
+        """A pose from a local source (a recording, a test); the fabric hands bytes instead."""
         if node_id != self.own_id:
             self.inbox.append(("pose", node_id, pose, rx_t))
+
+    def push_wire(self, node_id: str, payload: bytes, rx_t: float) -> None:
+        """A received pose in its 64-byte wire form, checked (`messages.check_pose`): no `Pose`
+        is built for it; the update reads every such pose as columns at once."""
+        if node_id != self.own_id:
+            self.inbox.append(("wire", node_id, payload, rx_t))
 
     def push_rows(self, ids: list[str], columns: PoseColumns, rx_t: float) -> None:
         """Many nodes' poses received together (a `PoseDigest`'s checked rows): one inbox item."""
@@ -154,22 +166,32 @@ class WorldView:
 
         Poses are gathered and applied together; anything else applies the poses before it
         first, so that order holds (a pose in flight after its node left is refused)."""
-        inbox, handlers = self.inbox, self._handlers
+        inbox, handlers, runs = self.inbox, self._handlers, _RUNS
+        run: str | None = None  # the kind of single poses being gathered ("wire" or "pose")
         ids: list[str] = []
-        poses: list[Pose] = []
+        data: list[Any] = []
         rx: list[float] = []
         batches: list[Batch] = []
         while inbox:
             item = inbox.popleft()
             tag = item[0]
-            if tag == "pose":  # nearly every item, unless the poses come as digests
+            # identity, not equality: the tags are interned literals (an equal tag that is not
+            # identical still takes the path below, only slower)
+            if tag is run:  # nearly every item, unless the poses come as digests
                 ids.append(item[1])
-                poses.append(item[2])
+                data.append(item[2])
                 rx.append(item[3])
                 continue
-            if poses:
-                batches.append(batch_of_poses(ids, poses, rx))
-                ids, poses, rx = [], [], []
+            if data:  # a run ends: kept in arrival order with what follows
+                batches.append(runs[run](ids, data, rx))
+                ids, data, rx = [], [], []
+            run = None
+            if tag in runs:
+                run = tag
+                ids.append(item[1])
+                data.append(item[2])
+                rx.append(item[3])
+                continue
             if tag == "rows":
                 batches.append(item[1])
                 continue
@@ -177,8 +199,8 @@ class WorldView:
                 self._apply(join_batches(batches))
                 batches = []
             handlers[tag](*item[1:])
-        if poses:
-            batches.append(batch_of_poses(ids, poses, rx))
+        if data:
+            batches.append(runs[run](ids, data, rx))
         if batches:
             self._apply(join_batches(batches))
         self._expire(now)

@@ -44,6 +44,29 @@ def test_two_samples_of_one_sender_in_one_update_are_both_applied_in_order() -> 
     assert actor.timing.interval_s == pytest.approx(0.02, abs=1e-6)
 
 
+def test_wire_poses_and_local_poses_of_one_sender_apply_in_arrival_order() -> None:
+    """The fabric hands bytes (`push_wire`), a recording hands `Pose`s (`push_pose`): runs of
+    each, interleaved in one update, are applied in the order they came."""
+    world = joined("a")
+    ts = [1.00, 1.02, 1.04, 1.06, 1.08, 1.10]
+    for k, t in enumerate(ts):
+        pose = m.Pose(k + 1, t, float(k), 0.0)
+        if k in (1, 2, 4):
+            world.push_wire("a", m.check_pose(m.encode_pose(pose)), t)
+        else:
+            world.push_pose("a", pose, t)
+    world.update(1.10)
+    actor = world.egos["a"]
+    assert world.stats["a"].count == 6 and actor.samples_received == 6  # none taken as late
+    assert actor.newest is not None and (actor.newest.seq, actor.newest.x) == (6, 5.0)
+    assert world.rejected == {}
+    # a wire pose's columns are what `decode_pose` makes of the bytes, field for field
+    wired = m.Pose(7, 1.12, 1.5, -2.25, 0.5, 0.1, 0.2, 0.3, 14.0, 0.5, 0.0, 0.0, 0.0, 0.25, 1.0)
+    world.push_wire("a", m.encode_pose(wired), 1.12)
+    world.update(1.12)
+    assert world.egos["a"].newest == m.decode_pose(m.encode_pose(wired))
+
+
 def test_lazy_actors_draw_exactly_what_eagerly_fed_actors_draw() -> None:
     """The same samples, given to a world view a batch per update and to a `RemoteActor` one by
     one: every frame drawn is the same, in both render modes."""

@@ -38,6 +38,21 @@ def test_rows_decode_as_single_poses_and_bad_rows_are_none() -> None:
         m.decode_pose_rows(good[0][:-1])
 
 
+def test_check_pose_refuses_what_decode_pose_refuses_and_passes_the_rest_unchanged() -> None:
+    good = m.encode_pose(_pose(9, 100.0))
+    nan = bytearray(good)
+    nan[16:20] = b"\x00\x00\xc0\x7f"  # x = NaN
+    bad = [b"", good[:-1], b"\x09" + good[1:], bytes(nan), m.encode_pose(_pose(1, 2e12))]
+    for payload in bad:
+        with pytest.raises(m.MessageError) as refused:
+            m.check_pose(payload)
+        with pytest.raises(m.MessageError) as decoded:
+            m.decode_pose(payload)
+        assert str(refused.value) == str(decoded.value)  # the same reason, naming the field
+    assert m.check_pose(good) is good
+    assert m.pose_stamp(good) == (9, 100.0)
+
+
 def test_rows_that_are_all_good_decode_field_for_field_as_single_poses() -> None:
     # The common case takes a path of its own (no row refused): every field, its type too.
     values = (2.25, 0.5, 0.1, -0.2, 1.5, 3.0, -1.0, 0.5, 0.25, -0.5, 1.0, 2.0, -3.0, 0.125)

@@ -119,13 +119,16 @@ def stamp_after_decode(client: Any, into: list[float]) -> None:
     The library's own arrival stamp is taken at callback entry, before the key is parsed and
     the payload decoded and validated; stamping here charges the library for that work too.
     """
-    push_pose = client.world.push_pose
+    from carlaverse.messages import pose_stamp
 
-    def stamped(node_id: str, pose: Any, rx_t: float) -> None:
-        into.append(time.monotonic() - pose.t)  # the sender stamped t with time.monotonic()
-        push_pose(node_id, pose, rx_t)
+    push_wire = client.world.push_wire
 
-    client.world.push_pose = stamped
+    def stamped(node_id: str, payload: bytes, rx_t: float) -> None:
+        # the sender stamped t with time.monotonic()
+        into.append(time.monotonic() - pose_stamp(payload)[1])
+        push_wire(node_id, payload, rx_t)
+
+    client.world.push_wire = stamped
 
 
 def sender(

@@ -255,6 +255,7 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
     from carlaverse.fabric.inbound import Inbound
     from carlaverse.fabric.remote_actor import InterpolationSettings
     from carlaverse.fabric.world_view import WorldView
+    from carlaverse.messages import pose_stamp
 
     world = WorldView(NODE_ID, InterpolationSettings())
     for i in range(egos):  # as if their tokens had come
@@ -263,14 +264,14 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
     clock = SessionClock(MonotonicClock())
     inbound = Inbound(NODE_ID, world, clock, lost=lambda: None, appeared=lambda: None)
     receiver = Receiver(world=world)
-    push_pose = world.push_pose
+    push_wire = world.push_wire
 
     latency = receiver.latency_s
 
-    def counted(node_id: str, pose: Any, rx_t: float) -> None:  # one call more per pose
+    def counted(node_id: str, payload: bytes, rx_t: float) -> None:  # one call more per pose
         receiver.received += 1
-        latency.append(rx_t - pose.t)
-        push_pose(node_id, pose, rx_t)
+        latency.append(rx_t - pose_stamp(payload)[1])
+        push_wire(node_id, payload, rx_t)
 
     push_rows = world.push_rows
 
@@ -279,7 +280,7 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
         latency.extend((rx_t - columns.values[:, 0]).tolist())
         push_rows(ids, columns, rx_t)
 
-    world.push_pose = counted  # type: ignore[method-assign]
+    world.push_wire = counted  # type: ignore[method-assign]
     world.push_rows = counted_many  # type: ignore[method-assign]
     if feed.authority:
         inbound.authority_id = feed.authority  # as a join reply names it

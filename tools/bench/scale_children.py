@@ -135,7 +135,7 @@ def probe_main(
     from carlaverse.fabric.clock import MonotonicClock
     from carlaverse.fabric.node_client import NodeClient, NodeSettings
     from carlaverse.fabric.session import FabricSettings, open_session
-    from carlaverse.messages import Pose
+    from carlaverse.messages import Pose, pose_stamp
 
     session = open_session(FabricSettings(connect=[endpoint]))
     settings = NodeSettings(
@@ -143,11 +143,12 @@ def probe_main(
     )
     client = NodeClient(session, settings, MonotonicClock())
     receipts = Receipts()
-    push_pose = client.world.push_pose
+    push_wire = client.world.push_wire
 
-    def stamped(sender: str, pose: Any, rx_t: float) -> None:
-        receipts.heard(sender, pose.seq, rx_t - pose.t)
-        push_pose(sender, pose, rx_t)
+    def stamped(sender: str, payload: bytes, rx_t: float) -> None:
+        seq, t = pose_stamp(payload)
+        receipts.heard(sender, seq, rx_t - t)
+        push_wire(sender, payload, rx_t)
 
     push_rows = client.world.push_rows
 
@@ -173,7 +174,7 @@ def probe_main(
 
         Inbound._on_digest = noted  # type: ignore[method-assign]  # this child's class only
 
-    client.world.push_pose = stamped  # type: ignore[method-assign]
+    client.world.push_wire = stamped  # type: ignore[method-assign]
     client.world.push_rows = stamped_many  # type: ignore[method-assign]
     client.start(lambda t: Pose(0, t, x, y))
     client.wait_joined(60)

@@ -92,16 +92,18 @@ class PoseReceiver:
         self._stamp_callback_entry()
         self._client = _open_client(plan, lowlatency, f"rx{index}", "observer", "")  # no actor
         world = self._client.world
-        push_pose = world.push_pose
+        push_wire = world.push_wire
 
-        def stamped(node_id: str, pose: Pose, rx_t: float) -> None:
+        def stamped(node_id: str, payload: bytes, rx_t: float) -> None:
             # The fabric's part ends where the harness takes over (and stamps the arrival).
+            # The fabric checked the bytes and hands them on; the harness decodes them with
+            # the project's decoder, as it does for every other transport.
             if self._entered:
                 self.in_callback_s.append(time.monotonic() - self._entered)
-            deliver.pose(pose)
-            push_pose(node_id, pose, rx_t)
+            deliver.payload(payload)
+            push_wire(node_id, payload, rx_t)
 
-        world.push_pose = stamped
+        world.push_wire = stamped
 
     def _stamp_callback_entry(self) -> None:
         """Note when the fabric's pose callback starts (`Inbound._on_pose`, wrapped in this

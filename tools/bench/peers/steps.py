@@ -55,14 +55,13 @@ def callback_steps() -> list[tuple[str, float, float]]:
 
     key = Keys("bench").pose("tx", "t0_0")
     payload = m.encode_pose(m.Pose(1, time.monotonic(), 0.0, 0.0, vx=14.0))
-    pose = m.POSE.decode(payload)
     clock = SessionClock(MonotonicClock())
     world = WorldView("rx0", InterpolationSettings())
     steps: list[tuple[str, Callable[[], object]]] = [
         ("session clock (`SessionClock.now`)", clock.now),
         ("sender from the key (`keys.parse_cached`)", lambda: parse_cached(key).node_id),
-        ("decode and check (`decode_pose`)", lambda: m.decode_pose(payload)),
-        ("hand-over (`WorldView.push_pose`)", lambda: world.push_pose("tx", pose, 0.0)),
+        ("check (`check_pose`)", lambda: m.check_pose(payload)),
+        ("hand-over (`WorldView.push_wire`)", lambda: world.push_wire("tx", payload, 0.0)),
     ]
     timed = []
     for name, call in steps:
