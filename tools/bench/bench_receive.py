@@ -15,7 +15,7 @@ threads, Zenoh's Rust ones too). The layers, each one more of a node's receive p
 - handoff: a callback that takes the payload's bytes and counts: what any Python node pays to
   be handed a sample.
 - inbound: the project's pose handler (`Inbound.pose_handler`) into a `WorldView` whose inbox
-  nobody drains: parse the key, decode, stamp with the session clock, queue.
+  nobody drains: parse the key, check the pose's bytes, stamp with the session clock, queue.
 - node: as inbound, plus a thread applying the inbox (`WorldView.update`) every 10 ms as a
   node's 100 Hz loop does; that thread's own CPU per pose is reported apart as well.
 
