@@ -64,6 +64,22 @@ def batch_of_wire(ids: list[str], payloads: list[bytes], rx_t: list[float]) -> B
     return Batch(ids, columns, np.asarray(rx_t, dtype=np.float64))
 
 
+def batch_of_digests(
+    ids: list[list[str]], rows: list[bytes], rx_t: list[float]
+) -> tuple[Batch, int]:
+    """Digests' rows (each digest's ids and its consecutive 64-byte poses), as one batch of
+    the rows `decode_pose` would accept, and how many it would refuse: every digest an update
+    drains is checked and turned into columns in one numpy pass."""
+    columns, good = pose_columns(b"".join(rows))
+    senders = list(chain.from_iterable(ids))
+    arrived = np.repeat(np.asarray(rx_t, dtype=np.float64), [len(i) for i in ids])
+    if good.all():  # nearly always
+        return Batch(senders, columns, arrived), 0
+    keep = np.flatnonzero(good)
+    kept = Batch([senders[k] for k in keep.tolist()], columns.take(keep), arrived[keep])
+    return kept, len(senders) - len(keep)
+
+
 def join_batches(batches: list[Batch]) -> Batch:
     if len(batches) == 1:
         return batches[0]

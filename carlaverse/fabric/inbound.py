@@ -25,7 +25,6 @@ import threading
 from collections import deque
 from collections.abc import Callable
 
-import numpy as np
 import zenoh
 
 from carlaverse import messages as m
@@ -66,7 +65,9 @@ class Inbound:
         self._appeared = appeared
         self.impulses: deque[m.Impulse] = deque(maxlen=256)
         self.overrides: deque[m.Override] = deque(maxlen=64)
-        self.dropped = Tally()  # undecodable payloads, by channel
+        # undecodable payloads, by channel; one tally with the world view, which checks the
+        # digests' rows on its owner's thread
+        self.dropped = world.dropped
         self.rejected = Tally()  # well-formed but refused, by `<channel>/<why>`
         # World messages that arrive before the join reply names the authority cannot be
         # checked; the snapshot fetched after joining supersedes them. Not hostile: kept apart.
@@ -209,19 +210,12 @@ class Inbound:
         self.world.push_wire(node_id, payload, rx_t)
 
     def _on_digest(self, sample: zenoh.Sample) -> None:
-        """Poses relayed by the authority: each row checked as a pose of its own would be."""
+        """Poses relayed by the authority. Each row is checked as a pose of its own would be,
+        by the world view's update, with every other digest it drains (`push_digest`)."""
         rx_t = self.clock.now()
         digest = self._authority_message(sample, m.POSE_DIGEST, "digest")
-        if not isinstance(digest, m.PoseDigest):
-            return
-        columns, good = m.pose_columns(digest.rows)
-        ids = digest.ids
-        if not good.all():
-            keep = np.flatnonzero(good)
-            self.dropped.add("pose", len(ids) - len(keep))
-            columns = columns.take(keep)
-            ids = [ids[k] for k in keep.tolist()]
-        self.world.push_rows(ids, columns, rx_t)
+        if isinstance(digest, m.PoseDigest):
+            self.world.push_digest(digest.ids, digest.rows, rx_t)
 
     def _on_state(self, sample: zenoh.Sample) -> None:
         node_id = self._sender(sample, "state")

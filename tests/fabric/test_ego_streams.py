@@ -17,11 +17,9 @@ from carlaverse.fabric.world_view import WorldView
 CIRCLE = CirclePath(radius=30.0, speed_mps=14.0)
 
 
-def rows(ids_poses: list[tuple[str, m.Pose]]) -> tuple[list[str], m.PoseColumns]:
-    """A digest's checked rows, as the inbound handler hands them over."""
-    columns, good = m.pose_columns(b"".join(m.encode_pose(p) for _, p in ids_poses))
-    assert good.all()
-    return [i for i, _ in ids_poses], columns
+def rows(ids_poses: list[tuple[str, m.Pose]]) -> tuple[list[str], bytes]:
+    """A digest's ids and rows, as the inbound handler hands them over."""
+    return [i for i, _ in ids_poses], b"".join(m.encode_pose(p) for _, p in ids_poses)
 
 
 def joined(*node_ids: str, mode: str = "present") -> WorldView:
@@ -34,8 +32,8 @@ def joined(*node_ids: str, mode: str = "present") -> WorldView:
 
 def test_two_samples_of_one_sender_in_one_update_are_both_applied_in_order() -> None:
     world = joined("a", "b")
-    world.push_rows(*rows([("a", CIRCLE.pose_at(1.00)), ("b", CIRCLE.pose_at(1.00))]), 1.01)
-    world.push_rows(*rows([("a", CIRCLE.pose_at(1.02)), ("a", CIRCLE.pose_at(1.04))]), 1.05)
+    world.push_digest(*rows([("a", CIRCLE.pose_at(1.00)), ("b", CIRCLE.pose_at(1.00))]), 1.01)
+    world.push_digest(*rows([("a", CIRCLE.pose_at(1.02)), ("a", CIRCLE.pose_at(1.04))]), 1.05)
     world.update(1.05)
     assert world.stats["a"].count == 3 and world.stats["b"].count == 1
     actor = world.egos["a"]
@@ -65,6 +63,25 @@ def test_wire_poses_and_local_poses_of_one_sender_apply_in_arrival_order() -> No
     world.push_wire("a", m.encode_pose(wired), 1.12)
     world.update(1.12)
     assert world.egos["a"].newest == m.decode_pose(m.encode_pose(wired))
+
+
+def test_digests_drained_together_drop_only_their_bad_rows_and_count_them() -> None:
+    world = joined("a", "b")
+    nan = bytearray(m.encode_pose(m.Pose(2, 1.02, 0.0, 0.0)))
+    nan[16:20] = b"\x00\x00\xc0\x7f"  # x = NaN
+    first = rows([("a", m.Pose(1, 1.00, 1.0, 0.0)), ("b", m.Pose(1, 1.00, 2.0, 0.0))])
+    world.push_digest(*first, 1.01)
+    world.push_digest(["a", "b"], bytes(nan) + m.encode_pose(m.Pose(2, 1.02, 3.0, 0.0)), 1.03)
+    world.push_wire("a", m.encode_pose(m.Pose(3, 1.04, 4.0, 0.0)), 1.05)
+    world.update(1.05)
+    assert world.dropped["pose"] == 1 and world.rejected == {}
+    assert world.stats["a"].count == 2 and world.stats["b"].count == 2
+    a, b = world.egos["a"].newest, world.egos["b"].newest
+    assert a is not None and (a.seq, a.x) == (3, 4.0)  # the wire pose after the digests
+    assert b is not None and (b.seq, b.x) == (2, 3.0)
+    # each row keeps its own digest's arrival time
+    summary = world.stats["b"].summary(1.05)
+    assert (summary.latency_p50_ms, summary.latency_p99_ms) == pytest.approx((10.0, 10.0))
 
 
 def test_lazy_actors_draw_exactly_what_eagerly_fed_actors_draw() -> None:
@@ -107,7 +124,8 @@ def test_our_own_row_in_a_digest_is_skipped_and_an_intruder_grows_nothing() -> N
     world = joined("a")
     slots = len(world.streams.ids)
     pose = m.Pose(1, 1.0, 0.0, 0.0)
-    world.push_rows(*rows([("me", pose), ("a", pose), ("mallory", pose), ("authority", pose)]), 1.0)
+    senders = ["me", "a", "mallory", "authority"]
+    world.push_digest(*rows([(sender, pose) for sender in senders]), 1.0)
     world.update(1.0)
     assert set(world.egos) == {"a"} and set(world.stats) == {"a"}
     assert world.rejected == {"pose_from_absent_node": 2}  # not our own row

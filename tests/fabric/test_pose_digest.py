@@ -107,15 +107,15 @@ def _digest_observer(
     client = NodeClient(session, settings, MonotonicClock())
     sizes: list[int] = []
     seqs: dict[str, list[int]] = {}
-    push_rows = client.world.push_rows
+    push_digest = client.world.push_digest
 
-    def noted(ids: list[str], columns: m.PoseColumns, rx_t: float) -> None:
+    def noted(ids: list[str], rows: bytes, rx_t: float) -> None:
         sizes.append(len(ids))
-        for sender, seq in zip(ids, columns.seq.tolist(), strict=True):
+        for sender, seq in zip(ids, m.pose_stamps(rows)[0].tolist(), strict=True):
             seqs.setdefault(sender, []).append(seq)
-        push_rows(ids, columns, rx_t)
+        push_digest(ids, rows, rx_t)
 
-    client.world.push_rows = noted  # type: ignore[method-assign]
+    client.world.push_digest = noted  # type: ignore[method-assign]
     client.start()
     cluster.sessions.append(client)
     return client, sizes, seqs
@@ -195,7 +195,8 @@ def test_a_digest_not_from_the_authority_is_refused_and_bad_rows_are_counted(
     rows = m.encode_pose(_pose(8, time.time(), x=123.0)) + bytes(nan)
     mixed = m.POSE_DIGEST.encode(m.PoseDigest(1, ["a", "a"], rows))
     session.put(K.pose_digest, mixed, timestamp=session.new_timestamp())
-    wait_until(lambda: obs.dropped["pose"] > before, 10, "the NaN row to be counted")
+    # counted where the rows are checked: the world view's update, on the node's thread
+    wait_until(lambda: obs.update() and obs.dropped["pose"] > before, 10, "the NaN row counted")
     assert obs.dropped["pose"] == before + 1
     xs = wait_until(
         lambda: obs.update() and [p.x for p in obs.world.egos["a"]._poses if p.x == 123.0], 5,

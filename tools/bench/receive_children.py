@@ -255,7 +255,7 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
     from carlaverse.fabric.inbound import Inbound
     from carlaverse.fabric.remote_actor import InterpolationSettings
     from carlaverse.fabric.world_view import WorldView
-    from carlaverse.messages import pose_stamp
+    from carlaverse.messages import pose_stamp, pose_stamps
 
     world = WorldView(NODE_ID, InterpolationSettings())
     for i in range(egos):  # as if their tokens had come
@@ -273,15 +273,15 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
         latency.append(rx_t - pose_stamp(payload)[1])
         push_wire(node_id, payload, rx_t)
 
-    push_rows = world.push_rows
+    push_digest = world.push_digest
 
-    def counted_many(ids: list[str], columns: Any, rx_t: float) -> None:  # one call per digest
+    def counted_many(ids: list[str], rows: bytes, rx_t: float) -> None:  # one call per digest
         receiver.received += len(ids)
-        latency.extend((rx_t - columns.values[:, 0]).tolist())
-        push_rows(ids, columns, rx_t)
+        latency.extend((rx_t - pose_stamps(rows)[1]).tolist())
+        push_digest(ids, rows, rx_t)
 
     world.push_wire = counted  # type: ignore[method-assign]
-    world.push_rows = counted_many  # type: ignore[method-assign]
+    world.push_digest = counted_many  # type: ignore[method-assign]
     if feed.authority:
         inbound.authority_id = feed.authority  # as a join reply names it
         handler = inbound.digest_handler()

@@ -32,7 +32,7 @@ WHAT = {
     "node" + EXPRESS: "as `node`, every pose put express (a frame of its own)",
     "zenoh" + DIGEST: "as `zenoh`, the poses relayed as the authority's digest",
     "handoff" + DIGEST: "as `handoff`, a digest's bytes per sample",
-    "node" + DIGEST: "as `node`, digests checked as columns, applied a batch per update",
+    "node" + DIGEST: "as `node`, the digests an update drains checked and applied as one batch",
 }
 ALL_LAYERS = (*LAYERS, *EXPRESS_LAYERS, *DIGEST_LAYERS)
 

@@ -135,7 +135,7 @@ def probe_main(
     from carlaverse.fabric.clock import MonotonicClock
     from carlaverse.fabric.node_client import NodeClient, NodeSettings
     from carlaverse.fabric.session import FabricSettings, open_session
-    from carlaverse.messages import Pose, pose_stamp
+    from carlaverse.messages import Pose, pose_stamp, pose_stamps
 
     session = open_session(FabricSettings(connect=[endpoint]))
     settings = NodeSettings(
@@ -150,17 +150,18 @@ def probe_main(
         receipts.heard(sender, seq, rx_t - t)
         push_wire(sender, payload, rx_t)
 
-    push_rows = client.world.push_rows
+    push_digest = client.world.push_digest
 
-    def stamped_many(ids: list[str], columns: Any, rx_t: float) -> None:
-        sent = columns.values[:, 0].tolist()
-        for sender, seq, t in zip(ids, columns.seq.tolist(), sent, strict=True):
+    def stamped_many(ids: list[str], rows: bytes, rx_t: float) -> None:
+        seqs, times = pose_stamps(rows)
+        sent = times.tolist()
+        for sender, seq, t in zip(ids, seqs.tolist(), sent, strict=True):
             receipts.heard(sender, seq, rx_t - t)
         if receipts.recording:
             stamp = receipts.stamp_s
             receipts.to_relay_s += [stamp - t for t in sent]
             receipts.hop_s += [rx_t - stamp] * len(ids)
-        push_rows(ids, columns, rx_t)
+        push_digest(ids, rows, rx_t)
 
     if digest:  # the digest's timestamp, noted before the node's own handler applies it
         from carlaverse.fabric.inbound import Inbound
@@ -175,7 +176,7 @@ def probe_main(
         Inbound._on_digest = noted  # type: ignore[method-assign]  # this child's class only
 
     client.world.push_wire = stamped  # type: ignore[method-assign]
-    client.world.push_rows = stamped_many  # type: ignore[method-assign]
+    client.world.push_digest = stamped_many  # type: ignore[method-assign]
     client.start(lambda t: Pose(0, t, x, y))
     client.wait_joined(60)
     conn.send("joined")
