@@ -174,7 +174,7 @@ class WorldView:
         Poses are gathered and applied together; anything else applies the poses before it
         first, so that order holds (a pose in flight after its node left is refused)."""
         inbox, handlers, runs = self.inbox, self._handlers, self._runs
-        run: str | None = None  # the kind of poses being gathered (a key of `_runs`)
+        run = ""  # the kind of poses being gathered: a key of `_runs` ("" for none)
         ids: list[str] = []
         data: list[Any] = []
         rx: list[float] = []
@@ -192,7 +192,7 @@ class WorldView:
             if data:  # a run ends: kept in arrival order with what follows
                 batches.append(runs[run](ids, data, rx))
                 ids, data, rx = [], [], []
-            run = None
+            run = ""
             if tag in runs:
                 run = tag
                 ids.append(item[1])
