@@ -60,7 +60,7 @@ def batch_of_poses(ids: list[str], poses: list[Pose], rx_t: list[float]) -> Batc
 def batch_of_wire(ids: list[str], payloads: list[bytes], rx_t: list[float]) -> Batch:
     """Wire poses received one at a time, already checked (`messages.check_pose`), as a batch:
     the bytes joined and read as columns in one numpy pass, no `Pose` built for any."""
-    columns, _ = pose_columns(b"".join(payloads))
+    columns, _ = pose_columns(b"".join(payloads))  # every row passed `check_pose` already
     return Batch(ids, columns, np.asarray(rx_t, dtype=np.float64))
 
 

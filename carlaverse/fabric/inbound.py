@@ -65,7 +65,7 @@ class Inbound:
         self._appeared = appeared
         self.impulses: deque[m.Impulse] = deque(maxlen=256)
         self.overrides: deque[m.Override] = deque(maxlen=64)
-        # undecodable payloads, by channel; one tally with the world view, which checks the
+        # undecodable payloads, by channel: the world view's tally, since the view checks the
         # digests' rows on its owner's thread
         self.dropped = world.dropped
         self.rejected = Tally()  # well-formed but refused, by `<channel>/<why>`

@@ -78,13 +78,11 @@ class Despawn:
 
 
 class WorldView:
-    def __init__(
-        self, own_id: str, settings: InterpolationSettings, dropped: Tally | None = None
-    ) -> None:
+    def __init__(self, own_id: str, settings: InterpolationSettings) -> None:
         self.own_id = own_id
-        # Malformed input found on the owner's thread (a digest's bad rows), by channel; a node
-        # passes its inbound's tally, so that a channel's drops are counted in one place.
-        self.dropped = Tally() if dropped is None else dropped
+        # Malformed input found on the owner's thread (a digest's bad rows), by channel; a
+        # node's inbound counts its own drops here too, so a channel's are in one place.
+        self.dropped = Tally()
         self.settings = settings
         self.inbox: deque[tuple[Any, ...]] = deque(maxlen=INBOX_LIMIT)
         # scenario messages for this participant, oldest first; the node's loop takes them
