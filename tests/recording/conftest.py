@@ -38,6 +38,32 @@ class World:
     def publish_for(self, duration_s: float) -> None:
         self.synthetic.run(threading.Event(), duration_s=duration_s)
 
+    def publish_steady(
+        self, duration_s: float, steady_s: float, max_gap_s: float, timeout_s: float = 30.0
+    ) -> None:
+        """Publish for `duration_s` of session time and until `steady_s` of it went by in
+        steps of at most `max_gap_s`, in one stretch.
+
+        On a loaded two-core machine this process can stall for hundreds of ms, and the
+        synthetic streams skip what fell due meanwhile; a test that judges how the streams are
+        drawn between samples needs a stretch without such holes, however long the stalls
+        make the run. (Summing the steady bits between stalls is not enough: the view draws
+        a delay behind, so each bit's first frames fall in the hole before it.)"""
+        synthetic = self.synthetic
+        start = last = since = synthetic.now()
+        longest = 0.0
+        synthetic.spawn_all(start)
+        while last - start < duration_s or longest < steady_s:
+            t = synthetic.now()
+            assert t - start < timeout_s, (
+                f"no {steady_s} s in {timeout_s} s without a stall over {max_gap_s * 1e3:.0f} ms"
+            )
+            since = since if t - last <= max_gap_s else t
+            longest = max(longest, t - since)
+            synthetic.tick(t)
+            last = t
+            time.sleep(0.002)
+
 
 @pytest.fixture
 def world() -> Iterator[World]:

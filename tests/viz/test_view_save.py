@@ -7,7 +7,8 @@ import math
 import signal
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +26,7 @@ from carlaverse.recording.synthetic import (
     npc_rows,
     synthetic_map,
 )
+from carlaverse.viz.live import viewer_interpolation
 from carlaverse.viz.scene import LIGHT_COLORS
 from tests.recording.conftest import World
 from tests.support import Proc, wait_until
@@ -56,13 +58,34 @@ P95_ERROR_M = 0.05  # [m]
 MAX_ERROR_M = 0.4  # [m]
 # A sample that came late (sent or received late: a pause of the loaded test process or of
 # its delivery) leaves the view nothing to interpolate towards: it dead-reckons, as it must,
-# while the sample is missing. Frames drawn between such a sample and the one before are
-# held to MAX_ERROR_M only. Once, in a full suite run, a tenth of a 1.5 s recording's frames
-# were drawn up to 0.19 m off, what 0.27 s of dead reckoning gives. Late: sent or received
-# more than LATE_INTERVALS send intervals after the previous sample, at the typical latency.
+# while the sample is missing, for at most max_extrapolation_s, then holds the actor there
+# while the truth drives on; when the sample comes, the error decays with time constant
+# blend_time_s. Frames drawn from a late sample's predecessor until that error is below
+# MEDIAN_ERROR_M are excused the bounds above: they are held to MAX_ERROR_M plus the way
+# driven in the part of the hole past the extrapolation limit (a stall of 0.5 s leaves the
+# view 1.5 m behind, and it takes 0.5 s to decay). Late: sent or received more than
+# LATE_INTERVALS send intervals after the previous sample, at the typical latency.
 LATE_INTERVALS = 3
 POSE_INTERVAL_S = 1 / SyntheticSpec().pose_hz
 NPC_INTERVAL_S = 1 / SyntheticSpec().npc_hz
+EGO_SPEED_MPS = 10.0  # synthetic.ego_pose
+NPC_SPEED_MPS = 8.0  # synthetic.npc_rows
+VIEW = viewer_interpolation()
+# A session is published until it has run STEADY_S in one stretch of steps no longer than
+# a pose's late limit: under load, stalls once left a 1.5 s recording 6 frames to judge;
+# such a stretch gives 20 or more (frames at 20 Hz, less the decay of a stall before it).
+STEADY_S = 1.5  # [s]
+STEADY_GAP_S = LATE_INTERVALS * POSE_INTERVAL_S
+
+
+@dataclass(frozen=True)
+class Late:
+    """A sample that came late: frames drawn in (start, end) are held to `allowed_m` only."""
+
+    start: float  # [s] its predecessor's time
+    end: float  # [s] when the error it revealed has decayed below MEDIAN_ERROR_M
+    allowed_m: float  # [m]
+
 
 Errors = tuple[list[float], list[float]]  # (frames with a sample to approach, frames without)
 
@@ -71,10 +94,11 @@ def _errors(
     boxes: list[dict],
     truth: Callable[[float], tuple[float, float]],
     span: tuple[float, float],
-    late: list[tuple[float, float]],
+    late: list[Late],
 ) -> Errors:
     """Distance of each logged box (at its render time) from the scripted path then, split
-    by whether its render time lies in a `late` span."""
+    by whether its render time lies in a `late` span; an excused frame is checked here
+    against its span's allowance."""
     judged: list[float] = []
     excused: list[float] = []
     for row in boxes:
@@ -83,32 +107,41 @@ def _errors(
             x, y, _ = row["Boxes3D:centers"][0]
             tx, ty = truth(t)
             error = math.hypot(x - tx, y - ty)
-            (excused if any(a < t < b for a, b in late) else judged).append(error)
+            holes = [s for s in late if s.start < t < s.end]
+            if not holes:
+                judged.append(error)
+                continue
+            allowed = max(s.allowed_m for s in holes)
+            assert error <= allowed, f"{error:.3f} m off at t = {t:.3f} s, {allowed:.3f} m allowed"
+            excused.append(error)
     return judged, excused
 
 
 def _late(
-    sent: list[float], received: list[float] | None, interval_s: float
-) -> list[tuple[float, float]]:
-    """(previous sample's time, its time) for each sample that came late; without receive
-    times (a live view), from the send times alone."""
-    received = sent if received is None else received
+    sent: list[float], received: list[float], interval_s: float, speed_mps: float
+) -> list[Late]:
+    """The samples that came late, from their send and receive times (on any clock)."""
     typical = statistics.median(r - t for t, r in zip(sent, received, strict=True))
     limit = typical + LATE_INTERVALS * interval_s
-    return [
-        (sent[i - 1], sent[i]) for i in range(1, len(sent)) if received[i] - sent[i - 1] > limit
-    ]
+    out = []
+    for i in range(1, len(sent)):
+        if received[i] - sent[i - 1] > limit:
+            came = received[i] - typical  # when it came, as a send time
+            hole_s = came - sent[i - 1]  # the view went without a sample this long
+            allowed_m = MAX_ERROR_M + speed_mps * max(0.0, hole_s - VIEW.max_extrapolation_s)
+            decay_s = VIEW.blend_time_s * math.log(allowed_m / MEDIAN_ERROR_M)
+            out.append(Late(sent[i - 1], came + decay_s, allowed_m))
+    return out
 
 
 def _assert_close(errors: Errors, what: str) -> None:
     judged, excused = errors
     assert len(judged) >= 10, f"{what}: only {len(judged)} frames with a sample to approach"
-    assert len(excused) <= len(judged), f"{what}: {len(excused)} frames drawn with a sample late"
     median, p95 = statistics.median(judged), statistics.quantiles(judged, n=20)[-1]
-    worst = max(judged + excused)
+    worst = max(judged)
     summary = (
         f"{what}: median {median:.4f} m, p95 {p95:.4f} m, max {worst:.4f} m "
-        f"({len(excused)} frames drawn with a sample late: max only)"
+        f"({len(excused)} frames drawn with a sample late, max {max(excused, default=0):.4f} m)"
     )
     print(summary)
     assert median <= MEDIAN_ERROR_M, summary
@@ -120,14 +153,13 @@ def _check_actors(
     rows: dict[str, list[dict]],
     published: dict[str, list],
     egos: list[str],
-    received: dict[str, dict[float, float]] | None = None,
+    received: dict[str, dict[float, float]],
 ) -> None:
     """Every ego and NPC at the scripted truth at the render times the view logged it;
-    `received`: per ego (and `npc`), each sample's receive time by its time, if known."""
+    `received`: per ego (and `npc`), each sample's receive time by its time."""
 
-    def late(what: str, sent: list[float], interval_s: float) -> list[tuple[float, float]]:
-        times = None if received is None else [received[what][t] for t in sent]
-        return _late(sent, times, interval_s)
+    def late(what: str, sent: list[float], interval_s: float, speed_mps: float) -> list[Late]:
+        return _late(sent, [received[what][t] for t in sent], interval_s, speed_mps)
 
     for i, node_id in enumerate(egos):
         poses = published[node_id]
@@ -135,7 +167,7 @@ def _check_actors(
         boxes = rows[f"/world/egos/{node_id}"]
         sent = sorted(p.t for p in poses)
         errors = _errors(boxes, lambda t, i=i: _xy(ego_pose(i, 0, t)), span,
-                         late(node_id, sent, POSE_INTERVAL_S))  # fmt: skip
+                         late(node_id, sent, POSE_INTERVAL_S, EGO_SPEED_MPS))  # fmt: skip
         _assert_close(errors, node_id)
         between = [r for r in boxes if not _has_sample(poses, r["sim_time"])]
         assert len(between) > len(boxes) // 2, "drawn at render times, not at the samples' times"
@@ -153,21 +185,28 @@ def _check_actors(
         assert boxes[0]["Boxes3D:labels"] == [npc_id]
         truth = lambda t, i=i: tuple(float(v) for v in npc_rows(count, t)[i][["x", "y"]])  # noqa: E731
         sent = sorted(b.t for b in batches)
-        _assert_close(_errors(boxes, truth, span, late("npc", sent, NPC_INTERVAL_S)), npc_id)
+        errors = _errors(boxes, truth, span, late("npc", sent, NPC_INTERVAL_S, NPC_SPEED_MPS))
+        _assert_close(errors, npc_id)
 
 
 def _received(mcap: Path) -> dict[str, dict[float, float]]:
-    """When the recorder received each pose (per ego) and NPC batch (`npc`), by its time."""
+    """When the recorder received each pose and NPC batch: see `_receipts`."""
+    return _receipts((s.key, s.payload, s.log_time_ns / 1e9) for s in iter_samples(mcap))
+
+
+def _receipts(samples: Iterable[tuple[str, bytes, float]]) -> dict[str, dict[float, float]]:
+    """When each pose (per ego) and NPC batch (`npc`) of (key, payload, receive time) was
+    received, by its time."""
     out: dict[str, dict[float, float]] = {}
-    for sample in iter_samples(mcap):
-        parsed = parse(sample.key)
+    for key, payload, rx_t in samples:
+        parsed = parse(key)
         if parsed.channel == "pose":
-            what, t = parsed.node_id, messages.POSE.decode(sample.payload).t
+            what, t = parsed.node_id, messages.POSE.decode(payload).t
         elif parsed.channel == "npc":
-            what, t = "npc", messages.NPC_BATCH.decode(sample.payload).t
+            what, t = "npc", messages.NPC_BATCH.decode(payload).t
         else:
             continue
-        out.setdefault(what, {})[t] = sample.log_time_ns / 1e9
+        out.setdefault(what, {})[t] = rx_t
     return out
 
 
@@ -222,7 +261,7 @@ def _check_scene(
     rows: dict[str, list[dict]],
     published: dict[str, list],
     egos: list[str],
-    received: dict[str, dict[float, float]] | None = None,
+    received: dict[str, dict[float, float]],
 ) -> None:
     _check_actors(rows, published, egos, received)
     # light states: one point per controlled link, labelled and coloured by its state
@@ -250,9 +289,14 @@ def test_view_save_holds_interpolated_actors_raw_samples_lights_and_map(
     world: World, tmp_path: Path
 ) -> None:
     rrd = tmp_path / "x.rrd"
-    counted: list[int] = []
+    # what an observer received when: the view's receive times, as near as this process sees
+    # them (a stall of this process delays both), so a late delivery is told apart
+    heard: list[tuple[str, bytes, float]] = []
     observer = world.connect()
-    sub = observer.declare_subscriber("carlaverse/view/**", lambda s: counted.append(1))
+    sub = observer.declare_subscriber(
+        "carlaverse/view/**",
+        lambda s: heard.append((str(s.key_expr), s.payload.to_bytes(), time.monotonic())),
+    )
     view = Proc(
         ["view", "--session", "view", "--connect", world.endpoint, "--save", str(rrd), "--raw"]
     )
@@ -260,9 +304,9 @@ def test_view_save_holds_interpolated_actors_raw_samples_lights_and_map(
         # the viewer subscribes, then asks for the map: once asked, it listens
         wait_until(lambda: world.synthetic.queries["map"], 20, "the viewer to ask for the map")
         world.wait_matched()
-        world.publish_for(2.0)
+        world.publish_steady(2.0, STEADY_S, STEADY_GAP_S)
         total = sum(world.synthetic.published.values())
-        wait_until(lambda: len(counted) >= total, 10, "the session's samples delivered")
+        wait_until(lambda: len(heard) >= total, 10, "the session's samples delivered")
     finally:
         sub.undeclare()
         observer.close()
@@ -270,7 +314,7 @@ def test_view_save_holds_interpolated_actors_raw_samples_lights_and_map(
     assert code == 0, view.output()[-2000:]
     rows = rrd_rows(rrd)
     published = _published(world)
-    _check_scene(rows, published, ["ego-0", "ego-1"])
+    _check_scene(rows, published, ["ego-0", "ego-1"], _receipts(heard))
     _check_raw(rows, published, ["ego-0", "ego-1"])
     assert rows["/world/impulses/ego-0"], "collision impulses as arrows"
     assert any("spawned ego-0" in r["TextLog:text"][0] for r in rows["/events"])
@@ -286,7 +330,7 @@ def test_view_renders_a_recording(world: World, tmp_path: Path) -> None:
     try:
         recorder.start()
         world.wait_matched()
-        world.publish_for(1.5)
+        world.publish_steady(1.5, STEADY_S, STEADY_GAP_S)
         total = sum(world.synthetic.published.values())
         wait_until(lambda: recorder.stats().received >= total, 10, f"{total} samples")
         wait_until(lambda: recorder.stats().written >= total + 3, 10, "map and snapshot kept")
