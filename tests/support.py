@@ -52,6 +52,37 @@ def wait_until(condition: Callable[[], Any], timeout: float, what: str, poll: fl
         threading.Event().wait(poll)
 
 
+class StallWatch:
+    """Notices this process stalling, so a test that judges how remote actors are drawn can
+    tell what a stall got wrong from what the code under test did.
+
+    On a loaded two-core CI host the test process can stall for hundreds of ms. Its Zenoh
+    threads stall too: the samples sent meanwhile arrive all at once after it, the frames
+    drawn just then dead-reckon or hold, and the correction the late samples reveal decays
+    with the view's `blend_time_s` (0.1 s). A loop that asks for short steps calls `step()`
+    once per step; a step longer than `stalled_s` is a stall, and for `settle_s` after it
+    `step()` returns the stall's length (0.0 otherwise): frames drawn then are excused the
+    test's bound and held to the way an actor drives in the stall, plus that bound."""
+
+    def __init__(self, stalled_s: float = 0.1, settle_s: float = 0.5) -> None:
+        self.stalled_s = stalled_s
+        self.settle_s = settle_s
+        self.stalls: list[float] = []  # [s] each stall's length
+        self._last = time.monotonic()
+        self._until = self._last
+        self._gap = 0.0
+
+    def step(self) -> float:
+        now = time.monotonic()
+        gap, self._last = now - self._last, now
+        if gap > self.stalled_s:
+            self.stalls.append(gap)
+            self._until, self._gap = now + self.settle_s, max(gap, self._gap)
+        elif now >= self._until:
+            self._gap = 0.0
+        return self._gap
+
+
 class Proc:
     """A `python -m carlaverse ...` child with its output captured."""
 

@@ -13,13 +13,16 @@ from carlaverse_nodes.scripted.trajectories import CirclePath
 from carlaverse import messages as m
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
-from tests.support import Cluster, wait_until
+from tests.support import Cluster, StallWatch, wait_until
 
 TIMEOUT_S = 3.0  # the authority's default despawn timeout
+SPEED_MPS = 14.0  # both circles' speed
+MAX_ERROR_M = 0.10  # [m] the requirement: a remote node at 14 m/s stays within it
+JUDGED_FRAMES = 100  # per actor, drawn with no stall of this process just before
 
 
 def circle_config(tmp: Path, name: str, **path: float) -> tuple[Path, CirclePath]:
-    spec = {"type": "circle", "radius": 30.0, "speed_mps": 14.0, **path}
+    spec = {"type": "circle", "radius": 30.0, "speed_mps": SPEED_MPS, **path}
     target = tmp / f"{name}.yaml"
     target.write_text(yaml.safe_dump({"path": spec}))
     return target, CirclePath(
@@ -42,19 +45,31 @@ def test_two_nodes_see_each_other_and_interpolation_tracks_truth(cluster: Cluste
     obs = cluster.observer()
     wait_until(lambda: obs.update() and {"a", "b"} <= set(obs.world.egos), 20, "both actors")
     errors: dict[str, list[float]] = {"a": [], "b": []}
+    excused: dict[str, int] = {"a": 0, "b": 0}
     paths = {"a": path_a, "b": path_b}
-    end = time.monotonic() + 3.0
-    while time.monotonic() < end:
+    stalls = StallWatch()
+    start = time.monotonic()
+    # 3 s of drawing, longer if this process stalled: the judged frames must still span it
+    while time.monotonic() - start < 3.0 or min(map(len, errors.values())) < JUDGED_FRAMES:
+        assert time.monotonic() - start < 20.0, f"stalls left too few frames: {stalls.stalls}"
         now = obs.update()
+        stall_s = stalls.step()
         for view in obs.world.ego_views(now):
             true = paths[view.actor_id].pose_at(view.render_t)
-            errors[view.actor_id].append(math.hypot(view.x - true.x, view.y - true.y))
+            error = math.hypot(view.x - true.x, view.y - true.y)
+            if not stall_s:
+                errors[view.actor_id].append(error)
+                continue
+            excused[view.actor_id] += 1
+            allowed = MAX_ERROR_M + SPEED_MPS * stall_s
+            assert error <= allowed, f"{view.actor_id}: {error:.3f} m after a {stall_s:.2f} s stall"
         obs._stop.wait(0.01)
     for node_id, errs in errors.items():
         errs.sort()
-        assert len(errs) > 100, f"too few renders of {node_id}"
         # The requirement: a remote node at 14 m/s stays within 0.10 m of its true path.
-        assert errs[-1] <= 0.10, f"{node_id}: max error {errs[-1]:.4f} m"
+        assert errs[-1] <= MAX_ERROR_M, (
+            f"{node_id}: max error {errs[-1]:.4f} m ({excused[node_id]} frames after a stall)"
+        )
     procs = {p.name: p for p in cluster.procs}
     for me, other in (("a", "b"), ("b", "a")):
         procs[me].stop()

@@ -23,13 +23,16 @@ from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.fabric.stats import percentile
 from carlaverse.testing.linkemu import LinkEmulator, LinkProfile
-from tests.support import Cluster, wait_until
+from tests.support import Cluster, StallWatch, wait_until
 
 pytestmark = pytest.mark.slow
 
 LINK = LinkProfile(delay_s=0.060)
 TRUE_GAP_M = 3.0
-MEASURE_S = 5.0
+MEASURE_S = 5.0  # [s] at least
+FRAMES = 300  # per mode, at least, none drawn just after a stall of this process
+P99_ERROR_M = 0.05  # [m] |rendered gap − true gap|, past and present
+FAR_SPEED_MPS = 16.1  # the faster circle
 
 
 def scripted_config(tmp: Path, node_id: str, radius: float, fabric: dict) -> Path:
@@ -79,9 +82,9 @@ def test_rendered_separation_is_true_with_one_actor_behind_a_slow_link(cluster: 
         p99 = percentile(values, 0.99)
         print(f"{mode}: {len(values)} frames, |gap − 3 m| p50 {percentile(values, 0.5):.4f} "
               f"p99 {p99:.4f} max {max(values):.4f} m")  # fmt: skip
-        assert len(values) > 200, mode
+        assert len(values) >= FRAMES, mode
         if mode != "own-delay":
-            assert p99 <= 0.05, mode
+            assert p99 <= P99_ERROR_M, mode
     # the old way, each actor at its own delay, is wrong by ~ speed × difference of delays
     assert percentile(errors["own-delay"], 0.5) > 0.05
 
@@ -94,14 +97,24 @@ def measure(observers: dict[str, NodeClient]) -> dict[str, list[float]]:
     for client in observers.values():  # let the clocks sync and the delays settle
         client._stop.wait(2.0)
     errors: dict[str, list[float]] = {"past": [], "present": [], "own-delay": []}
-    end = MonotonicClock().now() + MEASURE_S
-    while MonotonicClock().now() < end:
+    stalls = StallWatch()
+    start = MonotonicClock().now()
+    # MEASURE_S of drawing, longer if this process (and the link emulator in it) stalled:
+    # frames drawn just after a stall are excused, and enough must be left to judge
+    while MonotonicClock().now() - start < MEASURE_S or min(map(len, errors.values())) < FRAMES:
+        assert MonotonicClock().now() - start < 30.0, f"stalls left too few: {stalls.stalls}"
         for mode, client in observers.items():
             now = client.update()
+            stall_s = stalls.step()
             views = {v.actor_id: v for v in client.world.ego_views(now)}
             if {"near", "far"} <= set(views):
-                errors[mode].append(abs(gap(views) - TRUE_GAP_M))
-            if mode == "present":  # present() leaves what past rendering remembers alone
+                error = abs(gap(views) - TRUE_GAP_M)
+                if not stall_s:
+                    errors[mode].append(error)
+                else:  # each actor at most the way it drove in the stall off, plus the bound
+                    allowed = P99_ERROR_M + 2 * FAR_SPEED_MPS * stall_s
+                    assert error <= allowed, f"{mode}: {error:.3f} m after a {stall_s:.2f} s stall"
+            if mode == "present" and not stall_s:  # present() leaves past rendering alone
                 own = {i: a.view(now) for i, a in client.world.egos.items()}
                 if {"near", "far"} <= set(own):
                     errors["own-delay"].append(abs(gap(own) - TRUE_GAP_M))
