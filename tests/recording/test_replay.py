@@ -23,6 +23,8 @@ from carlaverse.recording.sink import McapSink
 from tests.recording.conftest import World
 from tests.support import wait_until
 
+LATE_S = 0.02  # [s] a replayed sample this much later than the earliest did not come on time
+
 
 def _record(world: World, path: Path, seconds: float) -> None:
     session = world.connect()
@@ -70,14 +72,21 @@ def test_replay_keeps_payloads_order_and_timing(world: World, tmp_path: Path) ->
     expected = [(Keys("rec").with_session(s.key, "again"), s.payload) for s in recorded]
     assert [(k, p) for _, k, p in arrivals] == expected  # byte-identical, same order
 
+    # Each sample's arrival minus its recorded time: the replay's schedule plus the delay of
+    # that sample. A stall of this loaded process (replayer and observer both live here)
+    # only ever adds to the delay: the samples due meanwhile go out and arrive late and at
+    # once. So the schedule is judged on the samples that came on time (within LATE_S of the
+    # earliest), and its drift on the earliest of the first and of the last third.
+    offsets = np.array([t for t, _, _ in arrivals]) - [s.log_time_ns / 1e9 for s in recorded]
+    on_time = offsets - offsets.min() <= LATE_S
+    assert on_time.mean() >= 0.7, f"only {on_time.mean():.0%} of the samples came on time"
     original = np.diff([s.log_time_ns / 1e9 for s in recorded])
     replayed = np.diff([t for t, _, _ in arrivals])
-    error = np.abs(replayed - original)
+    error = np.abs(replayed - original)[on_time[1:] & on_time[:-1]]
     assert np.percentile(error, 95) < 0.005, f"p95 timing error {np.percentile(error, 95):.4f} s"
-    total = (arrivals[-1][0] - arrivals[0][0]) - (
-        recorded[-1].log_time_ns - recorded[0].log_time_ns
-    ) / 1e9
-    assert abs(total) < 0.02, f"replay drifted {total:.4f} s over {len(recorded)} samples"
+    third = len(offsets) // 3
+    drift = offsets[-third:].min() - offsets[:third].min()
+    assert abs(drift) < 0.02, f"replay drifted {drift:.4f} s over {len(recorded)} samples"
 
 
 def _answer(session: zenoh.Session, key: str) -> bytes | None:
