@@ -103,17 +103,18 @@ def _errors(
     excused: list[float] = []
     for row in boxes:
         t = row["sim_time"]
-        if span[0] <= t <= span[1] and row.get("Boxes3D:centers"):
-            x, y, _ = row["Boxes3D:centers"][0]
-            tx, ty = truth(t)
-            error = math.hypot(x - tx, y - ty)
-            holes = [s for s in late if s.start < t < s.end]
-            if not holes:
-                judged.append(error)
-                continue
-            allowed = max(s.allowed_m for s in holes)
-            assert error <= allowed, f"{error:.3f} m off at t = {t:.3f} s, {allowed:.3f} m allowed"
-            excused.append(error)
+        if not (span[0] <= t <= span[1] and row.get("Boxes3D:centers")):
+            continue
+        x, y, _ = row["Boxes3D:centers"][0]
+        tx, ty = truth(t)
+        error = math.hypot(x - tx, y - ty)
+        holes = [s for s in late if s.start < t < s.end]
+        if not holes:
+            judged.append(error)
+            continue
+        allowed = max(s.allowed_m for s in holes)
+        assert error <= allowed, f"{error:.3f} m off at t = {t:.3f} s, {allowed:.3f} m allowed"
+        excused.append(error)
     return judged, excused
 
 
