@@ -1,4 +1,4 @@
-"""The scale bench's profile split: SUMO's child process is split apart from the tick."""
+"""The scale bench's profile split: SUMO's child process apart from the tick, waits dropped."""
 
 from __future__ import annotations
 
@@ -10,11 +10,17 @@ import pytest
 BENCH = Path(__file__).resolve().parents[2] / "tools" / "bench"
 
 
-def test_stacks_of_sumo_s_own_process_are_not_read_as_the_tick_s(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
+@pytest.fixture
+def scale_profile(monkeypatch: pytest.MonkeyPatch):  # type: ignore[no-untyped-def]
     monkeypatch.syspath_prepend(str(BENCH))
-    scale_profile = importlib.import_module("scale_profile")
+    return importlib.import_module("scale_profile")
+
+
+def test_stacks_of_sumo_s_own_process_are_not_read_as_the_tick_s(
+    tmp_path: Path,
+    scale_profile,  # type: ignore[no-untyped-def]
+) -> None:
+    rate = scale_profile.SAMPLE_RATE_HZ
     raw = tmp_path / "raw.txt"
     raw.write_text(
         'process 10:"python -m carlaverse authority";run (service.py:1);'
@@ -29,10 +35,38 @@ def test_stacks_of_sumo_s_own_process_are_not_read_as_the_tick_s(
     )
     shares = scale_profile.split(raw, seconds=1.0)
     sumo_step = scale_profile.SUMO_PROCESS + "SUMO's own step (libsumo simulationStep)"
-    assert shares[sumo_step] == 0.70
-    assert shares[scale_profile.SUMO_PROCESS + "NPC read-back from SUMO"] == 0.20
+    assert shares[sumo_step] == 70 / rate
+    assert shares[scale_profile.SUMO_PROCESS + "NPC read-back from SUMO"] == 20 / rate
     assert "SUMO's own step (libsumo simulationStep)" not in shares  # nothing in the tick's
     top = [frame for frame, _ in scale_profile.top_functions(raw)]
     assert not any(frame.startswith("process ") for frame in top), top
     tick_side = {k: v for k, v in shares.items() if not k.startswith(scale_profile.SUMO_PROCESS)}
-    assert sum(tick_side.values()) == 0.30  # the authority's handing over, apart
+    assert sum(tick_side.values()) == 30 / rate  # the authority's handing over, apart
+
+
+def test_samples_in_a_wait_or_with_no_python_frame_are_dropped(
+    tmp_path: Path,
+    scale_profile,  # type: ignore[no-untyped-def]
+) -> None:
+    """Recorded with --idle, every thread is in every sample: the waits must not count."""
+    rate = scale_profile.SAMPLE_RATE_HZ
+    authority = 'process 10:"python -c from multiprocessing.spawn import spawn_main; x";'
+    thread = "Thread._bootstrap (threading.py:1002);Thread.run (threading.py:982);"
+    loop = "Authority.run (carlaverse/authority/service.py:146);"
+    raw = tmp_path / "raw.txt"
+    raw.write_text(
+        # the tick thread between ticks, then in its work
+        f"{authority}{thread}{loop}Authority._run (carlaverse/authority/service.py:165);"
+        "Event.wait (threading.py:629);Condition.wait (threading.py:331) 80\n"
+        f"{authority}{thread}{loop}Authority._run (carlaverse/authority/service.py:157);"
+        "Authority.tick (carlaverse/authority/service.py:205);"
+        "PoseIntake.drain (carlaverse/authority/pose_intake.py:86) 15\n"
+        # a Zenoh thread with no Python frame, and the control pipe's reader
+        f"{authority}{thread.rstrip(';')} 9000\n"
+        f"{authority}authority_main (scale_children.py:62);"
+        "Connection._recv (multiprocessing/connection.py:395) 97\n"
+    )
+    shares = scale_profile.split(raw, seconds=1.0)
+    assert shares == {"pose intake (callback, decode, roster)": 15 / rate}
+    top = dict(scale_profile.top_functions(raw))
+    assert top["PoseIntake.drain (carlaverse/authority/pose_intake.py:86)"] == 1.0

@@ -266,7 +266,7 @@ def _py_spy(pid: int, seconds: float, out: Path) -> subprocess.Popen | None:
         print("--profile needs py-spy: pip install py-spy", file=sys.stderr)
         return None
     cmd = [program, "record", "--pid", str(pid), "--duration", str(int(seconds)), "--format",
-           "raw", "--output", str(out), "--nonblocking", "--subprocesses",
+           "raw", "--output", str(out), "--nonblocking", "--subprocesses", "--idle",
            "--rate", str(scale_profile.SAMPLE_RATE_HZ)]  # fmt: skip
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 

@@ -5,7 +5,13 @@ distinct stack, `frame;frame;…;frame count`, root first, a frame being
 `function (file:line)`). Each stack is given to the first part whose function it finds,
 walking from the leaf towards the root, so SUMO's own step inside `SumoEngine.step` counts
 as SUMO's, and the rest of `SumoEngine.step` as ours. Shares are of one core: samples over
-(rate × seconds), so parts add up to the process's CPU, all threads together.
+(rate × seconds), so parts add up to the Python threads' CPU, all of them together.
+
+py-spy records with `--idle`, every Python thread in every sample, and this module drops
+the samples that sit in a known wait (IDLE_LEAVES). py-spy's own idle filter cannot be
+trusted beside Zenoh's native threads: at N = 256 it kept the tick thread only while it sat
+in its wait between ticks (87 samples in 5 s) and dropped nearly all of the tick's work (2
+samples), which made the split read 0% for pose intake and SUMO's hand-over.
 """
 
 from __future__ import annotations
@@ -14,7 +20,10 @@ import json
 from collections.abc import Iterator
 from pathlib import Path
 
-SAMPLE_RATE_HZ = 100  # py-spy's --rate, set explicitly by the benchmark
+# py-spy's --rate, set explicitly by the benchmark: not a divisor of the 50 Hz tick's
+# period, so the samples walk through the tick rather than keep one phase of it.
+SAMPLE_RATE_HZ = 97
+
 
 # (part, [(function name, file name)]): a frame matches when both match.
 PARTS: list[tuple[str, list[tuple[str, str]]]] = [
@@ -53,6 +62,23 @@ BOOTSTRAP = (
 )
 
 
+# (function, file name) of a leaf frame that blocks: a sample there is a thread waiting.
+IDLE_LEAVES = {
+    ("wait", "threading.py"),  # the tick's wait for its next period, the digest relay's
+    ("_recv", "connection.py"),  # a multiprocessing pipe: the control pipe, SUMO's requests
+    ("_poll", "connection.py"),
+    ("select", "selectors.py"),
+}
+
+
+def is_idle(stack: list[str]) -> bool:
+    """A thread waiting, or one with no Python frame of its own (Zenoh's native threads
+    between callbacks: their own work is Rust, outside a Python profile)."""
+    if all(frame.startswith(BOOTSTRAP) for frame in stack):
+        return True
+    return _frame_parts(stack[-1]) in IDLE_LEAVES
+
+
 def _frame_parts(frame: str) -> tuple[str, str]:
     """(function, file name) of a py-spy frame `Class.function (path/file.py:line)`."""
     name, _, where = frame.partition(" (")
@@ -81,10 +107,15 @@ def stacks(raw: Path) -> Iterator[tuple[list[str], int]]:
             yield stack.split(";"), int(count)
 
 
+def busy_stacks(raw: Path) -> Iterator[tuple[list[str], int]]:
+    """The stacks of `raw` that are not idle."""
+    return ((frames, n) for frames, n in stacks(raw) if not is_idle(frames))
+
+
 def split(raw: Path, seconds: float) -> dict[str, float]:
     """Share of one core per part (0.25 = a quarter of a core), largest first."""
     samples: dict[str, int] = {}
-    for frames, count in stacks(raw):
+    for frames, count in busy_stacks(raw):
         part = part_of(frames)
         samples[part] = samples.get(part, 0) + count
     total = SAMPLE_RATE_HZ * seconds
@@ -116,7 +147,7 @@ def top_functions(raw: Path, count: int = 15) -> list[tuple[str, float]]:
     """Functions by the share of samples they were on the stack in (inclusive)."""
     totals: dict[str, int] = {}
     samples = 0
-    for frames, n in stacks(raw):
+    for frames, n in busy_stacks(raw):
         samples += n
         for frame in set(frames):
             if not frame.startswith(BOOTSTRAP):
@@ -141,8 +172,10 @@ def text(raw: Path, egos: int, seconds: float, before: dict | None) -> str:
     return (
         f"Where the authority's time went at N = {egos} in a window like the session one, after "
         f"the measured ones (py-spy at "
-        f"{SAMPLE_RATE_HZ} Hz, all threads: the tick and Zenoh's, and its SUMO process), split "
-        f"into the parts of its work as shares of one core{compared}:\n\n"
+        f"{SAMPLE_RATE_HZ} Hz with --idle, every Python thread: the tick, Zenoh's callbacks, "
+        f"and its SUMO process; a sample in a wait is dropped, and Zenoh's native threads, "
+        f"which have no Python frames, are outside the split), split into the parts of its "
+        f"work as shares of one core{compared}:\n\n"
         + table(shares, before)
         + "\n\nTop functions (inclusive, share of samples):\n\n"
         + "\n".join(rows)
