@@ -76,6 +76,35 @@ def test_each_round_is_compared_with_the_same_rounds_cyclonedds(report: ModuleTy
     assert "= 1.00, MISSES ≤ 0.8; each round alone: round 1 0.80, round 3 1.00." in line
 
 
+@pytest.mark.parametrize(
+    ("zenoh_ms", "fast_ms", "reach"),
+    [
+        (0.9, 0.85, "out of reach for any pose path on Zenoh"),
+        (0.9, 0.75, "the transport allows it"),
+    ],
+)
+def test_the_floor_is_the_fastest_zenoh_alone_against_cyclonedds(
+    report: ModuleType, zenoh_ms: float, fast_ms: float, reach: str
+) -> None:
+    """No pose path on Zenoh beats Zenoh alone: the fastest bare Zenoh row, whichever it is,
+    tells whether the target can be met at all; the pose path's own rows never count."""
+    cpu = {"tx": 0.001, "rx0": 0.001}
+    times = {"pose": 0.1, "zenoh": zenoh_ms, "zenoh-fast": fast_ms, "dds": 1.0}
+    runs = {name: [run(name, [[ms] * 4], cpu) | {"round": 1}] for name, ms in times.items()}
+    rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
+    (line,) = report.floor(rows, runs)
+    assert f"(bare Zenoh, fastest set-up) p50 / CycloneDDS p50 = {fast_ms:.2f}" in line
+    assert f"round 1 {fast_ms:.2f}." in line and reach in line
+
+
+def test_no_floor_is_judged_without_cyclonedds_or_zenoh_alone(report: ModuleType) -> None:
+    cpu = {"tx": 0.001, "rx0": 0.001}
+    for names in (("pose", "zenoh"), ("pose", "dds")):
+        runs = {name: [run(name, [[1.0] * 4], cpu) | {"round": 1}] for name in names}
+        rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
+        assert report.floor(rows, runs) == []
+
+
 def test_py_spy_stacks_are_staged_by_their_method_names(monkeypatch: pytest.MonkeyPatch) -> None:
     """py-spy names methods with their class; a stack is staged by its innermost known step."""
     monkeypatch.syspath_prepend(str(BENCH))

@@ -7,11 +7,12 @@ The same workload for every transport: the project's 64-byte pose at 50 Hz from 
 process to 3 measured receiver processes plus 1 more receiver (the pose path's authority,
 which receives every pose; elsewhere a receiver process that is not reported), all on
 127.0.0.1. Transports: the pose path (NodeClient -> fabric callback -> world view; also with
-the fabric's `lowlatency` setting), bare
-Zenoh, CycloneDDS (best effort, KEEP_LAST 1), ZeroMQ PUB/SUB, MQTT through mosquitto (QoS 0),
-raw UDP unicast. Each round runs every transport once, the order rotated from round to
-round, so the load of a shared machine falls on all of them alike. One-way latency from the
-CLOCK_MONOTONIC stamp in the pose to its decoded arrival; CPU time of every process per pose.
+the fabric's `lowlatency` setting), bare Zenoh (with Zenoh's defaults and in faster set-ups:
+the fastest is the floor under any pose path built on Zenoh), CycloneDDS (best effort,
+KEEP_LAST 1), ZeroMQ PUB/SUB, MQTT through mosquitto (QoS 0), raw UDP unicast. Each round
+runs every transport once, the order rotated from round to round, so the load of a shared
+machine falls on all of them alike. One-way latency from the CLOCK_MONOTONIC stamp in the pose
+to its decoded arrival; CPU time of every process per pose.
 `tools/bench/peers/` holds the harness. Not a test (tests/bench/test_peers_smoke.py runs it
 briefly).
 """
@@ -26,7 +27,7 @@ from typing import Any
 from benchdoc import RunInfo, command_line, write_section
 from peers.profile import SAMPLE_RATE_HZ, PySpy, profile_lines
 from peers.registry import COMPARED, DIAGNOSTIC, REFERENCE, TRANSPORTS, load
-from peers.report import Row, pool, split, table, verdict, versions
+from peers.report import Row, floor, pool, split, table, verdict, versions
 from peers.run import RunFailed, run_once
 from peers.steps import steps_line
 
@@ -109,8 +110,11 @@ def workload(args: argparse.Namespace) -> str:
         "shared memory, unicast discovery on loopback; MQTT QoS 0 with TCP_NODELAY on broker "
         "and clients; ZeroMQ PUB/SUB over TCP; UDP unicast to each receiver; Zenoh peers "
         "(a router for discovery only); 'pose path, lowlatency' sets the fabric's `lowlatency` "
-        "(Zenoh's low-latency transport) in all its processes. 'machine busy' is the share of "
-        "both cores in use during that transport's runs (other work shares this machine)."
+        "(Zenoh's low-latency transport) in all its processes; 'bare Zenoh, lowlatency, "
+        "direct callback' runs Zenoh alone in that transport with its callback on Zenoh's "
+        "network thread, and 'bare Zenoh, fastest set-up' adds one Zenoh receive thread per "
+        "process (`ZENOH_RUNTIME`, two by default). 'machine busy' is the share of both cores "
+        "in use during that transport's runs (other work shares this machine)."
     )
 
 
@@ -160,7 +164,7 @@ def main(argv: list[str] | None = None) -> int:
     runs, failed = measure(args, names)
     rows = [pool(name, runs[name]) for name in names if runs[name]]
     lines = [workload(args), versions(), *([VARIANTS] if args.diagnose else [])]
-    lines += ["", *table(rows), "", *verdict(rows, runs), *split(rows, runs)]
+    lines += ["", *table(rows), "", *verdict(rows, runs), *floor(rows, runs), *split(rows, runs)]
     lines += [f"- Not run: {reason}." for reason in not_run]
     lines += [f"- Failed run (left out): {why}." for why in failed]
     if args.diagnose:

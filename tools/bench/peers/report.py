@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from carlaverse.fabric.stats import percentile
-from peers.registry import LOW_LATENCY, REFERENCE, load
+from peers.registry import LOW_LATENCY, REFERENCE, ZENOH_ALONE, load
 
 TARGET_VS_DDS = 0.8  # the pose path's p50 / CycloneDDS's p50, at most (issue 18)
 
@@ -113,6 +113,34 @@ def verdict(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]
                 f"≤ {TARGET_VS_DDS:g}; each round alone: {rounds or '–'}."
             )
     return lines
+
+
+def floor(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]:
+    """Whether the target is within reach of any pose path on Zenoh at all.
+
+    The pose path is Zenoh plus the project's work, so it cannot be faster than Zenoh alone in
+    its fastest set-up; that set-up's p50 over CycloneDDS's is the lowest ratio any Zenoh pose
+    path can reach on this machine. Above the target, no change to the project's code meets it.
+    """
+    by_name = {r.name: r for r in rows}
+    alone = [by_name[name] for name in ZENOH_ALONE if name in by_name]
+    if "dds" not in by_name or not alone:
+        return []
+    best = min(alone, key=lambda r: r.p(0.5))
+    ratio = best.p(0.5) / by_name["dds"].p(0.5)
+    rounds = ", ".join(f"round {k} {r:.2f}" for k, r in round_ratios(runs, best.name, "dds"))
+    if ratio > TARGET_VS_DDS:
+        reach = (
+            f"the target (≤ {TARGET_VS_DDS:g}) is out of reach for any pose path on Zenoh "
+            "here: it asks for less than Zenoh alone takes"
+        )
+    else:
+        reach = f"Zenoh alone is within the target (≤ {TARGET_VS_DDS:g}): the transport allows it"
+    return [
+        f"- Floor under any pose path on Zenoh: the fastest Zenoh set-up without the "
+        f"project's code ({load(best.name).label}) p50 / CycloneDDS p50 = {ratio:.2f}; each "
+        f"round alone: {rounds or '–'}. A pose path adds its work to Zenoh's, so {reach}."
+    ]
 
 
 def round_ratios(

@@ -7,22 +7,34 @@ other and the data goes direct.
 from __future__ import annotations
 
 import json
+import os
 from typing import Any
 
 from carlaverse.messages import Pose, encode_pose
 from peers.transport import ChildProcess, Deliver, NoPoll, Plan, Transport
 
 KEY = "bench/pose"
+# Zenoh reads this when a process first opens a session (not at import): its Tokio thread
+# pools. "" leaves Zenoh's defaults (two receive threads).
+RUNTIME_ENV = "ZENOH_RUNTIME"
+ONE_RX_THREAD = "(rx: (worker_threads: 1))"
+
+
+def use_runtime(runtime: str) -> None:
+    """Set Zenoh's thread pools for this process, before its first session opens."""
+    if runtime:
+        os.environ[RUNTIME_ENV] = runtime
 
 
 def router_endpoint(plan: Plan) -> str:
     return f"tcp/127.0.0.1:{plan.ports[plan.receivers]}"
 
 
-def run_router(ready: Any, stop: Any, endpoint: str, lowlatency: bool) -> None:
+def run_router(ready: Any, stop: Any, endpoint: str, lowlatency: bool, runtime: str = "") -> None:
     """The project's router on loopback (as `carlaverse router` opens it) until `stop`."""
     from carlaverse.fabric.session import FabricSettings, open_session
 
+    use_runtime(runtime)
     settings = FabricSettings(mode="router", listen=[endpoint], lowlatency=lowlatency)
     session = open_session(settings)
     ready.set()
@@ -30,8 +42,8 @@ def run_router(ready: Any, stop: Any, endpoint: str, lowlatency: bool) -> None:
     session.close()
 
 
-def zenoh_router(plan: Plan, lowlatency: bool = False) -> ChildProcess:
-    return ChildProcess("zenoh router", run_router, router_endpoint(plan), lowlatency)
+def zenoh_router(plan: Plan, lowlatency: bool = False, runtime: str = "") -> ChildProcess:
+    return ChildProcess("zenoh router", run_router, router_endpoint(plan), lowlatency, runtime)
 
 
 def _open_peer(plan: Plan, lowlatency: bool = False) -> Any:
@@ -56,7 +68,10 @@ def _open_peer(plan: Plan, lowlatency: bool = False) -> Any:
 
 
 class ZenohSender:
-    def __init__(self, plan: Plan, options: dict[str, Any], lowlatency: bool = False) -> None:
+    def __init__(
+        self, plan: Plan, options: dict[str, Any], lowlatency: bool = False, runtime: str = ""
+    ) -> None:
+        use_runtime(runtime)
         self._session = _open_peer(plan, lowlatency)
         self._publisher = self._session.declare_publisher(KEY, **options)
 
@@ -69,9 +84,12 @@ class ZenohSender:
 
 
 class ZenohReceiver(NoPoll):
-    def __init__(self, plan: Plan, deliver: Deliver, indirect: bool, lowlatency: bool) -> None:
+    def __init__(
+        self, plan: Plan, deliver: Deliver, indirect: bool, lowlatency: bool, runtime: str = ""
+    ) -> None:
         import zenoh
 
+        use_runtime(runtime)
         self._session = _open_peer(plan, lowlatency)
 
         def on_sample(sample: zenoh.Sample) -> None:
@@ -92,19 +110,20 @@ class BareZenoh(Transport):
     # network thread hands each sample over. `False` runs it on the network thread itself.
     indirect = True
     lowlatency = False  # Zenoh's low-latency transport in every process of the run
+    runtime = ""  # Zenoh's thread pools in every process of the run ("": its defaults)
 
     def infrastructure(self, plan: Plan) -> list[ChildProcess]:
-        return [zenoh_router(plan, self.lowlatency)]
+        return [zenoh_router(plan, self.lowlatency, self.runtime)]
 
     def publisher_options(self) -> dict[str, Any]:
         """`declare_publisher` options: Zenoh's defaults."""
         return {}
 
     def open_sender(self, plan: Plan) -> ZenohSender:
-        return ZenohSender(plan, self.publisher_options(), self.lowlatency)
+        return ZenohSender(plan, self.publisher_options(), self.lowlatency, self.runtime)
 
     def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> ZenohReceiver:
-        return ZenohReceiver(plan, deliver, self.indirect, self.lowlatency)
+        return ZenohReceiver(plan, deliver, self.indirect, self.lowlatency, self.runtime)
 
 
 class BareZenohDirect(BareZenoh):
@@ -121,6 +140,18 @@ class BareZenohLowLatency(BareZenoh):
     label = "bare Zenoh, lowlatency, direct callback"
     indirect = False
     lowlatency = True
+
+
+class BareZenohFastest(BareZenohLowLatency):
+    """The fastest Zenoh set-up found for this workload, with none of the project's code: the
+    low-latency transport, the callback on the network thread, and one receive thread
+    (`ZENOH_RUNTIME`) in every process instead of Zenoh's two (fewer threads to wake per
+    sample; a lower p50 on the 2-core machine of docs/benchmarks.md). No pose
+    path built on Zenoh can be faster than this: it is the floor the target is judged
+    against (`peers.report.floor`)."""
+
+    label = "bare Zenoh, fastest set-up"
+    runtime = ONE_RX_THREAD
 
 
 class BareZenohPoseOptions(BareZenoh):
