@@ -24,10 +24,6 @@ TRANSPORTS = {
 # The comparison the issue asks for, and variants that take the pose path apart (--diagnose).
 COMPARED = ("pose", "pose-ll", "zenoh", "zenoh-ll", "zenoh-fast", "dds", "zmq", "mqtt", "udp")
 DIAGNOSTIC = ("pose", "zenoh", "zenoh-direct", "zenoh-pose-options", "pose-no-loop")
-# Zenoh with none of the project's code, in each set-up measured: the fastest of them is the
-# floor under any pose path built on Zenoh.
-ZENOH_ALONE = ("zenoh", "zenoh-direct", "zenoh-ll", "zenoh-fast", "zenoh-pose-options",
-               "zenoh-express")  # fmt: skip
 REFERENCE = "pose"  # the path every other one is compared with
 LOW_LATENCY = "pose-ll"  # the same path in the fabric's low-latency configuration
 

@@ -14,7 +14,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from carlaverse.fabric.stats import percentile
-from peers.registry import LOW_LATENCY, REFERENCE, ZENOH_ALONE, load
+from peers.registry import LOW_LATENCY, REFERENCE, load
+from peers.zenoh_bare import BareZenoh
 
 TARGET_VS_DDS = 0.8  # the pose path's p50 / CycloneDDS's p50, at most (issue 18)
 
@@ -123,7 +124,7 @@ def floor(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]:
     path can reach on this machine. Above the target, no change to the project's code meets it.
     """
     by_name = {r.name: r for r in rows}
-    alone = [by_name[name] for name in ZENOH_ALONE if name in by_name]
+    alone = [r for r in rows if isinstance(load(r.name), BareZenoh)]  # Zenoh, no project code
     if "dds" not in by_name or not alone:
         return []
     best = min(alone, key=lambda r: r.p(0.5))

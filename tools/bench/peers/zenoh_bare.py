@@ -14,16 +14,14 @@ from carlaverse.messages import Pose, encode_pose
 from peers.transport import ChildProcess, Deliver, NoPoll, Plan, Transport
 
 KEY = "bench/pose"
-# Zenoh reads this when a process first opens a session (not at import): its Tokio thread
-# pools. "" leaves Zenoh's defaults (two receive threads).
-RUNTIME_ENV = "ZENOH_RUNTIME"
-ONE_RX_THREAD = "(rx: (worker_threads: 1))"
+ONE_RX_THREAD = "(rx: (worker_threads: 1))"  # a `ZENOH_RUNTIME` value
 
 
 def use_runtime(runtime: str) -> None:
-    """Set Zenoh's thread pools for this process, before its first session opens."""
+    """Set Zenoh's thread pools for this process ("": Zenoh's defaults, two receive threads).
+    Zenoh reads `ZENOH_RUNTIME` when the process first opens a session, not at import."""
     if runtime:
-        os.environ[RUNTIME_ENV] = runtime
+        os.environ["ZENOH_RUNTIME"] = runtime
 
 
 def router_endpoint(plan: Plan) -> str:
@@ -46,7 +44,7 @@ def zenoh_router(plan: Plan, lowlatency: bool = False, runtime: str = "") -> Chi
     return ChildProcess("zenoh router", run_router, router_endpoint(plan), lowlatency, runtime)
 
 
-def _open_peer(plan: Plan, lowlatency: bool = False) -> Any:
+def _open_peer(plan: Plan, lowlatency: bool = False, runtime: str = "") -> Any:
     import zenoh
 
     from carlaverse.fabric.session import LOWLATENCY_AUTOCONNECT
@@ -64,6 +62,7 @@ def _open_peer(plan: Plan, lowlatency: bool = False) -> Any:
     config = zenoh.Config()
     for path, value in entries.items():
         config.insert_json5(path, json.dumps(value))
+    use_runtime(runtime)
     return zenoh.open(config)
 
 
@@ -71,8 +70,7 @@ class ZenohSender:
     def __init__(
         self, plan: Plan, options: dict[str, Any], lowlatency: bool = False, runtime: str = ""
     ) -> None:
-        use_runtime(runtime)
-        self._session = _open_peer(plan, lowlatency)
+        self._session = _open_peer(plan, lowlatency, runtime)
         self._publisher = self._session.declare_publisher(KEY, **options)
 
     def send(self, pose: Pose) -> None:
@@ -89,8 +87,7 @@ class ZenohReceiver(NoPoll):
     ) -> None:
         import zenoh
 
-        use_runtime(runtime)
-        self._session = _open_peer(plan, lowlatency)
+        self._session = _open_peer(plan, lowlatency, runtime)
 
         def on_sample(sample: zenoh.Sample) -> None:
             deliver.payload(sample.payload.to_bytes())
@@ -146,11 +143,11 @@ class BareZenohFastest(BareZenohLowLatency):
     """The fastest Zenoh set-up found for this workload, with none of the project's code: the
     low-latency transport, the callback on the network thread, and one receive thread
     (`ZENOH_RUNTIME`) in every process instead of Zenoh's two (fewer threads to wake per
-    sample; a lower p50 on the 2-core machine of docs/benchmarks.md). No pose
-    path built on Zenoh can be faster than this: it is the floor the target is judged
-    against (`peers.report.floor`). A measurement row only, not in the smoke test: once in
-    some thirty runs here a receiver's session of this set-up did not open within the
-    harness's minute (reported as a failed run and left out), a cause not yet found."""
+    sample; a lower p50 on the 2-core machine of docs/benchmarks.md). No pose path built on
+    Zenoh can be faster than this: it is the floor the target is judged against
+    (`peers.report.floor`). A measurement row only, not in the smoke test: once in some
+    thirty runs here a receiver's session of this set-up did not open within the harness's
+    minute (reported as a failed run and left out), a cause not yet found."""
 
     label = "bare Zenoh, fastest set-up"
     runtime = ONE_RX_THREAD
