@@ -100,6 +100,20 @@ def check(values: tuple[float, ...], limits: MotionLimits) -> None:
             )
 
 
+def clip(frame: MotionFrame, limits: MotionLimits) -> tuple[MotionFrame, bool]:
+    """`frame` within `limits` (a value beyond one is set to it, a value that is not finite to
+    0, the neutral of every field), and whether anything had to change. For a sender that must
+    not raise, such as a control loop."""
+    values = msgspec.structs.astuple(frame)
+    inside = tuple(
+        max(-bound, min(bound, value)) if math.isfinite(value) else 0.0
+        for value, bound in zip(values, limits.bounds(), strict=True)
+    )
+    if inside == values:
+        return frame, False
+    return MotionFrame(*inside), True
+
+
 def encode(frame: MotionFrame, limits: MotionLimits = DEFAULT_LIMITS) -> bytes:
     """The 21-byte FRAME_UPDATE for `frame`; MotionPacketError if a value breaks a limit."""
     values = msgspec.structs.astuple(frame)

@@ -29,6 +29,7 @@ from carlaverse.config import ConfigError, StrictStruct, load_config, resolve_pa
 from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.fabric.session import FabricSettings
 from carlaverse.hal import FfbConfig, InputConfig, MotionConfig
+from carlaverse.hal.motion_packet import MotionLimits
 from carlaverse.messages import Extent
 from carlaverse.physics.motion_cueing import MotionCueingParams
 from carlaverse.physics.params import VehicleParams, load_vehicle
@@ -72,6 +73,35 @@ class DriveNodeConfig(StrictStruct):
     motion_cueing: MotionCueingParams = MotionCueingParams()
     loop: LoopSettings = LoopSettings()
     road: RoadSettings = RoadSettings()
+
+    def __post_init__(self) -> None:
+        check_motion_limits(self.motion_cueing, self.motion)
+
+
+# The cueing's clamp of each axis and the device limit it must stay within.
+CUEING_VS_DEVICE = (
+    ("roll_limit_rad", "roll_rad"),
+    ("pitch_limit_rad", "pitch_rad"),
+    ("heave_limit_m", "heave_m"),
+)
+
+
+def check_motion_limits(cueing: MotionCueingParams, motion: MotionConfig) -> None:
+    """Refuse cueing clamps wider than the motion device accepts: the device would reject every
+    frame of a hard manoeuvre. Its limits are `options.limits` (defaults where absent)."""
+    raw = motion.options.get("limits", {})
+    try:
+        limits = msgspec.convert(raw, MotionLimits, strict=False)
+    except msgspec.ValidationError:
+        return  # a bad `limits` block is named when the device opens it
+    for cue_field, device_field in CUEING_VS_DEVICE:
+        clamp, bound = getattr(cueing, cue_field), getattr(limits, device_field)
+        if clamp > bound:
+            raise ValueError(
+                f"motion_cueing.{cue_field} {clamp:g} exceeds motion.options.limits."
+                f"{device_field} {bound:g}: the device would reject those frames; set "
+                f"motion_cueing.{cue_field} to at most {bound:g} or raise the device's limit"
+            )
 
 
 def load_drive_config(path: str | Path) -> tuple[DriveNodeConfig, VehicleParams]:

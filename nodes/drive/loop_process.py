@@ -89,6 +89,7 @@ class _Runner:
         self.pending: list[Impulse] = []
         self.touch = TouchButtons()  # the web HMI's taps
         self.ffb_sent = self.motion_sent = self.impulses = self.ticks = 0
+        self.motion_clipped = 0  # frames sent clipped to the motion device's limits
         self.distance_m = 0.0
 
     def session_now(self) -> float:
@@ -112,7 +113,11 @@ class _Runner:
                 self.ffb_sent += 1
             if self.ticks % motion_every == 0:
                 m = out.motion
-                self.motion.send(MotionFrame(m.roll, m.pitch, m.heave, m.rpm, m.torque))
+                frame = MotionFrame(m.roll, m.pitch, m.heave, m.rpm, m.torque)
+                # Beyond the device's limits a frame is clipped and counted, never raised into
+                # the loop. The config load refused cueing clamps wider than the device's
+                # limits, so what reaches this is engine rpm and torque, which pass unclamped.
+                self.motion_clipped += self.motion.send_clipped(frame)
                 self.motion_sent += 1
             self.ticks += 1
             pacer.advance()
@@ -206,6 +211,7 @@ class _Runner:
             **self.pacer.summary(),
             "ffb_sent": self.ffb_sent,
             "motion_sent": self.motion_sent,
+            "motion_clipped": self.motion_clipped,  # clipped to the device's MotionLimits
             "impulses_applied": self.impulses,
             "impulses_dropped": self.loop.impulses_dropped,  # non-finite or impossible Δv
             "distance_m": round(self.distance_m, 2),

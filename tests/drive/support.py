@@ -1,14 +1,21 @@
-"""Helpers for the drive tests: the shipped configs and input samples."""
+"""Helpers for the drive tests: the shipped configs, input samples, the real loop in-process."""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+import functools
+import uuid
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
-from carlaverse_nodes.drive.config import load_drive_config
+from carlaverse_nodes.drive.config import DriveNodeConfig, load_drive_config
+from carlaverse_nodes.drive.loop_process import LoopSpec, run_loop
+from carlaverse_nodes.drive.shared_state import CONTROL, STATE
 from carlaverse_nodes.drive.vehicle_loop import DriveLoop, LoopOutput
+from carlaverse_nodes.loop_host import LoopHost
 
 from carlaverse.hal import InputState
+from carlaverse.physics.params import VehicleParams
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 DT = 0.001  # [s] 1 kHz
@@ -43,3 +50,18 @@ def tap(loop: DriveLoop, *buttons: str) -> LoopOutput:
     out = loop.step(DT, keys(0.0, 0.0, 0.0, *buttons))
     loop.step(DT, IDLE)
     return out
+
+
+def run_real_loop(config: DriveNodeConfig, vehicle: VehicleParams, seconds: float,
+                  events: Sequence[object] = ()) -> dict[str, Any]:  # fmt: skip
+    """Run the node's own control loop (`loop_process.run_loop`: devices, pacing, its own
+    process, as the drive node starts it) for `seconds`, with `events` on its queue from the
+    start; return its summary."""
+    host = LoopHost(STATE, CONTROL, "test loop")
+    spec = functools.partial(LoopSpec, config, vehicle, duration_s=seconds)
+    host._start_loop(f"t{uuid.uuid4().hex[:8]}", "car", run_loop, spec, clock_offset=0.0)
+    for event in events:
+        host._events.put(event)
+    host._process.join(timeout=seconds + 60)  # it ends by itself after `seconds`
+    host._stop_loop()
+    return host._loop_summary

@@ -98,6 +98,25 @@ def test_limits_are_configurable() -> None:
         msgspec.convert({"roll_rad": -1}, MotionLimits)
 
 
+SMALL = MotionLimits(roll_rad=0.1, pitch_rad=0.1, heave_m=0.02, rpm=3000.0, torque_nm=50.0)
+
+
+@given(st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=5, max_size=5))
+def test_clip_makes_any_frame_encodable_and_changes_only_what_it_must(values: list[float]) -> None:
+    frame = MotionFrame(*values)
+    inside, clipped = motion_packet.clip(frame, SMALL)
+    motion_packet.encode(inside, SMALL)  # never raises: within every limit, all finite
+    for before, after, bound in zip(values, msgspec.structs.astuple(inside), SMALL.bounds(),
+                                    strict=True):  # fmt: skip
+        if not math.isfinite(before):
+            assert after == 0.0  # the field's neutral
+        elif abs(before) <= bound:
+            assert after == before  # a value within its limit passes untouched
+        else:
+            assert after == math.copysign(bound, before)  # the limit, on the value's side
+    assert clipped == (inside != frame)
+
+
 @pytest.mark.parametrize("size", range(1, 21))
 def test_short_frames_are_rejected_as_short(size: int) -> None:
     with pytest.raises(MotionPacketError) as info:

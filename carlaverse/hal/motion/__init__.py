@@ -23,13 +23,20 @@ class MotionConfig(DeviceConfig):
 
 class MotionDevice(Device):
     """Base class. `send` validates the frame (MotionPacketError if a value is not finite or
-    over `limits`); closing sends the neutral frame first."""
+    over `limits`); `send_clipped` clips it to `limits` instead and never raises for a value,
+    for a control loop; closing sends the neutral frame first."""
 
     limits = motion_packet.DEFAULT_LIMITS
 
     def send(self, frame: MotionFrame) -> None:
         """Command the platform to `frame` now."""
         self._send(frame, motion_packet.encode(frame, self.limits))
+
+    def send_clipped(self, frame: MotionFrame) -> bool:
+        """Command the platform to `frame` clipped to `limits`; True when a value was clipped."""
+        inside, clipped = motion_packet.clip(frame, self.limits)
+        self.send(inside)
+        return clipped
 
     def neutral(self) -> None:
         """Command the rest pose."""
