@@ -12,12 +12,19 @@ a negative half-sine heave impulse fired once per emergency brake application; �
 of the filtered brake pedal (the raw pedal's rate is unbounded on a keyboard).
 
 Washout: a sustained acceleration keeps its tilt (the point of tilt coordination on a 3-DOF
-rig), and when the event ends each axis returns to neutral with a time constant that grows
-with speed — quick and firm at a standstill, gentle on the motorway. The filter is
-asymmetric: a cue growing away from neutral follows the formula with a short attack lag; a
-cue shrinking toward neutral decays at the washout rate. It therefore never overshoots
-neutral (no false cue in the opposite direction) and is continuous everywhere.
+rig), and when the event ends each axis returns to neutral ("after an acceleration event",
+the paper) with a time constant that grows with speed — quick and firm at a standstill,
+gentle on the motorway. The filter is asymmetric: a cue growing away from neutral follows
+the formula with a short attack lag; a cue shrinking toward neutral decays at the washout
+rate. It therefore never overshoots neutral (no false cue in the opposite direction) and is
+continuous everywhere.
 `washout_*_s` is the time to get back within ~2 % of the cue (τ = time/4).
+
+A stop ends the braking event: the pedal terms k_b·b_LPF + k_impulse·ḃ are weighted by
+smoothstep(0, scale_speed_start_mps, |v|), so with the car at rest and the pedal still down
+the nose-down cue washes out like any other (τ = washout_low_speed_s/4) instead of being held
+for as long as the driver waits at the light. The paper's pitch equation has no such weight;
+its washout sentence decides it: a held pedal at rest is no acceleration to keep a tilt for.
 
 Units follow the motion packet (carlaverse.hal.motion_packet): roll [rad] right side down
 positive, pitch [rad] nose up positive, heave [m] up positive. Body frame x forward, y left:
@@ -153,8 +160,11 @@ class MotionCueing:
         self._prev_brake = brake_f
         self._check_emergency(brake)
         f_scale = smoothstep(p.scale_speed_start_mps, p.scale_speed_full_mps, abs(speed_mps))
-        pitch = ax_f / p.a_ref_mps2_per_rad * f_scale + p.k_brake_rad * brake_f
-        pitch += p.k_brake_rate_rad_s * self.brake_rate
+        # The pedal terms cue a deceleration; a car at rest decelerates nothing, so they fade
+        # out over the last scale_speed_start_mps and the washout takes the nose home.
+        rolling = smoothstep(0.0, p.scale_speed_start_mps, abs(speed_mps))
+        pitch = ax_f / p.a_ref_mps2_per_rad * f_scale
+        pitch += rolling * (p.k_brake_rad * brake_f + p.k_brake_rate_rad_s * self.brake_rate)
         roll = ay_f / p.ay_ref_mps2_per_rad + p.k_steer_rad * self._steer.update(steer, dt)
         heave = p.k_jx_m_per_mps3 * self._jerk(self._jx, ax_f, self._prev_ax, dt)
         heave += p.k_jz_m_per_mps3 * self._jerk(self._jz, az_f, self._prev_az, dt)
