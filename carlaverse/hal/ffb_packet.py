@@ -18,6 +18,12 @@ The paper fixes the first two ranges; the others are ours, chosen so every field
 same 0..10000 (= 0..100.00 %) scale. The frequency tops out at 1000 Hz because the Linux
 periodic effect takes its period in whole milliseconds.
 
+Sign: `constant_force` and `spring_offset` are positive toward the RIGHT (full left -10000 ..
+full right 10000; `doctor --ffb` sends "constant force right" as +). Physics states steer
+torques positive toward the LEFT, counter-clockwise like steer angle and yaw, so a producer
+turns its torque into the wire's force with `constant_force(torque, full_scale)`: the minus
+sign lives there, once.
+
 Decoding network input raises only `FfbPacketError` (a ValueError) with a `reason`.
 """
 
@@ -56,6 +62,14 @@ class FfbCommand(msgspec.Struct, frozen=True, kw_only=True):
 
 
 ZERO_COMMAND = FfbCommand()
+
+
+def constant_force(torque_left_nm: float, full_scale_nm: float) -> int:
+    """The wire's constant_force for a bar torque [N·m] positive toward the LEFT, with
+    `full_scale_nm` sent as 100 %: −τ/full_scale·10000, rounded and clamped to the range."""
+    units = round(-torque_left_nm / full_scale_nm * FULL_SCALE)
+    return max(-FULL_SCALE, min(FULL_SCALE, units))
+
 
 # Inclusive bounds, in wire order.
 FIELD_RANGES: tuple[tuple[str, int, int], ...] = (

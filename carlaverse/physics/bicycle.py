@@ -54,7 +54,7 @@ class BicycleState:
     y: float = 0.0  # [m]
     yaw: float = 0.0  # [rad] heading, counter-clockwise from +x
     speed_mps: float = 0.0  # [m/s] along the heading (what the wheel says, after impulses)
-    steer_rad: float = 0.0  # [rad] fork angle
+    steer_rad: float = 0.0  # [rad] fork angle, positive turns left (like yaw)
     yaw_rate: float = 0.0  # [rad/s]
     lean_rad: float = 0.0  # [rad] positive leans left (into a left turn)
     vx: float = 0.0  # [m/s] world-frame velocity of the CG, including pushes
