@@ -1,9 +1,9 @@
 """The actor layer: egos and NPCs drawn by kind at their extents, with brake and turn lamps.
 
-Each kind has one prototype mesh in a unit frame (x across −0.5..0.5, y along −0.5..0.5 with
-+y forward, z up 0..1); an actor instances it and scales it to its extent, so 200 cars share
-one mesh. Lamps are separate small boxes per actor, coloured each frame from the light bits
-(`LIGHT_BRAKE`, `LIGHT_LEFT_BLINKER`, `LIGHT_RIGHT_BLINKER`). Blinkers flash at 1.5 Hz
+Each kind has one prototype mesh in a unit frame (`bodies`); an actor instances it and
+scales it to its extent, so 200 cars share one mesh. Lamps are separate small boxes per
+actor, coloured each frame from the light bits (`LIGHT_BRAKE`, `LIGHT_LEFT_BLINKER`,
+`LIGHT_RIGHT_BLINKER`). Blinkers flash at 1.5 Hz
 (UN ECE R48: 90 ± 30 flashes per minute) off the render time, so a frame is reproducible.
 A pedestrian that sends a skeleton is drawn as an articulated `figure.Figure` instead.
 """
@@ -18,80 +18,19 @@ from panda3d.core import NodePath
 
 from carlaverse.messages import LIGHT_BRAKE, LIGHT_LEFT_BLINKER, LIGHT_RIGHT_BLINKER
 from carlaverse.render import palette
+from carlaverse.render.bodies import (
+    BRAKE_LAMPS,
+    LAMP_KINDS,
+    LEFT_BLINKERS,
+    RIGHT_BLINKERS,
+    Box,
+    lamp_prototype,
+    prototype,
+)
 from carlaverse.render.figure import Figure
 from carlaverse.render.frame import ActorDraw
-from carlaverse.render.meshes import Color, MeshBuilder
 
 BLINK_HZ = 1.5  # [Hz]
-LAMP_KINDS = {"car", "van", "truck", "bus", "motorcycle"}
-# unit-frame lamp boxes: (x, y, z) bottom centre and (sx, sy, sz); they sit within ±0.505 of the
-# unit frame so an actor's picture never reaches beyond its extent by more than a few mm.
-BRAKE_LAMPS = (
-    ((-0.36, -0.495, 0.42), (0.18, 0.02, 0.1)),
-    ((0.36, -0.495, 0.42), (0.18, 0.02, 0.1)),
-)
-LEFT_BLINKERS = (
-    ((-0.44, 0.495, 0.38), (0.1, 0.02, 0.07)),
-    ((-0.455, -0.495, 0.56), (0.08, 0.02, 0.07)),
-)
-RIGHT_BLINKERS = (
-    ((0.44, 0.495, 0.38), (0.1, 0.02, 0.07)),
-    ((0.455, -0.495, 0.56), (0.08, 0.02, 0.07)),
-)
-
-_Box = tuple[tuple[float, float, float], tuple[float, float, float]]
-
-
-def _shape(kind: str, body: Color) -> list[tuple[_Box, Color]]:
-    """The boxes that make up one kind, in the unit frame."""
-    g, skin, tyre = palette.GLASS, palette.SKIN, palette.TYRE
-    shapes: dict[str, list[tuple[_Box, Color]]] = {
-        "car": [
-            (((0, 0, 0.12), (1.0, 1.0, 0.45)), body),
-            (((0, -0.05, 0.57), (0.86, 0.5, 0.43)), g),
-            (((0, 0.3, 0), (0.95, 0.16, 0.14)), tyre),
-            (((0, -0.3, 0), (0.95, 0.16, 0.14)), tyre),
-        ],
-        "van": [(((0, 0, 0.1), (1.0, 1.0, 0.9)), body), (((0, 0.46, 0.55), (0.9, 0.09, 0.3)), g)],
-        "truck": [
-            (((0, 0.38, 0.08), (1.0, 0.24, 0.8)), body),
-            (((0, 0.48, 0.5), (0.9, 0.05, 0.25)), g),
-            (((0, -0.13, 0.1), (1.0, 0.74, 0.9)), palette.BUILDING),
-        ],
-        "bus": [(((0, 0, 0.08), (0.98, 1.0, 0.92)), body), (((0, 0, 0.55), (1.0, 0.94, 0.25)), g)],
-        "motorcycle": [
-            (((0, 0, 0.12), (0.35, 1.0, 0.4)), body),
-            (((0, -0.1, 0.5), (0.8, 0.3, 0.35)), g),
-            (((0, -0.1, 0.85), (0.5, 0.2, 0.15)), skin),
-        ],
-        "bicycle": [
-            (((0, 0, 0.1), (0.2, 1.0, 0.45)), body),
-            (((0, -0.05, 0.5), (0.8, 0.25, 0.35)), body),
-            (((0, -0.05, 0.85), (0.45, 0.2, 0.15)), skin),
-        ],
-        "pedestrian": [
-            (((0, 0, 0), (0.6, 0.6, 0.45)), tyre),
-            (((0, 0, 0.45), (1.0, 0.8, 0.4)), body),
-            (((0, 0, 0.86), (0.5, 0.5, 0.14)), skin),
-        ],
-    }
-    return shapes.get(kind, [(((0, 0, 0), (1.0, 1.0, 1.0)), body)])
-
-
-def prototype(kind: str, ego: bool) -> NodePath:
-    body = palette.ACTOR_COLORS.get(kind, palette.ACTOR_COLORS["other"])
-    if ego:
-        body = (*(min(1.0, c * palette.EGO_TINT) for c in body[:3]), 1.0)
-    mesh = MeshBuilder(f"actor/{kind}")
-    for (center, size), color in _shape(kind, body):
-        mesh.box(center, size, color)
-    return NodePath(mesh.node())
-
-
-def _lamp_proto() -> NodePath:
-    mesh = MeshBuilder("lamp")
-    mesh.box((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (1.0, 1.0, 1.0, 1.0))
-    return NodePath(mesh.node())
 
 
 @dataclass(slots=True)
@@ -119,7 +58,7 @@ class ActorLayer:
     def __init__(self, parent: NodePath) -> None:
         self.root = parent.attach_new_node("actors")
         self._protos: dict[tuple[str, bool], NodePath] = {}
-        self._lamp = _lamp_proto()
+        self._lamp = lamp_prototype()
         self._drawn: dict[str, _Drawn] = {}
 
     def __len__(self) -> int:
@@ -161,12 +100,13 @@ class ActorLayer:
                  for boxes in (BRAKE_LAMPS, LEFT_BLINKERS, RIGHT_BLINKERS)]  # fmt: skip
         return _Drawn(node, actor.kind, *lamps)
 
-    def _lamp_at(self, node: NodePath, box: _Box) -> NodePath:
+    def _lamp_at(self, node: NodePath, box: Box) -> NodePath:
         (x, y, z), size = box
         lamp = node.attach_new_node("lamp")
         lamp.set_pos(x, y, z)
         lamp.set_scale(*size)
         lamp.set_light_off(1)
+        lamp.set_depth_offset(1)  # flush with the body's end face: drawn over it, not fighting
         self._lamp.instance_to(lamp)
         return lamp
 

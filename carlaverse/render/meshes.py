@@ -118,6 +118,30 @@ class MeshBuilder:
             (cx + hx, cy - hy, z0), _shade(color, 0.6),
         )  # fmt: skip
 
+    def cylinder_x(self, center: Point3, length: float, radius: Point2, color: Color,
+                   sides: int = 16) -> None:  # fmt: skip
+        """A capped cylinder along x; `radius` (along y, along z) reaches its flat faces.
+
+        The section is a regular polygon (`sides` a multiple of 4) turned so that flats face
+        down, up, forward and back: a wheel whose axle is `radius[1]` above the ground rests
+        on it along a whole flat, not on one corner. The radii differ for a mesh that is later
+        scaled unevenly (the unit-frame actor prototypes), so that it comes out round.
+        """
+        cx, cy, cz = center
+        to_corner = 1.0 / math.cos(math.pi / sides)  # corners lie beyond the flats
+        angles = [-math.pi / 2 + math.pi * (2 * k + 1) / sides for k in range(sides)]
+        ring = [(cy + radius[0] * to_corner * math.cos(a), cz + radius[1] * to_corner * math.sin(a))
+                for a in angles]  # fmt: skip
+        x0, x1 = cx - length / 2, cx + length / 2
+        for (y0, z0), (y1, z1) in zip(ring, ring[1:] + ring[:1], strict=True):
+            self.quad((x0, y0, z0), (x0, y1, z1), (x1, y1, z1), (x1, y0, z0), color)
+        cap = _shade(color, 0.8)
+        for x, normal, order in ((x1, (1.0, 0.0, 0.0), 1), (x0, (-1.0, 0.0, 0.0), -1)):
+            hub = self._add((x, cy, cz), normal, cap)
+            rim = [self._add((x, y, z), normal, cap) for y, z in ring]
+            for a, b in zip(rim, rim[1:] + rim[:1], strict=True):
+                self._tris.add_vertices(hub, *(a, b)[::order])  # counter-clockwise from outside
+
     def node(self) -> GeomNode:
         geom = Geom(self._data)
         geom.add_primitive(self._tris)
