@@ -1,15 +1,17 @@
 """Present mode: draw a remote actor where it is now, not where it was (docs/architecture.md §7).
 
-The newest sample is projected to now with its velocity and acceleration (`kinematics.project`,
-DIS dead reckoning). A new sample usually disagrees a little with the projection that was on
-screen; jumping to the new projection would show as a twitch every sample, so the change is
-blended in *projectively* (Murphy's projective velocity blending, the scheme Fiedler's
-networked-physics articles and DIS smoothing describe): from the moment the sample is first
-drawn (T0), with the shown position P0 and velocity V0 then,
+The newest sample is projected to now by the one motion model every user of a pose shares
+(`carlaverse.dead_reckoning`: its velocity turning at its yaw rate, its acceleration). A new
+sample usually disagrees a little with the projection that was on screen; jumping to the new
+projection would show as a twitch every sample, so the change is blended in *projectively*
+(Murphy's projective velocity blending, the scheme Fiedler's networked-physics articles and
+DIS smoothing describe): from the moment the sample is first drawn (T0), with the shown
+position P0 and velocity V0 then,
 
     λ = min(1, (t − T0) / present_blend_s)
     Vb = V0 + (V' − V0) λ                      V' = the new projection's velocity at T0
     Pb = P0 + Vb (t − T0) + ½ A' (t − T0)²     the old motion, its velocity turning into the new
+                                               (A' = the new projection's acceleration at T0)
     shown = Pb + (P'(t) − Pb) λ                P'(t) = the new sample projected to t
 
 so position and velocity both stay continuous and the shown track converges onto the new
@@ -22,7 +24,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from carlaverse.fabric.kinematics import project, wrap_angle
+from carlaverse.dead_reckoning import project, wrap_angle
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
 
 if TYPE_CHECKING:
@@ -42,8 +44,7 @@ class Projector:
         self._p0: _Vec3 = (0.0, 0.0, 0.0)
         self._v0: _Vec3 = (0.0, 0.0, 0.0)
         self._yaw0 = 0.0
-        # what was drawn last: t, position, velocity, acceleration, yaw
-        self._shown: tuple[float, _Vec3, _Vec3, _Vec3, float] | None = None
+        self._shown: tuple[float, Pose] | None = None  # what was drawn last, and when
         self.snaps = 0
 
     def update(self, newest: Pose) -> None:
@@ -65,8 +66,7 @@ class Projector:
         pose = target if lam >= 1.0 else self._blend(target, s, tau, lam)
         if holding:
             pose = _still(pose)
-        self._shown = (now, (pose.x, pose.y, pose.z), (pose.vx, pose.vy, pose.vz),
-                       (pose.ax, pose.ay, pose.az), pose.yaw)  # fmt: skip
+        self._shown = (now, pose)
         return pose, holding
 
     def _start_blend(self, now: float, s: Pose) -> None:
@@ -85,20 +85,17 @@ class Projector:
         self._p0, self._v0, self._yaw0 = shown
 
     def _shown_at(self, now: float) -> tuple[_Vec3, _Vec3, float] | None:
-        """What was on screen, carried on to `now` (frames are ms apart)."""
+        """What was on screen, carried on to `now` by the model (frames are ms apart)."""
         if self._shown is None:
             return None
-        t, p, v, a, yaw = self._shown
-        dt = now - t
-        h = 0.5 * dt * dt
-        position = (p[0] + v[0] * dt + a[0] * h, p[1] + v[1] * dt + a[1] * h,
-                    p[2] + v[2] * dt + a[2] * h)  # fmt: skip
-        return position, (v[0] + a[0] * dt, v[1] + a[1] * dt, v[2] + a[2] * dt), yaw
+        t, shown = self._shown
+        p = project(shown, now - t)
+        return (p.x, p.y, p.z), (p.vx, p.vy, p.vz), p.yaw
 
     def _blend(self, target: Pose, s: Pose, tau: float, lam: float) -> Pose:
         at_t0 = project(s, min(self._t0 - s.t, self.s.max_projection_s))
         v1 = (at_t0.vx, at_t0.vy, at_t0.vz)
-        acc = (s.ax, s.ay, s.az)
+        acc = (at_t0.ax, at_t0.ay, at_t0.az)  # A'
         p_t = (target.x, target.y, target.z)
         shown, vel = [], []
         for i in range(3):
@@ -112,7 +109,7 @@ class Projector:
         v = [vel[i] + (tv[i] - vel[i]) * lam for i in range(3)]
         return Pose(
             s.seq, target.t, shown[0], shown[1], shown[2], target.roll, target.pitch, yaw,
-            v[0], v[1], v[2], s.wx, s.wy, s.wz, s.ax, s.ay, s.az,
+            v[0], v[1], v[2], s.wx, s.wy, s.wz, acc[0], acc[1], acc[2],
         )  # fmt: skip
 
 

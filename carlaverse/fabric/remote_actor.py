@@ -25,7 +25,7 @@ from enum import Enum
 from typing import Literal
 
 from carlaverse.config import StrictStruct
-from carlaverse.fabric.kinematics import wrap_angle
+from carlaverse.dead_reckoning import project, wrap_angle
 from carlaverse.fabric.present import Projector
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
 
@@ -313,16 +313,9 @@ class RemoteActor:
         return _interpolate(poses[i - 1], poses[i], t), Phase.INTERPOLATING
 
     def _extrapolate(self, p: Pose, dt: float) -> tuple[Pose, Phase]:
-        phase = Phase.EXTRAPOLATING
         if dt > self.s.max_extrapolation_s:
-            dt, phase = self.s.max_extrapolation_s, Phase.HOLDING
-        h = 0.5 * dt * dt
-        return Pose(
-            p.seq, p.t + dt,
-            p.x + p.vx * dt + p.ax * h, p.y + p.vy * dt + p.ay * h, p.z + p.vz * dt + p.az * h,
-            p.roll + p.wx * dt, p.pitch + p.wy * dt, wrap_angle(p.yaw + p.wz * dt),
-            p.vx + p.ax * dt, p.vy + p.ay * dt, p.vz + p.az * dt, p.wx, p.wy, p.wz,
-        ), phase  # fmt: skip
+            return project(p, self.s.max_extrapolation_s), Phase.HOLDING
+        return project(p, dt), Phase.EXTRAPOLATING
 
 
 def _interpolate(a: Pose, b: Pose, t: float) -> Pose:
