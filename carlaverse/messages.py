@@ -67,14 +67,18 @@ class Pose(msgspec.Struct, frozen=True, array_like=True, gc=False):
 
     Untracked by the cyclic collector (`gc=False`: numbers only, so never in a cycle): a node
     hearing 256 egos holds some 25,000 of them in its buffers and makes 12,800 a second,
-    which otherwise each collection walks and each allocation counts toward."""
+    which otherwise each collection walks and each allocation counts toward.
+
+    Angles are ISO 8855 (x forward, y left, z up; right-handed): roll positive puts the right
+    side down (a bike leaning left has roll < 0), pitch positive the nose down, yaw
+    counter-clockwise from +x. Every consumer (renderer, Rerun, CARLA bridge) reads them so."""
 
     seq: int
     t: float  # [s] session time the pose is valid at
     x: float  # [m]
     y: float  # [m]
     z: float = 0.0  # [m]
-    roll: float = 0.0  # [rad]
+    roll: float = 0.0  # [rad] ISO 8855: right side down positive
     pitch: float = 0.0  # [rad]
     yaw: float = 0.0  # [rad]
     vx: float = 0.0  # [m/s] world frame

@@ -5,7 +5,7 @@
     impulses → single-track bicycle → riding resistance → trainer command (calibrated table)
     → fork feel
 
-and returns a `BikeOutput`: the pose (with the lean as roll and absolute velocity), the
+and returns a `BikeOutput`: the pose (the lean as ISO 8855 roll, absolute velocity), the
 resistance force and the trainer's resistance level, and the fork's FFB command. Whoever runs
 the loop (the loop process, a test, a benchmark) owns the clock, the devices and the fabric,
 and sets `grade_percent` when the road under the bike changes (the scenario's grades).
@@ -32,7 +32,7 @@ class BikeOutput:
     x: float  # [m] world frame
     y: float
     yaw: float  # [rad]
-    lean_rad: float  # [rad] roll for rendering, positive leans left
+    roll: float  # [rad] ISO 8855, right side down positive: a left lean is negative
     vx: float  # [m/s] world frame
     vy: float
     yaw_rate: float  # [rad/s]
@@ -49,7 +49,7 @@ class BikeOutput:
     def pose(self, seq: int = 0) -> Pose:
         """The pose telemetry sample: planar, the lean as roll, absolute velocity."""
         return Pose(
-            seq, self.t, self.x, self.y, roll=self.lean_rad, yaw=self.yaw, vx=self.vx,
+            seq, self.t, self.x, self.y, roll=self.roll, yaw=self.yaw, vx=self.vx,
             vy=self.vy, wz=self.yaw_rate, ax=self.ax, ay=self.ay,
         )  # fmt: skip
 
@@ -82,8 +82,9 @@ class BikeLoop:
         )
         percent = self.table.percent(s.speed_mps, force)
         ffb = self.fork.update(dt, s.speed_mps, s.steer_rad, self.config.road.roughness)
+        roll = -s.lean_rad  # the bicycle's lean is positive to the left; ISO roll to the right
         return BikeOutput(
-            now, s.x, s.y, s.yaw, s.lean_rad, s.vx, s.vy, s.yaw_rate, s.ax, s.ay, s.speed_mps,
+            now, s.x, s.y, s.yaw, roll, s.vx, s.vy, s.yaw_rate, s.ax, s.ay, s.speed_mps,
             s.steer_rad, force, percent, s.fallen, ffb, applied,
         )  # fmt: skip
 

@@ -139,7 +139,7 @@ class BikeRunner:
         for name in ("t", "x", "y", "yaw", "vx", "vy", "yaw_rate", "ax", "ay", "speed_mps",
                      "steer_rad", "resistance_n", "resistance_percent", "fallen"):  # fmt: skip
             r[name] = getattr(out, name)
-        r["lean"] = out.lean_rad
+        r["roll"] = out.roll
         r["power_w"], r["cadence_rpm"] = ts.power_w, ts.cadence_rpm
         r["grade_percent"] = self.loop.grade_percent
         r["ticks"], r["ffb_sent"], r["impulses_applied"] = self.ticks, self.ffb_sent, self.impulses

@@ -73,7 +73,7 @@ class BikeNode(LoopHost):
         return self._hmi
 
     def _pose_extras(self, s: Any) -> dict[str, float]:
-        return {"roll": float(s["lean"]), "wz": float(s["yaw_rate"])}
+        return {"roll": float(s["roll"]), "wz": float(s["yaw_rate"])}  # roll: ISO 8855
 
     def step(self, client: NodeClient, now: float) -> None:
         weather = client.world.weather

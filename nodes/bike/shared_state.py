@@ -3,7 +3,8 @@
 `STATE` is written by the loop process every tick, read by the fabric process (pose,
 a future HMI page: speed, power, cadence, grade). `CONTROL` is written by the fabric process:
 the session-clock offset, the spawn pose, the authority's wind and the road's grade at the
-bike (from the scenario, looked up by the fabric process at its step rate).
+bike (from the scenario, looked up by the fabric process at its step rate). `roll` is the
+pose's: ISO 8855, right side down positive, so a bike leaning left has roll < 0.
 """
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import numpy as np
 
 STATE = np.dtype(
     [
-        ("t", "<f8"), ("x", "<f8"), ("y", "<f8"), ("yaw", "<f8"), ("lean", "<f8"),
+        ("t", "<f8"), ("x", "<f8"), ("y", "<f8"), ("yaw", "<f8"), ("roll", "<f8"),
         ("vx", "<f8"), ("vy", "<f8"), ("yaw_rate", "<f8"), ("ax", "<f8"), ("ay", "<f8"),
         ("speed_mps", "<f8"), ("steer_rad", "<f8"),
         ("power_w", "<f8"), ("cadence_rpm", "<f8"), ("grade_percent", "<f8"),

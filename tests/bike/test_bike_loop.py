@@ -8,6 +8,7 @@ import pytest
 from carlaverse_nodes.bike.bike_loop import BikeLoop
 from carlaverse_nodes.bike.config import BikeNodeConfig, RoadSettings, resolve_table
 
+from carlaverse import messages as m
 from carlaverse.messages import Impulse
 
 DT = 0.005  # [s]
@@ -31,15 +32,37 @@ def test_climbs_and_headwinds_command_more_resistance() -> None:
     )  # fmt: skip
 
 
-def test_pose_carries_lean_as_roll_and_absolute_velocity() -> None:
+# Pose.roll is ISO 8855 (x forward, y left, z up; roll about x by the right-hand rule turns
+# y toward z): positive lifts the left side, i.e. the RIGHT side goes down. A bike leaning
+# left has roll < 0. Every consumer (renderer, Rerun, CARLA bridge) reads it so.
+
+
+def test_a_left_turn_leans_left_on_the_wire() -> None:
+    """A bike balances a steady turn by leaning into it until gravity and the centripetal force
+    meet in its plane: tan φ = v²·κ/g = v·ω/g, toward the centre of the turn."""
     loop = loop_on(0.0)
     loop.place(0.0, 0.0, math.pi / 2)
     for _ in range(200):
-        out = loop.step(DT, 5.0, 0.2, 0.0)  # steer axis 0.2 of 0.6 rad full lock: turning left
-    pose = out.pose(7)
-    assert pose.seq == 7 and pose.roll == out.lean_rad > 0
-    assert math.hypot(pose.vx, pose.vy) == pytest.approx(5.0, rel=1e-9)
-    assert pose.wz == out.yaw_rate > 0 and pose.z == 0.0
+        out = loop.step(DT, 5.0, 0.2, 0.0)  # steer axis 0.2 of 0.6 rad full lock
+    pose = m.decode_pose(m.encode_pose(out.pose(7)))  # as every consumer receives it
+    speed = math.hypot(pose.vx, pose.vy)
+    assert pose.seq == 7 and speed == pytest.approx(5.0, rel=1e-6)
+    assert pose.wz > 0  # yaw rate counter-clockwise: a left turn
+    assert pose.roll < 0  # left side down
+    # wz travels as float16 (11-bit significand: within 0.05 %); roll as float32
+    assert -pose.roll == pytest.approx(math.atan(speed * pose.wz / 9.81), rel=1e-3)
+    assert pose.z == 0.0
+
+
+def test_a_bike_pushed_from_the_right_lies_on_its_left_side() -> None:
+    loop = loop_on(0.0)
+    loop.place(0.0, 0.0, 0.0)  # heading +x: its left is +y
+    loop.step(DT, 5.0, 0.0, 0.0)
+    from_the_right = impulse(1, (0.0, 450.0, 0.0))  # 5 m/s toward +y: above the 3 m/s fall
+    out = loop.step(DT, 5.0, 0.0, 0.0, [from_the_right], now=1.0)
+    assert out.fallen
+    roll = m.decode_pose(m.encode_pose(out.pose())).roll
+    assert roll == pytest.approx(-math.pi / 2, abs=1e-6)  # lying on its left side
 
 
 def impulse(seq: int, j: tuple[float, float, float]) -> Impulse:
