@@ -3,15 +3,25 @@
 NiceGUI is imported here and in the `panel_*` modules only, so the rest of the launcher (the
 supervisor, the drafts, the checks) is plain Python its tests drive directly. Stopping the
 server — Ctrl-C, SIGTERM, or closing the launcher otherwise — stops every process it started.
+
+Every request passes the door first (`launcher.door`: token, Host, Origin, no framing), so a
+request without the launch token never reaches NiceGUI and no page is built for it; the page's
+files are the config dir's (`launcher.files`).
 """
 
 from __future__ import annotations
 
+import socket
+import threading
+import time
+import webbrowser
 from collections.abc import Callable
 from pathlib import Path
 
 from nicegui import app, ui
 
+from carlaverse.launcher.door import Door, HostPolicy, cookie_name
+from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.lab import Lab
 from carlaverse.launcher.panel_config import ConfigEditor
 from carlaverse.launcher.panel_hardware import hardware_panel
@@ -20,7 +30,10 @@ from carlaverse.launcher.panel_session import session_panel
 TITLE = "CARLAverse launcher"
 
 
-def build_page(lab: Lab, config_dir: Path) -> None:
+BROWSER_WAIT_S = 30.0  # [s] the page is opened once the port listens, or not at all
+
+
+def build_page(lab: Lab, files: ConfigDir) -> None:
     """The page every browser gets; each builds its own widgets over the one shared lab."""
     with ui.header().classes("items-center bg-slate-800"):
         ui.label(TITLE).classes("text-xl font-medium")
@@ -33,29 +46,59 @@ def build_page(lab: Lab, config_dir: Path) -> None:
         with ui.tab_panel(session_tab):
             session_panel(lab)
         with ui.tab_panel(config_tab):
-            ConfigEditor(config_dir)
+            ConfigEditor(files)
         with ui.tab_panel(hardware_tab):
-            hardware_panel()
+            hardware_panel(files)
 
 
 def serve(
     lab: Lab,
-    config_dir: Path,
+    token: str,
     host: str,
     port: int,
-    open_browser: bool,
+    allow_hosts: list[str],
+    open_page: Path | None = None,
     on_ready: Callable[[], None] = lambda: None,
+    on_stop: Callable[[], None] = lambda: None,
 ) -> None:
-    """Serve until stopped (`on_ready` once the port listens); then stop all `lab` started."""
-    ui.page("/", title=TITLE)(lambda: build_page(lab, config_dir))
+    """Serve until stopped (`on_ready` once started); then stop all `lab` started, and call
+    `on_stop` (a SIGTERM ends the process right after this shutdown).
+
+    Only requests with `token` from an allowed Host get in; `open_page` (a local file that
+    forwards to the token URL) is opened in a browser once the port listens.
+    """
+    ui.page("/", title=TITLE)(lambda: build_page(lab, lab.files))
+    app.add_middleware(
+        Door, token=token, hosts=HostPolicy(host, allow_hosts), cookie=cookie_name(port)
+    )
     app.on_startup(on_ready)
+    if open_page is not None:
+        app.on_startup(lambda: _open_when_listening(host, port, open_page))
     app.on_shutdown(lab.close)
+    app.on_shutdown(on_stop)
     ui.run(
         host=host,
         port=port,
         title=TITLE,
-        show=open_browser,
+        show=False,  # NiceGUI would open the URL without the token
         reload=False,
         show_welcome_message=False,
         favicon="🚦",
+        access_log=False,  # request lines would carry `?token=`
     )
+
+
+def _open_when_listening(host: str, port: int, page: Path) -> None:
+    def wait_and_open() -> None:
+        address = "127.0.0.1" if host in ("0.0.0.0", "::", "") else host
+        deadline = time.monotonic() + BROWSER_WAIT_S
+        while time.monotonic() < deadline:
+            try:
+                socket.create_connection((address, port), timeout=1.0).close()
+            except OSError:
+                time.sleep(0.1)
+                continue
+            webbrowser.open(page.as_uri())
+            return
+
+    threading.Thread(target=wait_and_open, name="open-browser", daemon=True).start()

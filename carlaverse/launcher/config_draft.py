@@ -6,6 +6,10 @@ trainer table) resolve as they will for the node, and checked there; saving rena
 file into place, so what was checked is what is saved. Errors come back at their field path:
 
     road.grade_percent: Expected `float` <= 40.0
+
+Every file is opened and saved through the config dir (`launcher.files`): nothing outside it
+is read or written, and an error about a file the draft refers to outside it (a vehicle named
+by absolute path) says where, never what that file holds.
 """
 
 from __future__ import annotations
@@ -13,7 +17,6 @@ from __future__ import annotations
 import contextlib
 import copy
 import importlib
-import os
 from pathlib import Path
 from typing import Any
 
@@ -21,9 +24,12 @@ import msgspec
 import yaml
 
 from carlaverse.cli.config_cmd import detect_kind, validate_file
-from carlaverse.config import ConfigError, invalid_at, parse_yaml, read_text, resolve_path
+from carlaverse.config import ConfigError, invalid_at, parse_yaml
+from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.schema_tree import FILE_SCHEMAS, Section, describe
 from carlaverse.node_runtime import load_node_kind, node_kinds
+
+OUTSIDE_NOT_SHOWN = "a file outside the config dir does not decode; what it holds is not shown"
 
 
 class FieldError(msgspec.Struct, frozen=True):
@@ -57,12 +63,15 @@ def field_error(exc: ConfigError, known_paths: set[str]) -> FieldError:
 class ConfigDraft:
     """One file's data as edited; `validate()` and `save()` use the node's strict decoder."""
 
-    def __init__(self, kind: str, target: Path, data: dict[str, Any] | None = None) -> None:
+    def __init__(
+        self, kind: str, target: Path, files: ConfigDir, data: dict[str, Any] | None = None
+    ) -> None:
         kinds = config_kinds()
         if kind not in kinds:
             raise ConfigError(str(target), f"unknown config kind {kind!r}; one of {list(kinds)}")
         self.kind = kind
-        self.target = target
+        self.target = target  # inside `files`: absolute, or relative to the config dir
+        self.files = files
         self.data: dict[str, Any] = data or {}
         self.tree: Section = describe(kinds[kind], kind)
         self._paths = {s.path for s in self.tree.walk()} | {
@@ -70,11 +79,14 @@ class ConfigDraft:
         }
 
     @classmethod
-    def open(cls, name: str, target: Path | None = None, kind: str | None = None) -> ConfigDraft:
-        """Load a file (a path or a shipped name); it is saved to `target` (default: itself)."""
-        path = resolve_path(name)
-        data = parse_yaml(read_text(path), str(path))
-        return cls(kind or detect_kind(path, data), target or path, data)
+    def open(
+        cls, files: ConfigDir, name: str, target: Path | None = None, kind: str | None = None
+    ) -> ConfigDraft:
+        """Load a file (in the config dir, or a shipped name); saved to `target` (default:
+        itself)."""
+        path, text = files.read_source(name)
+        data = parse_yaml(text, str(path))
+        return cls(kind or detect_kind(path, data), target or path, files, data)
 
     def value(self, path: str) -> Any:
         """The value the file sets at `path`, else the schema's default."""
@@ -111,32 +123,27 @@ class ConfigDraft:
 
     def validate(self) -> list[FieldError]:
         """[] when the file is valid; else where it is not, by field path."""
-        scratch = self._write_scratch()
-        try:
-            return self._check(scratch)
-        finally:
-            scratch.unlink(missing_ok=True)
+        return self._checked(save=False)
 
     def save(self) -> list[FieldError]:
         """Write the file if it is valid ([]); otherwise leave it untouched and say why."""
-        scratch = self._write_scratch()
-        try:
-            errors = self._check(scratch)
-            if not errors:
-                os.replace(scratch, self.target)
-            return errors
-        finally:
-            scratch.unlink(missing_ok=True)
+        return self._checked(save=True)
 
-    def _write_scratch(self) -> Path:
-        self.target.parent.mkdir(parents=True, exist_ok=True)
-        scratch = self.target.with_name(f".{self.target.stem}.launcher-{os.getpid()}.yaml")
-        scratch.write_text(self.yaml_text(), encoding="utf-8")
-        return scratch
+    def _checked(self, save: bool) -> list[FieldError]:
+        try:
+            with self.files.scratch(self.target, self.yaml_text()) as scratch:
+                errors = self._check(scratch.path)
+                if save and not errors:
+                    scratch.commit()
+        except ConfigError as exc:  # the target itself: outside, through a symlink, …
+            return [FieldError("", str(exc))]
+        return errors
 
     def _check(self, scratch: Path) -> list[FieldError]:
         try:
             validate_file(str(scratch), self.kind)
         except ConfigError as exc:
+            if Path(exc.source) != scratch and not self.files.holds(Path(exc.source)):
+                return [FieldError("", f"{exc.source}: {OUTSIDE_NOT_SHOWN}")]
             return [field_error(exc, self._paths)]
         return []

@@ -5,6 +5,10 @@ options: {host: …, port: …}}`, `{backend: pygame, options: {index: 0}}`), so
 what a node will use; the `sim` backends make every check run without hardware. The schedules
 (test forces, neutral) are `carlaverse.hal.diagnostics`', shared with `carlaverse doctor`.
 Errors are HalError/ConfigError with one line naming what is missing.
+
+The page names the block, so a block that can reach beyond this machine (a UDP device at a
+host and port) is sent to only when a config in the config dir holds that very block
+(`check_reach`): the launcher's page cannot aim test pulses at an address of its choosing.
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ from __future__ import annotations
 import asyncio
 import time
 from collections.abc import Callable, Mapping
+from pathlib import Path
 from typing import Any
 
 from carlaverse.hal import InputState, open_ffb, open_input, open_motion, open_trainer
@@ -41,8 +46,26 @@ SIM_JOYSTICK: dict[str, Any] = {
         ],
     },
 }
+# Backends that reach no address a block could name: simulations, and the Bluetooth scan
+# (`trainer_scan` only listens for FTMS adverts). Any other one must be a config's own block.
+LOCAL_BACKENDS = frozenset({"sim", "ftms_sim", "ftms"})
 TRAINER_WAIT_S = 3.0  # [s] a simulated trainer notifies at 4 Hz; its first sample is soon
 BLE_SCAN_S = 5.0  # [s] how long a Bluetooth scan listens for FTMS adverts
+
+
+def check_reach(block: Block, known: Callable[[], list[dict[str, Any]]], config_dir: Path) -> None:
+    """HalError unless `block` is a local simulation or a block a config in the dir holds.
+
+    `known` lists the config dir's device blocks; it is read only for a non-local block.
+    """
+    if block.get("backend") in LOCAL_BACKENDS:
+        return
+    if any(dict(block) == found for found in known()):
+        return
+    raise HalError(
+        f"device block with backend {block.get('backend')!r} is in no config in {config_dir}: "
+        "the launcher tests a device only as a config there names it (copy its block here)"
+    )
 
 
 def ffb_pulses(

@@ -1,7 +1,9 @@
 """What one launcher runs on this machine: a router, an authority, nodes, a demo, one session.
 
 Every child connects to the lab's router endpoint (loopback, a free port by default) and joins
-the lab's session; the session is watched as an observer once a router runs. The demo is the
+the lab's session; the session is watched as an observer once a router runs. A node's config
+and the authority's scenario are files inside the config dir or shipped ones (`launcher.files`):
+a process started from the page reads nothing else. The demo is the
 one `carlaverse demo` runs — its authority and node arguments come from `cli.demo` — but each
 of its processes is a child here, listed, logged and stoppable on its own.
 """
@@ -13,7 +15,9 @@ import tempfile
 from pathlib import Path
 
 from carlaverse.cli import demo
+from carlaverse.config import ConfigError
 from carlaverse.keys import check_token
+from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.presence import PresenceRow, SessionWatch
 from carlaverse.launcher.processes import Child, LaunchError, Supervisor
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind, node_kinds
@@ -24,10 +28,13 @@ HEADLESS_KINDS = ("scripted", "observer")  # kinds that need no devices, sim or 
 class Lab:
     """The launcher's children and the session they share; `close()` stops them all."""
 
-    def __init__(self, session: str, endpoint: str, supervisor: Supervisor | None = None) -> None:
+    def __init__(
+        self, session: str, endpoint: str, files: ConfigDir, supervisor: Supervisor | None = None
+    ) -> None:
         check_token(session, "session name")
         self.session = session
         self.endpoint = endpoint
+        self.files = files
         self.supervisor = supervisor or Supervisor()
         self.watch: SessionWatch | None = None
         self._scratch = tempfile.TemporaryDirectory(prefix="carlaverse-launcher-")
@@ -42,7 +49,7 @@ class Lab:
         return child
 
     def start_authority(self, scenario: str = "town") -> Child:
-        args = argparse.Namespace(session=self.session, scenario=scenario)
+        args = argparse.Namespace(session=self.session, scenario=self._scenario(scenario))
         return self.supervisor.start(
             "authority", "authority", demo.authority_argv(args, self.endpoint)
         )
@@ -57,7 +64,7 @@ class Lab:
         argv = ["join", kind, "--id", node_id, "--session", self.session]
         argv += ["--connect", self.endpoint]
         if config:
-            argv += ["--config", config]
+            argv += ["--config", str(self._file(config))]
         elif kind not in HEADLESS_KINDS:
             argv += ["--backend", "sim"]
         return self.supervisor.start(node_id, "node", argv)
@@ -67,7 +74,7 @@ class Lab:
         problem = demo.check_nodes(kinds, [])
         if problem:
             raise LaunchError(problem)
-        args = _demo_args(self.session, kinds, duration_s, scenario)
+        args = _demo_args(self.session, kinds, duration_s, self._scenario(scenario))
         if not self._running("router"):
             self.start_router()
         if not self._running("authority"):
@@ -101,6 +108,16 @@ class Lab:
             self.watch.close()
             self.watch = None
         self._scratch.cleanup()
+
+    def _file(self, name: str) -> Path:
+        """A file a child will read: inside the config dir or shipped, else LaunchError."""
+        try:
+            return self.files.source(name)
+        except ConfigError as exc:
+            raise LaunchError(str(exc)) from exc
+
+    def _scenario(self, name: str) -> str:
+        return name if name == "none" else str(self._file(name))
 
     def _running(self, name: str) -> bool:
         child = self.supervisor.get(name)

@@ -16,6 +16,7 @@ from nicegui.elements.mixins.validation_element import ValidationElement
 
 from carlaverse.config import ConfigError
 from carlaverse.launcher.config_draft import ConfigDraft, FieldError, config_kinds
+from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.schema_tree import Leaf, Section
 
 DEFAULT_FILE = "bike-sim"
@@ -24,19 +25,19 @@ DEFAULT_FILE = "bike-sim"
 class ConfigEditor:
     """One browser's editor: the draft it holds and the widgets that show it."""
 
-    def __init__(self, config_dir: Path) -> None:
-        self.config_dir = config_dir
+    def __init__(self, files: ConfigDir) -> None:
+        self.files = files
         self.draft: ConfigDraft | None = None
         self.errors: list[FieldError] = []
         self._build()
 
     def _build(self) -> None:
         with ui.row().classes("w-full items-end gap-3"):
-            self.source = ui.input("open (path or shipped name)", value=DEFAULT_FILE)
+            self.source = ui.input("open (in the config dir, or shipped)", value=DEFAULT_FILE)
             self.source.props("data-testid=config-source").classes("w-64")
             self.kind = ui.select(["auto", *config_kinds()], value="auto", label="schema")
             self.kind.classes("w-32")
-            self.target = ui.input("save to", value=str(self.config_dir / "bike.yaml"))
+            self.target = ui.input("save to (in the config dir)", value="bike.yaml")
             self.target.props("data-testid=config-target").classes("w-96")
             ui.button("Open", icon="folder_open", on_click=self.open).props(
                 "data-testid=config-open"
@@ -54,7 +55,7 @@ class ConfigEditor:
         """Edit the file named in `open`, with the schema chosen or told by the file."""
         kind = None if self.kind.value == "auto" else self.kind.value
         try:
-            draft = ConfigDraft.open(self.source.value, Path(self.target.value), kind)
+            draft = ConfigDraft.open(self.files, self.source.value, Path(self.target.value), kind)
         except ConfigError as exc:
             self._say(str(exc), ok=False)
             return
@@ -65,7 +66,8 @@ class ConfigEditor:
         if self.kind.value == "auto":
             self._say("choose a schema for the new file", ok=False)
             return
-        self._edit(ConfigDraft(self.kind.value, Path(self.target.value)), "new, all defaults")
+        draft = ConfigDraft(self.kind.value, Path(self.target.value), self.files)
+        self._edit(draft, "new, all defaults")
 
     def _edit(self, draft: ConfigDraft, what: str) -> None:
         self.draft = draft
@@ -86,7 +88,7 @@ class ConfigEditor:
         if self.errors:
             self._say(f"not saved: {self.errors[0]}", ok=False)
         else:
-            self._say(f"saved {self.draft.target}", ok=True)
+            self._say(f"saved {self.files.shown(self.draft.target)}", ok=True)
 
     def _on_select(self, event: Any) -> None:
         if event.value is not None:

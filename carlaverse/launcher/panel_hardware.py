@@ -3,6 +3,8 @@
 Each card takes the device block a node config would hold (YAML, `{backend: sim}` by default,
 so every check runs here without hardware) and runs the check in a worker thread; what it
 reports is appended to the card's log. A device error is one red line, never a traceback.
+A block that reaches a device beyond this machine's simulations must be one a config in the
+config dir holds (`hardware.check_reach`): the page names no other address to send to.
 """
 
 from __future__ import annotations
@@ -18,23 +20,26 @@ from carlaverse.config import ConfigError
 from carlaverse.hal import InputState
 from carlaverse.hal.errors import HalError
 from carlaverse.launcher import hardware
+from carlaverse.launcher.files import ConfigDir
 
 JOYSTICK_RATE_HZ = 20.0  # [Hz] how often the live joystick view samples its device
 Check = Callable[[dict[str, Any], Callable[[str], None]], object]
 
 
-def hardware_panel() -> None:
+def hardware_panel(files: ConfigDir) -> None:
     with ui.grid(columns=2).classes("w-full gap-4"):
-        _check_card("Force feedback", "{backend: sim}", "Send test pulses", hardware.ffb_pulses,
-                    "ffb")  # fmt: skip
+        _check_card(files, "Force feedback", "{backend: sim}", "Send test pulses",
+                    hardware.ffb_pulses, "ffb")  # fmt: skip
         _joystick_card()
-        _check_card("Motion platform", "{backend: sim}", "Neutral test",
+        _check_card(files, "Motion platform", "{backend: sim}", "Neutral test",
                     hardware.motion_neutral, "motion")  # fmt: skip
-        _check_card("Smart trainer", "{backend: ftms_sim}", "Scan", hardware.trainer_scan,
+        _check_card(files, "Smart trainer", "{backend: ftms_sim}", "Scan", hardware.trainer_scan,
                     "trainer")  # fmt: skip
 
 
-def _check_card(title: str, block: str, action: str, check: Check, testid: str) -> None:
+def _check_card(
+    files: ConfigDir, title: str, block: str, action: str, check: Check, testid: str
+) -> None:
     with ui.card().classes("w-full"):
         ui.label(title).classes("text-lg font-medium")
         text = ui.input("device block (YAML)", value=block).classes("w-full")
@@ -42,11 +47,15 @@ def _check_card(title: str, block: str, action: str, check: Check, testid: str) 
         log = (
             ui.log(max_lines=200).classes("w-full h-40 text-xs").props(f"data-testid={testid}-log")
         )
-        button = ui.button(action, on_click=lambda: _run_check(check, text.value, log, button))
+        button = ui.button(
+            action, on_click=lambda: _run_check(files, check, text.value, log, button)
+        )
         button.props(f"data-testid={testid}-run")
 
 
-async def _run_check(check: Check, block_text: str, log: ui.log, button: ui.button) -> None:
+async def _run_check(
+    files: ConfigDir, check: Check, block_text: str, log: ui.log, button: ui.button
+) -> None:
     button.disable()
     loop = asyncio.get_running_loop()  # the check reports from its worker thread
 
@@ -55,11 +64,16 @@ async def _run_check(check: Check, block_text: str, log: ui.log, button: ui.butt
 
     try:
         block = _block(block_text)
+        await run.io_bound(_checked_reach, files, block)
         await run.io_bound(check, block, report)
     except (HalError, ConfigError, ValueError) as exc:
         log.push(f"error: {exc}")
     finally:
         button.enable()
+
+
+def _checked_reach(files: ConfigDir, block: dict[str, Any]) -> None:
+    hardware.check_reach(block, files.device_blocks, files.given)
 
 
 def _block(text: str) -> dict[str, Any]:

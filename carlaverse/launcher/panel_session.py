@@ -90,17 +90,20 @@ def _router_card(lab: Lab) -> None:
 
 def _node_card(lab: Lab) -> None:
     with _card("Node", "joins the lab's session; no config: headless on sim devices"):
-        kind = ui.select(lab.node_kinds, label="kind", value="scripted").props("dense")
-        node_id = ui.input("id", value="node-1").props("dense")
+        kind = ui.select(lab.node_kinds, label="kind", value="scripted")
+        kind.props("dense data-testid=node-kind")
+        node_id = ui.input("id", value="node-1").props("dense data-testid=node-id")
         config = ui.input(
-            "config file (optional)", placeholder="path or shipped name", autocomplete=_shipped()
+            "config file (optional)",
+            placeholder="in the config dir, or a shipped name",
+            autocomplete=_shipped(),
         )
-        config.props("dense")
+        config.props("dense data-testid=node-config")
 
         def start() -> Awaitable[None]:
             return _act(lab.start_node, kind.value, node_id.value, config.value)
 
-        ui.button("Start node", on_click=start)
+        ui.button("Start node", on_click=start).props("data-testid=start-node")
 
 
 def _shipped() -> list[str]:

@@ -10,6 +10,7 @@ import yaml
 
 from carlaverse.config import ConfigError, load_config
 from carlaverse.launcher.config_draft import ConfigDraft, FieldError, config_kinds, field_error
+from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.schema_tree import describe
 from carlaverse.physics.bicycle import BicycleParams
 
@@ -22,11 +23,11 @@ def test_every_node_kind_and_file_kind_has_a_tree() -> None:
         assert tree.walk()[0] is tree and (tree.leaves or tree.sections), kind
 
 
-def test_leaves_carry_kind_bounds_and_default() -> None:
+def test_leaves_carry_kind_bounds_and_default(tmp_path: Path) -> None:
     tree = describe(BicycleParams)
     mass = tree.leaf("mass_kg")
     assert mass is not None and (mass.kind, mass.bounds, mass.default) == ("number", "> 0", 90.0)
-    bike = ConfigDraft("bike", Path("unused.yaml")).tree
+    bike = ConfigDraft("bike", Path("unused.yaml"), ConfigDir(tmp_path)).tree
     grade = bike.leaf("road.grade_percent")
     assert grade is not None and grade.bounds == ">= -40, <= 40"
     assert set(bike.leaf("speed_source").choices) == {"trainer", "speed_sensor"}
@@ -36,7 +37,7 @@ def test_leaves_carry_kind_bounds_and_default() -> None:
 
 def test_bad_value_is_named_at_its_path_and_not_saved(tmp_path: Path) -> None:
     target = tmp_path / "bike.yaml"
-    draft = ConfigDraft.open("bike-sim", target)
+    draft = ConfigDraft.open(ConfigDir(tmp_path), "bike-sim", target)
     draft.set("bicycle.mass_kg", -5)
     errors = draft.save()
     assert errors == [FieldError("bicycle.mass_kg", "Expected `float` > 0.0")]
@@ -46,7 +47,7 @@ def test_bad_value_is_named_at_its_path_and_not_saved(tmp_path: Path) -> None:
 
 
 def test_unknown_field_and_wrong_type_are_named_too(tmp_path: Path) -> None:
-    draft = ConfigDraft("bike", tmp_path / "b.yaml")
+    draft = ConfigDraft("bike", tmp_path / "b.yaml", ConfigDir(tmp_path))
     draft.set("road.grade", 3)
     assert draft.validate() == [FieldError("road", "Object contains unknown field `grade`")]
     draft.unset("road.grade")
@@ -57,13 +58,14 @@ def test_unknown_field_and_wrong_type_are_named_too(tmp_path: Path) -> None:
 def test_good_value_is_saved_and_read_back_by_the_node_decoder(tmp_path: Path) -> None:
     from carlaverse_nodes.bike.config import BikeNodeConfig
 
-    target = tmp_path / "sub" / "bike.yaml"
-    draft = ConfigDraft.open("bike-sim", target)
+    target = tmp_path / "sub" / "bike.yaml"  # a folder inside the config dir is made
+    files = ConfigDir(tmp_path)
+    draft = ConfigDraft.open(files, "bike-sim", target)
     draft.set("road.grade_percent", 7.5)
     assert draft.save() == []
     assert yaml.safe_load(target.read_text())["road"]["grade_percent"] == 7.5
     assert load_config(target, BikeNodeConfig).road.grade_percent == 7.5
-    assert ConfigDraft.open(str(target)).value("road.grade_percent") == 7.5
+    assert ConfigDraft.open(files, str(target)).value("road.grade_percent") == 7.5
     assert draft.value("road.roughness") == 0.2  # set by the shipped file
     draft.unset("road.roughness")
     assert draft.value("road.roughness") == 0.2  # now the schema's default
@@ -75,6 +77,6 @@ def test_cross_field_error_lands_on_its_section() -> None:
     assert field_error(ConfigError("x.yaml", "something else"), set()).path == ""
 
 
-def test_unknown_kind_is_refused() -> None:
+def test_unknown_kind_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="unknown config kind 'bicycle'"):
-        ConfigDraft("bicycle", Path("x.yaml"))
+        ConfigDraft("bicycle", Path("x.yaml"), ConfigDir(tmp_path))

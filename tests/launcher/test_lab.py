@@ -4,20 +4,22 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 
 from carlaverse import messages as m
 from carlaverse.fabric.stats import StreamSummary
 from carlaverse.keys import KeySpaceError
+from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.lab import Lab
 from carlaverse.launcher.presence import presence_rows
 from carlaverse.launcher.processes import LaunchError
 
 
 @pytest.fixture
-def lab() -> Iterator[Lab]:
-    lab = Lab("lab", "tcp/127.0.0.1:1")
+def lab(tmp_path: Path) -> Iterator[Lab]:
+    lab = Lab("lab", "tcp/127.0.0.1:1", ConfigDir(tmp_path))
     yield lab
     lab.close()
 

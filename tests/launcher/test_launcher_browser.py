@@ -106,11 +106,11 @@ def _session_children(launcher: ServedLauncher) -> list[str]:
 
 
 def test_config_editor_rejects_then_saves(
-    launcher: ServedLauncher, page: Page, screenshot_dir: Path, tmp_path: Path
+    launcher: ServedLauncher, page: Page, screenshot_dir: Path
 ) -> None:
     from carlaverse_nodes.bike.config import BikeNodeConfig
 
-    target = tmp_path / "bike.yaml"
+    target = launcher.config_dir / "edited" / "bike.yaml"  # saved only inside the config dir
     page.goto(launcher.url)
     page.get_by_role("tab", name="Config").click()
     page.get_by_test_id("config-source").fill("bike-sim")
