@@ -8,21 +8,24 @@ so a node id can never widen an ACL rule or collide with another key.
 from __future__ import annotations
 
 import math
-import re
 from dataclasses import dataclass
 from functools import lru_cache
+
+from carlaverse.patterns import whole_ascii
 
 ROOT = "carlaverse"
 AUTHORITY_ID = "authority"
 
-_TOKEN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$")
+# Whole text, ASCII only (carlaverse.patterns): `gx\n` or a Cyrillic look-alike is no id.
+_TOKEN = whole_ascii(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,62}")
 
 # Interest management (docs/architecture.md §3): the world is cut into square tiles and the
 # keys of what is spatial -- ego poses, NPC batches -- end in their tile, so a node subscribes
 # to the tiles around it and Zenoh (the router, or a peer's writer-side filter) delivers
 # nothing from elsewhere. The size is part of the protocol: every process must agree on it.
 TILE_SIZE_M = 250.0  # [m]
-_TILE = re.compile(r"^t(-?[0-9]{1,7})_(-?[0-9]{1,7})$")
+# Canonical decimal only (no `-0`, no leading zero): one spelling per tile, so one key.
+_TILE = whole_ascii(r"t(0|-?[1-9][0-9]{0,6})_(0|-?[1-9][0-9]{0,6})")
 # Channels whose keys carry a tile: ego/<id>/pose/<tile>, world/npc/<tile>.
 TILED_EGO_CHANNELS = ("pose",)
 TILED_WORLD_CHANNELS = ("npc",)
@@ -45,7 +48,7 @@ class KeySpaceError(ValueError):
 
 def check_token(value: str, what: str = "node id") -> str:
     """Return `value` if it is a valid session name or node id, else raise with the rule."""
-    if not _TOKEN.match(value):
+    if not _TOKEN.fullmatch(value):
         raise KeySpaceError(
             f"invalid {what} {value!r}: use 1-63 letters, digits, '_', '.' or '-', "
             "starting with a letter or digit (e.g. 'tum-drive-1')"
@@ -65,7 +68,7 @@ def tile_of(x: float, y: float) -> tuple[int, int]:
 
 def tile_index(token: str) -> tuple[int, int]:
     """(ix, iy) of a tile token; raise KeySpaceError naming it otherwise."""
-    match = _TILE.match(token)
+    match = _TILE.fullmatch(token)
     if match is None:
         raise KeySpaceError(f"invalid tile {token!r}: expected t<ix>_<iy>, e.g. 't3_-2'")
     return int(match[1]), int(match[2])
@@ -201,21 +204,21 @@ class ParsedKey:
 def parse(key: str) -> ParsedKey:
     """Split a concrete key of the space; raise KeySpaceError naming the key otherwise."""
     parts = str(key).split("/")
-    if len(parts) < 4 or parts[0] != ROOT or not _TOKEN.match(parts[1]):
+    if len(parts) < 4 or parts[0] != ROOT or not _TOKEN.fullmatch(parts[1]):
         raise KeySpaceError(f"not a carlaverse key: {key!r}")
     session, area, rest = parts[1], parts[2], parts[3:]
     if area == "ego" and len(rest) == 3 and rest[1] in TILED_EGO_CHANNELS and _tiled(rest):
         return ParsedKey(session, area, rest[1], rest[0], rest[2])
-    if area == "ego" and len(rest) == 2 and rest[1] in EGO_CHANNELS and _TOKEN.match(rest[0]):
+    if area == "ego" and len(rest) == 2 and rest[1] in EGO_CHANNELS and _TOKEN.fullmatch(rest[0]):
         return ParsedKey(session, area, rest[1], rest[0])
     if (
         area == "world"
         and len(rest) == 2
         and rest[0] in TILED_WORLD_CHANNELS
-        and _TILE.match(rest[1])
+        and _TILE.fullmatch(rest[1])
     ):
         return ParsedKey(session, area, rest[0], "", rest[1])
-    if area in ("node", "impulse", "audio") and len(rest) == 1 and _TOKEN.match(rest[0]):
+    if area in ("node", "impulse", "audio") and len(rest) == 1 and _TOKEN.fullmatch(rest[0]):
         return ParsedKey(session, area, "", rest[0])
     if area == "world" and len(rest) == 1 and rest[0] in (*WORLD_CHANNELS, DIGEST_CHANNEL):
         return ParsedKey(session, area, rest[0], "")
@@ -234,4 +237,4 @@ def parse_cached(key: str) -> ParsedKey:
 
 def _tiled(rest: list[str]) -> bool:
     """`<id>/<channel>/<tile>` with a valid id and tile."""
-    return bool(_TOKEN.match(rest[0]) and _TILE.match(rest[2]))
+    return bool(_TOKEN.fullmatch(rest[0]) and _TILE.fullmatch(rest[2]))

@@ -11,10 +11,11 @@ from typing import Annotated, Literal
 import msgspec
 
 from carlaverse.config import StrictStruct
+from carlaverse.patterns import anchored
 
 Positive = Annotated[float, msgspec.Meta(gt=0.0)]
 # Headphones (HRTF) or a speaker layout; `ringN` is N speakers evenly round the listener.
-LAYOUT_PATTERN = r"^(binaural|stereo|quad|5\.1|ring([3-9]|[1-5][0-9]|6[0-4]))$"
+LAYOUT_PATTERN = anchored(r"binaural|stereo|quad|5\.1|ring([3-9]|[1-5][0-9]|6[0-4])")
 Layout = Annotated[str, msgspec.Meta(pattern=LAYOUT_PATTERN)]
 
 

@@ -14,6 +14,7 @@ import yaml
 
 from carlaverse.keys import AUTHORITY_ID, KeySpaceError, check_token
 from carlaverse.messages import ACTOR_KINDS, SCHEMA_VERSION, JoinRequest
+from carlaverse.patterns import whole_ascii
 
 OBSERVER_KIND = "observer"  # the one node kind without an actor
 MAX_POSE_RATE_HZ = 1000.0
@@ -22,6 +23,9 @@ MAX_MASS_KG = 200_000.0  # [kg] a heavy-haul truck
 MAX_CONFIG_BYTES = 64 * 1024
 MAX_CONFIG_DEPTH = 32  # nesting levels of the config; real ones use fewer than 10
 TEXT_LIMITS = {"instance": 64, "kind": 32, "site": 64, "hostname": 255, "version": 64}
+# hostname and version are shown to people (logs, "already in use ... from <hostname>"):
+# no control character, space or look-alike letter may travel in them.
+_SHOWN_TEXT = whole_ascii(r"[!-~]*")
 
 _Loader = getattr(yaml, "CSafeLoader", yaml.SafeLoader)  # C parser: a join stays cheap
 
@@ -61,6 +65,16 @@ def _texts(req: JoinRequest) -> str:
             return f"{field} is {len(value)} characters long; at most {limit} are allowed"
     if not req.instance:
         return "instance is empty; send a random id per process run (e.g. a UUID)"
+    for field, what in (("instance", "instance"), ("site", "site name")):
+        value = getattr(req, field)
+        if field == "instance" or value:
+            try:
+                check_token(value, what)
+            except KeySpaceError as exc:
+                return str(exc)
+    for field in ("hostname", "version"):
+        if not _SHOWN_TEXT.fullmatch(getattr(req, field)):
+            return f"{field} {getattr(req, field)!r} is not printable ASCII without spaces"
     return ""
 
 

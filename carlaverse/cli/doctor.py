@@ -21,6 +21,10 @@ from carlaverse.hal import open_ffb, open_input, open_motion
 from carlaverse.hal.diagnostics import SweepAmplitudes, ffb_test_sequence, motion_sweep, paced
 from carlaverse.hal.errors import HalError
 from carlaverse.hal.input import InputState
+from carlaverse.patterns import whole_ascii
+
+# HOST:PORT of a device server; no host means this one. Whole text, ASCII digits only.
+_HOST_PORT = whole_ascii(r"(?P<host>[A-Za-z0-9_.-]*|\[[0-9A-Fa-f:.]+\]):(?P<port>[0-9]{1,5})")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -51,10 +55,10 @@ def run(args: argparse.Namespace) -> int:
 
 
 def host_port(text: str) -> dict[str, object]:
-    host, sep, port = text.rpartition(":")
-    if not sep or not port.isdigit():
+    match = _HOST_PORT.fullmatch(text)
+    if match is None or int(match["port"]) > 65535:
         raise ValueError(f"{text!r} is not HOST:PORT (e.g. 127.0.0.1:45500)")
-    return {"host": host or "127.0.0.1", "port": int(port)}
+    return {"host": match["host"].strip("[]") or "127.0.0.1", "port": int(match["port"])}
 
 
 def run_ffb(args: argparse.Namespace) -> None:

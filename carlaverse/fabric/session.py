@@ -22,6 +22,7 @@ import msgspec
 import zenoh
 
 from carlaverse.config import StrictStruct
+from carlaverse.patterns import whole_ascii
 
 Mode = Literal["peer", "client", "router"]
 
@@ -51,7 +52,10 @@ OTHER_PROTOCOLS = ("unixsock-stream", "unixpipe", "serial", "vsock")
 # Who opens a peer-to-peer link in low-latency mode: routers are always dialled, between
 # peers only the one with the greater zid dials (see build_config).
 LOWLATENCY_AUTOCONNECT = {"peer": {"to_router": "always", "to_peer": "greater-zid"}}
-_HOST_PORT = re.compile(r"^(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]{1,5})$")
+_HOST_PORT = whole_ascii(r"(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port>[0-9]{1,5})")
+# What an endpoint may hold at all, whatever its protocol: printable ASCII, no space. A
+# newline, a NUL or a look-alike letter in a path or a `?meta` part is refused, not passed on.
+_ENDPOINT_TEXT = whole_ascii(r"[!-~]+")
 
 
 class FabricSettings(StrictStruct):
@@ -85,7 +89,7 @@ def default_listen(mode: Mode) -> list[str]:
 
 def _host_port(address: str) -> re.Match[str] | None:
     """`host` and `port` of an endpoint's address (after `proto/`, before `?meta` or `#cfg`)."""
-    return _HOST_PORT.match(re.split(r"[?#]", address, maxsplit=1)[0])
+    return _HOST_PORT.fullmatch(re.split(r"[?#]", address, maxsplit=1)[0])
 
 
 def on_this_host(endpoint: str) -> bool:
@@ -140,9 +144,14 @@ def check_endpoint(endpoint: str, role: str = "connect") -> None:
             f"bad --{role} endpoint {endpoint!r}: expected {known}/HOST:PORT ({example})"
         )
     if proto in OTHER_PROTOCOLS:
+        if not _ENDPOINT_TEXT.fullmatch(rest):
+            raise FabricError(
+                f"bad --{role} endpoint {endpoint!r}: a {proto} address is printable ASCII "
+                "without spaces"
+            )
         return
     match = _host_port(rest)
-    if match is None:
+    if match is None or not _ENDPOINT_TEXT.fullmatch(rest):  # `?meta` and `#config` too
         raise FabricError(
             f"bad --{role} endpoint {endpoint!r}: expected {proto}/HOST:PORT ({example})"
         )

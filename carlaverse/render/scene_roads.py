@@ -12,6 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterable
 
 from carlaverse.messages import MapLane
+from carlaverse.patterns import is_ascii_decimal
 from carlaverse.render import palette
 from carlaverse.render.meshes import MeshBuilder, dashes, offset_line
 
@@ -49,7 +50,9 @@ def _lane_indices(lanes: list[MapLane]) -> set[tuple[str, int]]:
 
 def _edge_and_index(lane_id: str) -> tuple[str, int] | None:
     edge, _, index = lane_id.rpartition("_")
-    return (edge, int(index)) if edge and index.isdigit() else None
+    # ASCII digits only: `isdigit` is true for '٣' (which `int` reads as 3) and '²' (which it
+    # refuses), and a map file is outside text.
+    return (edge, int(index)) if edge and is_ascii_decimal(index) else None
 
 
 def _edge_lines(mesh: MeshBuilder, lane: MapLane, z: float, indices: set[tuple[str, int]]) -> None:

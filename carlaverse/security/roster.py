@@ -195,6 +195,7 @@ def _check_names(roster: Roster, source: str) -> None:
             check_token(site.name, "site name")
         for node in roster.nodes:
             check_token(node.id)
+            check_token(node.kind, "node kind")  # the kind decides the node's rights (acl.py)
     except KeySpaceError as exc:
         raise RosterError(source, str(exc)) from exc
     names = [s.name for s in roster.sites] + [n.id for n in roster.nodes]

@@ -258,5 +258,5 @@ def _world_position(ev: _Event, body: ET.Element) -> list[float]:
 
 
 def _identifier(name: str) -> str:
-    cleaned = re.sub(r"\W", "_", name)
+    cleaned = re.sub(r"\W", "_", name, flags=re.ASCII)  # Unicode letters are `\w` too
     return cleaned if re.match(r"[A-Za-z_]", cleaned) else f"e_{cleaned}"

@@ -33,6 +33,7 @@ from carlaverse.config import (
     resolve_path,
 )
 from carlaverse.messages import ACTOR_KINDS
+from carlaverse.patterns import anchored
 from carlaverse.traffic.openscenario import import_triggers
 from carlaverse.traffic.soundscape import AudioSpec, check_siren_vehicles, named_vehicles
 from carlaverse.traffic.trigger_spec import TriggerSpec, check_triggers
@@ -186,7 +187,7 @@ class Traffic(StrictStruct):
 
 class PhaseSpec(StrictStruct):
     duration_s: Positive  # [s]
-    state: Annotated[str, msgspec.Meta(pattern=r"^[rygGoOsu]+$")]
+    state: Annotated[str, msgspec.Meta(pattern=anchored("[rygGoOsu]+"))]
 
 
 class LightOverride(StrictStruct):

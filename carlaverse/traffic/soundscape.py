@@ -23,6 +23,7 @@ import msgspec
 
 from carlaverse.config import StrictStruct
 from carlaverse.messages import AUDIO_MAX_EMITTERS, SIREN_PATTERNS
+from carlaverse.patterns import anchored
 from carlaverse.traffic.trigger_spec import Spawn, TriggerSpec
 
 
@@ -46,7 +47,7 @@ class SirenSpec(StrictStruct):
 class ConstructionZone(StrictStruct):
     """A work site heard as one area source (machines, hammering) of the given radius."""
 
-    name: Annotated[str, msgspec.Meta(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,62}$")]
+    name: Annotated[str, msgspec.Meta(pattern=anchored(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,62}"))]
     x: float  # [m] map frame, centre
     y: float  # [m]
     z: float = 0.0  # [m]

@@ -28,12 +28,13 @@ import msgspec
 
 from carlaverse.config import StrictStruct
 from carlaverse.expr import ExpressionError, compile_condition
+from carlaverse.patterns import anchored
 
 Finite = Annotated[float, msgspec.Meta(ge=-1e9, le=1e9)]
 Point = tuple[Finite, Finite]  # [m] world frame: x east, y north
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
-Identifier = Annotated[str, msgspec.Meta(pattern=r"^[A-Za-z_][A-Za-z0-9_]*$")]
+Identifier = Annotated[str, msgspec.Meta(pattern=anchored("[A-Za-z_][A-Za-z0-9_]*"))]
 
 
 # --------------------------------------------------------------------------- measurements
@@ -124,7 +125,7 @@ class Light(StrictStruct, tag="light"):
     """Set a traffic light's state now (one SUMO state char per link); it then stays."""
 
     id: str
-    state: Annotated[str, msgspec.Meta(pattern=r"^[rygGoOsu]+$")]
+    state: Annotated[str, msgspec.Meta(pattern=anchored("[rygGoOsu]+"))]
 
 
 class SetWeather(StrictStruct, tag="weather"):
