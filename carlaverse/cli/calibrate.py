@@ -51,7 +51,7 @@ def run(args: argparse.Namespace) -> int:
     trainer = ftms_sim.SimFtmsTrainer(ftms_sim.SimFtmsOptions(seed=args.seed), clock=clock)
     protocol = RampProtocol(ramp_s=args.ramp_s)
     with trainer:
-        table = calibrate(trainer, protocol, trainer.peripheral.drive, clock.advance, "ftms_sim")
+        table = calibrate(trainer, protocol, trainer.drive, clock.advance, "ftms_sim")
     try:
         table.save(args.out)
     except OSError as exc:

@@ -16,7 +16,9 @@ azimuth in the same message is given.
 
 A smart trainer takes no newtons: `ResistanceTable` is the calibrated 2D table
 (speed × force → resistance %) measured by `carlaverse calibrate trainer`, read by bilinear
-interpolation and clamped at its edges.
+interpolation and clamped at its edges. The calibration also records what the trainer can
+render at all: its force at 0 % and at 100 % per speed (a brake only resists, between its own
+drag and its strongest setting) and its flywheel's inertia at the tyre.
 """
 
 from __future__ import annotations
@@ -79,6 +81,10 @@ class ResistanceTable(StrictStruct):
     forces_n: Annotated[list[float], msgspec.Meta(min_length=2)]
     resistance_percent: list[list[float]]
     trainer: str = ""  # what was calibrated, for the record
+    # Measured by the calibration, one per speed; empty in a table written by hand.
+    force_min_n: list[float] = []  # [N] the trainer's force at 0 %: its own drag
+    force_max_n: list[float] = []  # [N] its force at 100 %
+    flywheel_mass_eq_kg: NonNegative = 0.0  # the flywheel's inertia at the tyre; 0: unknown
 
     def __post_init__(self) -> None:
         for name in ("speeds_mps", "forces_n"):
@@ -91,6 +97,9 @@ class ResistanceTable(StrictStruct):
                 f"resistance_percent must be {len(self.speeds_mps)} rows × "
                 f"{len(self.forces_n)} columns (speeds × forces)"
             )
+        for name in ("force_min_n", "force_max_n"):
+            if len(getattr(self, name)) not in (0, len(self.speeds_mps)):
+                raise ValueError(f"{name} must be empty or one per speed ({len(self.speeds_mps)})")
 
     def percent(self, speed_mps: float, force_n: float) -> float:
         """The trainer command [%] for `force_n` at `speed_mps`, bilinear, clamped to 0..100."""
@@ -100,6 +109,14 @@ class ResistanceTable(StrictStruct):
         low = r[i][j] * (1 - w) + r[i][j + 1] * w
         high = r[i + 1][j] * (1 - w) + r[i + 1][j + 1] * w
         return max(0.0, min(100.0, low * (1 - u) + high * u))
+
+    def force_range(self, speed_mps: float) -> tuple[float, float] | None:
+        """(least, most) force [N] the trainer renders at `speed_mps`; None if not measured."""
+        if not self.force_min_n or not self.force_max_n:
+            return None
+        i, u = _cell(self.speeds_mps, speed_mps)
+        low, high = self.force_min_n, self.force_max_n
+        return low[i] + (low[i + 1] - low[i]) * u, high[i] + (high[i + 1] - high[i]) * u
 
     def save(self, path: Path) -> None:
         path.write_text(yaml.safe_dump(msgspec.to_builtins(self), sort_keys=False))

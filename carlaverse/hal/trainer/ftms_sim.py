@@ -192,3 +192,13 @@ class SimFtmsTrainer(FtmsTrainer):
         self.peripheral = SimFtmsPeripheral(options, clock())
         self.sim_link = SimLink(self.peripheral)
         super().__init__(options, self.sim_link, clock=clock)
+
+    def drive(self, speed_mps: float, accel_mps2: float = 0.0) -> None:
+        """A calibration rig's motor, starting now on the device clock.
+
+        The peripheral's physics runs lazily, up to the last poll; a ramp anchored there
+        would start as far into itself as the clock has run since (a 2 s settle at
+        0.48 m/s² began the up-ramp at 1.47 m/s, not 0.5, and left no up-ramp sample for
+        the table's 1 m/s row). So the physics is brought to now first."""
+        self.sim_link.poll(self.clock())
+        self.peripheral.drive(speed_mps, accel_mps2)
