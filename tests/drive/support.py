@@ -53,15 +53,16 @@ def tap(loop: DriveLoop, *buttons: str) -> LoopOutput:
 
 
 def run_real_loop(config: DriveNodeConfig, vehicle: VehicleParams, seconds: float,
-                  events: Sequence[object] = ()) -> dict[str, Any]:  # fmt: skip
+                  events: Sequence[object] = ()) -> tuple[dict[str, Any], int | None]:  # fmt: skip
     """Run the node's own control loop (`loop_process.run_loop`: devices, pacing, its own
     process, as the drive node starts it) for `seconds`, with `events` on its queue from the
-    start; return its summary."""
+    start; return its summary and its process's exit code."""
     host = LoopHost(STATE, CONTROL, "test loop")
     spec = functools.partial(LoopSpec, config, vehicle, duration_s=seconds)
     host._start_loop(f"t{uuid.uuid4().hex[:8]}", "car", run_loop, spec, clock_offset=0.0)
     for event in events:
         host._events.put(event)
-    host._process.join(timeout=seconds + 60)  # it ends by itself after `seconds`
+    process = host._process
+    process.join(timeout=seconds + 60)  # it ends by itself after `seconds`
     host._stop_loop()
-    return host._loop_summary
+    return host._loop_summary, process.exitcode

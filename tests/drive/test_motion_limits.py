@@ -83,11 +83,13 @@ def test_a_hard_launch_is_clipped_to_the_device_limits_and_the_loop_runs_on() ->
             DriveNodeConfig,
         )
         _, vehicle = load_drive_config(Path(__file__).parents[2] / "configs/drive-desktop.yaml")
-        summary = run_real_loop(config, vehicle, LOOP_S)
+        summary, exitcode = run_real_loop(config, vehicle, LOOP_S)
         sent = summary["motion_sent"] + 1  # and the neutral frame the device sends on close
         wait_until(lambda: server.stats.received >= sent, 5, f"{sent} frames at the server")
-    # The loop ran its whole duration (1 kHz) instead of ending at the first frame.
-    assert summary["ticks"] >= 0.9 * LOOP_S * 1000
+    # The loop ran its whole duration and ended by itself, not at the first over-limit frame
+    # (10 ticks: the first frame at 100 Hz). Its tick count depends on the machine's load: a
+    # starved loop restarts its deadlines rather than racing to catch up.
+    assert exitcode == 0 and summary["ticks"] > 100
     frames = server.platform.frames()  # type: ignore[attr-defined]
     assert server.stats.invalid_value == 0 and len(frames) == sent
     # Clipped, not dropped: the launch reaches the device's limits and never passes them.
