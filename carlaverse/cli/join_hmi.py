@@ -4,6 +4,10 @@
     carlaverse join drive --hmi 8080 --hmi-bind 0.0.0.0     # a tablet on the lab's network
     carlaverse join bike --hmi 0 --hmi-config my-hmi.yaml   # any free port; layouts of yours
 
+Beyond loopback (or with --hmi-token) the HMI asks for a pairing token made for this run:
+the node prints it once, on stderr, inside the address a tablet opens ("HMI pairing URL").
+It goes nowhere else (not into --json): whoever reads it can drive the car's buttons.
+
 The server runs in a thread of the node process with its own event loop; a node kind takes
 part through `hmi_bridge()` (carlaverse.hmi.bridge). Starlette and uvicorn are imported only
 when --hmi is given.
@@ -13,6 +17,8 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import ipaddress
+import socket
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -27,7 +33,22 @@ def add_hmi_arguments(parser: argparse.ArgumentParser) -> None:
     )  # fmt: skip
     group.add_argument(
         "--hmi-bind", default="127.0.0.1", metavar="ADDR",
-        help="address to serve the HMI on (default 127.0.0.1: this machine only)",
+        help="address to serve the HMI on (default 127.0.0.1: this machine only; any address "
+        "beyond loopback, e.g. 0.0.0.0, asks for the pairing token)",
+    )  # fmt: skip
+    group.add_argument(
+        "--hmi-allow-host", action="append", default=[], metavar="NAME",
+        help="also answer to NAME, a host name or address a browser reaches this machine by "
+        "(e.g. cabin-pc.lab; repeatable). Always answered: 127.0.0.1, localhost, [::1], the "
+        "bind address and the address a connection arrives on; any other Host is refused "
+        "(403), as are WebSockets opened by pages of another origin",
+    )  # fmt: skip
+    group.add_argument(
+        "--hmi-token", action="store_true",
+        help="ask for the pairing token on loopback too (other local accounts then cannot "
+        "press the car's buttons). Beyond loopback it is always asked for: the node prints "
+        "a pairing URL with ?token=... once on stderr; opened in a browser, it is kept as "
+        "a cookie",
     )  # fmt: skip
     group.add_argument(
         "--hmi-config", metavar="FILE",
@@ -51,19 +72,49 @@ def node_hmi(
     from carlaverse.hmi.config import default_config_name, load_hmi_config
     from carlaverse.hmi.server import HmiServer
 
+    hosts = _allowed_hosts(args.hmi_allow_host)
     loaded = load_hmi_config(args.hmi_config or default_config_name(kind))
     bridge = node.hmi_bridge()
     try:
-        server = HmiServer(bridge, loaded, args.hmi_bind, args.hmi).start()
+        server = HmiServer(bridge, loaded, args.hmi_bind, args.hmi, hosts, args.hmi_token).start()
     except ValueError:  # HmiError: the address, in one line
         bridge.close()
         raise
     hmi.running = server
     say(f"HMI at {server.url}{loaded.config.hmi.home} (pages: "
         f"{', '.join(server.site.pages())})")  # fmt: skip
+    if server.token is not None:  # the one place the token leaves the process
+        say(f"HMI pairing URL (open it once on the tablet; it holds this run's token, keep "
+            f"it private): {server.pairing_url(_address_for_tablets(args.hmi_bind))}")  # fmt: skip
     try:
         yield hmi
     finally:
         server.close()
         hmi.report = server.stats()
         bridge.close()
+
+
+def _allowed_hosts(names: list[str]) -> list[str]:
+    from carlaverse.web_guard import check_host_name
+
+    try:
+        return [check_host_name(name) for name in names]
+    except ValueError as exc:
+        raise ValueError(f"--hmi-allow-host {exc}") from None
+
+
+def _address_for_tablets(bind: str) -> str:
+    """The address to print in the pairing URL: the bind address, or for 0.0.0.0 / :: the
+    one this host reaches its network from (a connected UDP socket only picks a route,
+    it sends nothing); 127.0.0.1 when it has no network."""
+    try:
+        if not ipaddress.ip_address(bind).is_unspecified:
+            return bind
+    except ValueError:
+        return bind  # a name: the operator's choice
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as probe:
+        try:
+            probe.connect(("192.0.2.1", 9))  # TEST-NET-1 (RFC 5737): never a real host
+        except OSError:
+            return "127.0.0.1"
+        return str(probe.getsockname()[0])

@@ -1,5 +1,10 @@
 """The web HMI server: pages over HTTP, telemetry and commands over one WebSocket per page.
 
+Its door (carlaverse.web_guard) answers only to this machine's names and those the
+operator adds (`allowed_hosts`), opens the WebSocket only to its own pages' origin, and
+forbids framing; beyond loopback, or with `require_token`, it asks for a pairing token
+made per run (`token`, `pairing_url()`), which a page keeps as a cookie.
+
 It runs Starlette on uvicorn in a thread of its own with its own asyncio loop, beside the
 node's fabric loop, and never blocks it: telemetry is read from the bridge at the frame rate
 (the control loop's latest-value slot), commands go back through the bridge's queue. Each
@@ -20,7 +25,9 @@ import socket
 import threading
 import time
 from collections import deque
+from collections.abc import Iterable
 from typing import Any
+from urllib.parse import quote
 
 import uvicorn
 from starlette.applications import Starlette
@@ -42,6 +49,7 @@ from carlaverse.hmi.wire import (
     Rejected,
     Telemetry,
 )
+from carlaverse.web_guard import DoorPolicy, WebGuard, door_hosts, is_loopback, new_token
 
 log = logging.getLogger(__name__)
 
@@ -75,12 +83,22 @@ class HmiServer:
     """Serves the node's HMI pages on bind:port until `close()`."""
 
     def __init__(
-        self, bridge: HmiBridge, loaded: LoadedHmiConfig, bind: str = "127.0.0.1", port: int = 0
+        self,
+        bridge: HmiBridge,
+        loaded: LoadedHmiConfig,
+        bind: str = "127.0.0.1",
+        port: int = 0,
+        allowed_hosts: Iterable[str] = (),
+        require_token: bool = False,
     ) -> None:
         self.bridge = bridge
         self.settings = loaded.config.hmi
         self.site = Site(loaded)
         self.bind, self.port = bind, port
+        self.allowed_hosts = tuple(allowed_hosts)  # names beyond loopback and the bind address
+        self.require_token = require_token  # also on loopback; always beyond it
+        self.token: str | None = None  # this run's pairing token, once started, if asked
+        self._guard: WebGuard | None = None
         self.inputs = InputCheck(bridge.actions, bridge.cruise)
         self._pages: set[_Page] = set()
         self._messages: list[tuple[Message, float]] = []  # with expiry, monotonic [s]
@@ -100,18 +118,29 @@ class HmiServer:
         host = f"[{self.bind}]" if ":" in self.bind else self.bind
         return f"http://{host}:{self.port}/"
 
+    def pairing_url(self, host: str | None = None) -> str:
+        """The home page's address with this run's token (for the operator's terminal
+        only): opened once, the page keeps the token as a cookie. `host`: the name or
+        address a tablet reaches this machine by (default: the bind address)."""
+        if self.token is None:
+            raise HmiError("this HMI asks for no pairing token")
+        name = host or self.bind
+        name = f"[{name}]" if ":" in name else name
+        home = quote(self.settings.home)
+        return f"http://{name}:{self.port}/{home}?token={self.token}"
+
     def start(self) -> HmiServer:
         """Bind (raising HmiError in one line) and serve in a thread; returns when ready."""
         listener = _listen(self.bind, self.port)
-        self.port = int(listener.getsockname()[1])
-        app = Starlette(routes=[
-            Route("/api/status", self._status),
-            WebSocketRoute("/ws", self._websocket),
-            *self.site.routes(),
-        ])  # fmt: skip
+        address, self.port = listener.getsockname()[:2]
+        # The socket's own address decides, not the name given: `localhost` is loopback,
+        # 0.0.0.0 and :: are every interface.
+        if self.require_token or not is_loopback(address):
+            self.token = new_token()
+        self._guard = WebGuard(self._app(), self._policy())
         config = uvicorn.Config(
-            app, log_level="warning", access_log=False, lifespan="off", ws="websockets-sansio",
-            ws_max_size=64 * 1024, timeout_graceful_shutdown=2,
+            self._guard, log_level="warning", access_log=False, lifespan="off",
+            ws="websockets-sansio", ws_max_size=64 * 1024, timeout_graceful_shutdown=2,
         )  # fmt: skip
         self._server = uvicorn.Server(config)
         self._thread = threading.Thread(
@@ -121,6 +150,20 @@ class HmiServer:
         if not self._started.wait(START_TIMEOUT_S):
             raise HmiError(f"the HMI did not start within {START_TIMEOUT_S:.0f} s")
         return self
+
+    def _app(self) -> Starlette:
+        return Starlette(routes=[
+            Route("/api/status", self._status),
+            WebSocketRoute("/ws", self._websocket),
+            *self.site.routes(),
+        ])  # fmt: skip
+
+    def _policy(self) -> DoorPolicy:
+        # A cookie name per port: browsers keep cookies per host, not per port, and two
+        # nodes on one machine must not overwrite each other's token on a tablet.
+        hosts = door_hosts(self.bind, self.allowed_hosts)
+        hint = " (join --hmi-allow-host NAME adds one)"
+        return DoorPolicy(hosts, self.token, f"carlaverse-hmi-{self.port}", host_hint=hint)
 
     def show_message(self, text: str, seconds: float = 5.0) -> None:
         """Show `text` on every page for `seconds` (also on pages that connect meanwhile)."""
@@ -138,6 +181,8 @@ class HmiServer:
             "telemetry_torn_reads": self.bridge.torn_reads,
             "inputs_accepted": self.inputs.accepted,
             "inputs_rejected": dict(self.inputs.rejected),
+            "token_required": self.token is not None,
+            "requests_refused": dict(self._guard.refused) if self._guard else {},
         }
 
     def close(self) -> None:

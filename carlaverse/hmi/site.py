@@ -7,6 +7,8 @@
 
 A new page is an HTML file (plus any JS/CSS) in pages_dir: it is listed and served as it is,
 without any Python change; it can load the shipped `hmi.js` to get the WebSocket feed.
+Only regular files whose real path lies inside their folder are served: a symlink may point
+within the folder, never out of it (such a name is neither listed nor served).
 """
 
 from __future__ import annotations
@@ -38,14 +40,16 @@ class Site:
         and the shipped pages this config lays out (a drive node has no bike page)."""
         names = {p.stem for p in SHIPPED_PAGES.glob("*.html")} & set(self.loaded.config.layouts)
         if self.loaded.pages_dir is not None:
-            names |= {p.stem for p in self.loaded.pages_dir.glob("*.html")}
+            pages_dir = self.loaded.pages_dir
+            names |= {p.stem for p in pages_dir.glob("*.html") if _inside(p, pages_dir)}
         return sorted(n for n in names if PAGE_NAME.match(n))
 
     def find(self, filename: str) -> Path | None:
+        """The real path of `filename` in the first folder that has it as a regular file."""
         for folder in self.folders:
-            candidate = folder / filename
-            if candidate.is_file():
-                return candidate
+            found = _inside(folder / filename, folder)
+            if found is not None:
+                return found
         return None
 
     def layout(self, page: str) -> dict[str, object]:
@@ -90,3 +94,15 @@ class Site:
             return Response(f"no such page {name!r} (pages: {self.pages()})", status_code=404)
         # Pages change while a lab edits them: never let the browser keep a stale copy.
         return FileResponse(found, headers={"Cache-Control": "no-store"})
+
+
+def _inside(candidate: Path, folder: Path) -> Path | None:
+    """`candidate`'s real path if it is a regular file inside `folder`'s real path.
+    The caller serves this real path, not the name it came by: the name checked is the
+    name opened, with no link in it left to follow."""
+    try:
+        real = candidate.resolve(strict=True)
+    except (OSError, RuntimeError):  # missing, a dangling or looping link
+        return None
+    inside = real.is_relative_to(folder.resolve()) and real.is_file()
+    return real if inside else None

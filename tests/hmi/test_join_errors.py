@@ -40,3 +40,13 @@ def test_a_bad_bind_address(capsys: pytest.CaptureFixture[str]) -> None:
     assert err.startswith(
         "carlaverse join: bike: --hmi-bind 'no.such.host.invalid': not an address"
     )
+
+
+def test_a_bad_allowed_host_name(capsys: pytest.CaptureFixture[str]) -> None:
+    code, err = _run(
+        capsys, "drive", "--id", "car", "--hmi", "0", "--hmi-allow-host", "cabin-pc.lab:8080"
+    )
+    assert code == 2
+    assert err == ("carlaverse join: drive: --hmi-allow-host 'cabin-pc.lab:8080' is not a host "
+                   "name or an IP address (no port, no scheme: e.g. cabin-pc.lab or "
+                   "192.168.1.20)")  # fmt: skip
