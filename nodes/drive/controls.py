@@ -30,7 +30,7 @@ from typing import Annotated, Literal, Protocol
 import msgspec
 
 from carlaverse.config import StrictStruct
-from carlaverse.expr import ExpressionError, compile_curve
+from carlaverse.expr import ExpressionError, check_cost, compile_curve
 
 log = logging.getLogger(__name__)
 
@@ -92,13 +92,36 @@ def check_source(source: str, where: str) -> None:
 
 
 def check_curve(text: str, where: str, bipolar: bool) -> None:
-    """Compile and try the curve over its input range now, not at 1 kHz while driving."""
+    """Compile and try the curve over its input range now, not at 1 kHz while driving: it must
+    evaluate at every sample, within the cost budget, and on the steering axis be odd."""
+    if text.strip() == "x":
+        return  # the identity: `_Axis` skips the evaluator for it
+    xs = [i / 20.0 for i in range(-20 if bipolar else 0, 21)]
     try:
         curve = compile_curve(text)
-        for i in range(-20 if bipolar else 0, 21):
-            curve(i / 20.0)
+        ys = [curve(x) for x in xs]
+        check_cost(text, curve, xs)
     except ExpressionError as exc:
         raise ValueError(f"{where}: {exc}") from exc
+    if bipolar:
+        check_odd(text, where, dict(zip(xs, ys, strict=True)))
+
+
+ODD_TOLERANCE = 1e-6  # of full lock: ~0.03 mrad at the road wheels, far below any feel
+
+
+def check_odd(text: str, where: str, ys: Mapping[float, float]) -> None:
+    """A steering curve must turn a left input left and the mirrored right input right by as
+    much: f(-x) = -f(x) at every sample `ys` (x → f(x), symmetric about 0)."""
+    worst = max(ys, key=lambda x: abs(ys[x] + ys[-x]))
+    if abs(ys[worst] + ys[-worst]) <= ODD_TOLERANCE:
+        return
+    x = abs(worst)
+    raise ValueError(
+        f"{where}: {text!r} must be odd (f(-x) = -f(x)) so that left and right steer opposite "
+        f"ways by as much; got f({-x:g})={ys[-x]:.4g}, f({x:g})={ys[x]:.4g}; shape the "
+        f"magnitude and keep the sign, e.g. sgn(x) * pow(abs(x), 2)"
+    )
 
 
 class RawInput(Protocol):
