@@ -18,6 +18,7 @@ from __future__ import annotations
 import json
 import os
 import pwd
+import socket
 import subprocess
 import sys
 import threading
@@ -314,5 +315,18 @@ def test_the_pairing_address_leaves_a_strict_cookie_and_goes_on_without_the_toke
         # the token opens the door, it does not replace the Origin check
         with ws_open(port, f"/ws?token={token}", {**host, "Origin": "http://evil.example"}) as ws:
             assert ws.reply.status == 403
+    finally:
+        running.close()
+
+
+def test_another_loopback_address_is_still_loopback(bridge: ScriptedBridge, folder: Path) -> None:
+    # 127.0.0.0/8 is loopback (RFC 1122 §3.2.1.3): no token asked, the bind address served
+    running = _serve(bridge, folder, bind="127.0.0.2")
+    try:
+        assert running.token is None
+        with socket.create_connection(("127.0.0.2", running.port), timeout=10) as sock:
+            sock.sendall(f"GET /dashboard HTTP/1.1\r\nHost: 127.0.0.2:{running.port}\r\n"
+                         "Connection: close\r\n\r\n".encode())  # fmt: skip
+            assert sock.recv(12) == b"HTTP/1.1 200"
     finally:
         running.close()
