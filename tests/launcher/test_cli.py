@@ -13,7 +13,8 @@ def test_help_explains_what_the_launcher_does(capsys: pytest.CaptureFixture[str]
     assert exit_info.value.code == 0
     text = " ".join(capsys.readouterr().out.split())
     for words in ("--port", "--bind", "--no-browser", "127.0.0.1", "strict decoder",
-                  "stops every process it started", "trainer scan"):  # fmt: skip
+                  "stops every process it started", "trainer scan", "--allow-host", "?token=",
+                  "launcher-PORT.token", "mode 0600", "only inside --config-dir"):  # fmt: skip
         assert words in text
 
 
