@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import os
+import socket
 import sys
 from pathlib import Path
 
@@ -84,8 +85,10 @@ def run(args: argparse.Namespace) -> int:
     except ModuleNotFoundError as exc:
         return fail("launcher", f"needs {exc.name}: pip install 'carlaverse[launcher]'")
     if not _loopback(args.bind):
-        print(f"carlaverse launcher: serving on {args.bind}, reachable from the network; "
-              "anyone who reaches it can start processes here", file=sys.stderr)  # fmt: skip
+        print(f"carlaverse launcher: serving on {args.bind}, reachable from the network; its "
+              "token travels in clear HTTP there: prefer ssh -L", file=sys.stderr)  # fmt: skip
+    if not _port_free(args.bind, args.port):  # before the token file of a launcher there
+        return fail("launcher", f"port {args.port} on {args.bind} is in use; choose --port")
     os.environ.setdefault("SDL_VIDEODRIVER", "dummy")  # joysticks without a display
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
     token = new_token()
@@ -111,6 +114,17 @@ def run(args: argparse.Namespace) -> int:
         lab.close()  # also when the server failed to start: nothing is left behind
         remove_token_files()
     return 0
+
+
+def _port_free(address: str, port: int) -> bool:
+    family = socket.AF_INET6 if ":" in address else socket.AF_INET
+    with socket.socket(family) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)  # as uvicorn binds
+        try:
+            probe.bind((address, port))
+        except OSError:
+            return False
+    return True
 
 
 def _url_host(address: str) -> str:
