@@ -179,5 +179,6 @@ def _describe(stats: RecorderStats) -> str:
     if stats.decode_errors:
         text += f", {stats.decode_errors} undecodable (kept raw)"
     if stats.rejected:
-        text += f", {stats.rejected} rejected"
+        why = ", ".join(f"{reason} {n}" for reason, n in stats.rejected_by.items())
+        text += f", {stats.rejected} rejected ({why})"
     return text

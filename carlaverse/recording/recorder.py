@@ -10,6 +10,9 @@ Threads and why:
   sink writes what does not decode raw and rejects (counts) what it cannot write. If the
   thread stops anyway (a full disk, a bug), `stats().failure` says why, so the CLI exits
   non-zero instead of reporting a count that no longer moves.
+- Which new keys become channels is the sink's admission's call (`recording/admission.py`):
+  present senders first, each within its share, so forged keys cannot crowd out a real
+  node's. Presence is the liveliness tokens, followed here in the order they were received.
 - One archiver thread queries the authority (configs, scenario, map, snapshot) at start and
   again whenever `world/events` announces a spawn, and hands the replies to the writer as
   attachments, metadata and messages on the `authority/<query>` channels.
@@ -24,13 +27,13 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import zenoh
 
 from carlaverse import messages
-from carlaverse.keys import Keys
+from carlaverse.keys import Keys, KeySpaceError, parse_cached
 from carlaverse.recording.archive import Archive, ArchiveItem
 from carlaverse.recording.encoding import UNDECODABLE
 from carlaverse.recording.sink import McapSink
@@ -50,9 +53,12 @@ class RecorderStats:
     channels: int
     attachments: int
     decode_errors: int  # payloads of a known type that did not decode (recorded raw)
-    rejected: int  # samples the sink could not write (too many keys, bad receive time)
+    rejected: int  # samples the sink could not write (a key refused, a bad receive time)
     queued: int
     failure: str  # why the writer stopped early, "" while healthy
+    # `rejected` by reason: bad_time, and the admission's sender_full, present_full,
+    # strangers_full (recording/admission.py)
+    rejected_by: dict[str, int] = field(default_factory=dict)
 
 
 class ByteBudget:
@@ -104,7 +110,8 @@ class Recorder:
         self._keys = keys
         self._sink = sink
         self._wall_ns = wall_ns
-        self._queue: queue.Queue[tuple[int, Any]] = queue.Queue(maxsize=queue_size)
+        # (receive time [ns], sample, whether it is a liveliness token's)
+        self._queue: queue.Queue[tuple[int, Any, bool]] = queue.Queue(maxsize=queue_size)
         self._queue_bytes = ByteBudget(queue_bytes)
         self._control: deque[ArchiveItem] = deque()
         self._archive = Archive(session, keys, self._control.append, wall_ns, query_timeout_s)
@@ -131,13 +138,15 @@ class Recorder:
         for thread in self._threads:
             thread.daemon = True
             thread.start()
-        self._subscribers.append(
-            self._session.declare_subscriber(self._keys.everything, self._on_sample)
-        )
+        # Tokens first: the present nodes' tokens (history) then tend to arrive before their
+        # data, whose new keys are then charged to a present sender, not to the strangers.
         self._subscribers.append(
             self._session.liveliness().declare_subscriber(
-                self._keys.all_nodes, self._on_sample, history=True
+                self._keys.all_nodes, self._on_token, history=True
             )
+        )
+        self._subscribers.append(
+            self._session.declare_subscriber(self._keys.everything, self._on_sample)
         )
 
     def stop(self) -> RecorderStats:
@@ -172,7 +181,12 @@ class Recorder:
             rejected=s.rejected,
             queued=self._queue.qsize(),
             failure=self._failure or self._writer_gone(),
+            rejected_by=self._rejected_by(),
         )
+
+    def _rejected_by(self) -> dict[str, int]:
+        reasons = {"bad_time": self._sink.stats.bad_times, **self._sink.admission.refused}
+        return {reason: n for reason, n in sorted(reasons.items()) if n}
 
     def _writer_gone(self) -> str:
         """A reason if the writer thread has ended while the recorder still runs."""
@@ -185,12 +199,19 @@ class Recorder:
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         """Runs on a Zenoh thread: stamp and hand over, nothing else."""
+        self._hand_over(sample, token=False)
+
+    def _on_token(self, sample: zenoh.Sample) -> None:
+        """A liveliness token appeared or went (a put on `node/<id>` is no token)."""
+        self._hand_over(sample, token=True)
+
+    def _hand_over(self, sample: zenoh.Sample, token: bool) -> None:
         size = len(sample.payload)
         if not self._queue_bytes.take(size):
             self._n_dropped = next(self._dropped)
             return
         try:
-            self._queue.put_nowait((self._wall_ns(), sample))
+            self._queue.put_nowait((self._wall_ns(), sample, token))
             self._n_received = next(self._received)
         except queue.Full:
             self._queue_bytes.give_back(size)
@@ -223,15 +244,29 @@ class Recorder:
         self._drain_control()
         self._sink.maybe_flush()
 
-    def _write_sample(self, recv_ns: int, sample: zenoh.Sample) -> None:
+    def _write_sample(self, recv_ns: int, sample: zenoh.Sample, token: bool) -> None:
         key = str(sample.key_expr)
         payload = sample.payload.to_bytes()
         self._queue_bytes.give_back(len(payload))
         kind = "delete" if sample.kind == zenoh.SampleKind.DELETE else "put"
+        if token and kind == "put":
+            self._presence(key, present=True)  # first: the token's own key is the node's
         metadata = None if self._sink.has_channel(key) else _channel_metadata(sample)
         written = self._sink.write(key, payload, recv_ns, kind, metadata)
+        if token and kind == "delete":
+            self._presence(key, present=False)
         if written and key == self._events_key and kind == "put":
             self._watch_event(payload)
+
+    def _presence(self, key: str, present: bool) -> None:
+        try:
+            node_id = parse_cached(key).node_id
+        except KeySpaceError:
+            return  # a token of no valid id names no sender
+        if present:
+            self._sink.admission.present(node_id)
+        else:
+            self._sink.admission.absent(node_id)
 
     def _watch_event(self, payload: bytes) -> None:
         try:
@@ -260,5 +295,6 @@ class Recorder:
             "max_queued": str(self._max_queued),
             "decode_errors": str(stats.decode_errors),
             "rejected": str(stats.rejected),
+            **{f"rejected_{reason}": str(n) for reason, n in stats.rejected_by.items()},
             "archive_errors": str(self._archive.errors),
         }

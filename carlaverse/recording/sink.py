@@ -22,6 +22,7 @@ from typing import Literal
 
 from mcap.writer import CompressionType, IndexType, Writer
 
+from carlaverse.recording.admission import KeyAdmission
 from carlaverse.recording.encoding import MESSAGE_ENCODING, SCHEMA_ENCODING, KeyFormat
 from carlaverse.recording.scrub import (
     holds_configs,
@@ -33,9 +34,6 @@ from carlaverse.recording.scrub import (
 Compression = Literal["zstd", "lz4", "none"]
 PROFILE = "carlaverse"
 DEFAULT_CHUNK_SIZE = 256 * 1024  # [B] uncompressed; small enough to lose little on a crash
-# Distinct keys a recording takes: ~600 nodes' worth of channels. A bound, because every key
-# costs a channel record and index entries, and anyone in an open session can invent keys.
-DEFAULT_MAX_CHANNELS = 4096
 _U64_END = 1 << 64
 # No message indexes: the writer keeps each chunk's index in memory until the file is closed,
 # and with them an entry per channel per chunk: at 256 egos (a chunk every 70 ms, ~256 pose
@@ -119,7 +117,8 @@ class SinkStats:
     messages: int = 0
     bytes_in: int = 0  # [B] payload bytes as received
     decode_errors: int = 0
-    rejected: int = 0  # samples not written: a key beyond max_channels or a bad receive time
+    rejected: int = 0  # samples not written: a key refused by the admission or a bad time
+    bad_times: int = 0  # of them, receive times MCAP cannot hold
     channels: int = 0
     attachments: int = 0
     per_key: dict[str, int] = field(default_factory=dict)
@@ -136,10 +135,11 @@ class McapSink:
         chunk_size: int = DEFAULT_CHUNK_SIZE,
         flush_interval_s: float = 1.0,
         monotonic: Callable[[], float],
-        max_channels: int = DEFAULT_MAX_CHANNELS,
+        admission: KeyAdmission | None = None,
     ) -> None:
         self.path = Path(path)
-        self._max_channels = max_channels
+        # which new keys become channels: present senders first (recording/admission.py)
+        self.admission = admission or KeyAdmission()
         self._file = UnbufferedFile(self.path)
         self._writer = Writer(
             self._file,
@@ -168,13 +168,18 @@ class McapSink:
         """Append one sample; `log_time_ns` is when it was received [ns since the epoch].
 
         Never raises for what a sample holds: a payload that does not decode is written raw
-        with its error; a sample that cannot be written at all (a key beyond `max_channels`,
-        a receive time outside MCAP's range) is counted in `stats.rejected` and False returned.
+        with its error; a sample that cannot be written at all (a new key the admission
+        refuses, a receive time outside MCAP's range) is counted in `stats.rejected` and False
+        returned.
         Everything handed to the MCAP writer is checked first, because a value it refuses
         half-way through a record would leave a corrupt chunk behind.
         """
+        if not _fits_u64(log_time_ns):
+            self.stats.rejected += 1
+            self.stats.bad_times += 1
+            return False
         channel = self._channels.get(key) or self._add_channel(key, channel_metadata or {})
-        if channel is None or not _fits_u64(log_time_ns):
+        if channel is None:
             self.stats.rejected += 1
             return False
         if channel.scrub and kind == "put":
@@ -232,7 +237,7 @@ class McapSink:
             self._file.close()
 
     def _add_channel(self, key: str, metadata: Mapping[str, str]) -> _Channel | None:
-        if len(self._channels) >= self._max_channels:
+        if not self.admission.admit(key):
             return None  # a storm of made-up keys must not grow the file's index without end
         fmt = KeyFormat(key)
         schema_id = self._schemas.get(fmt.schema_name)

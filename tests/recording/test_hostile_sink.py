@@ -17,6 +17,7 @@ from hypothesis import strategies as st
 from carlaverse import messages as m
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
+from carlaverse.recording.admission import Budget, KeyAdmission
 from carlaverse.recording.reading import iter_samples, read_attachments, read_metadata
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.sink import McapSink
@@ -59,7 +60,8 @@ def test_every_hostile_value_is_kept_raw_between_good_ones(tmp_path: Path) -> No
 
 def test_receive_times_outside_mcap_and_keys_past_the_bound_are_rejected(tmp_path: Path) -> None:
     path = tmp_path / "bounds.mcap"
-    sink = _sink(path, max_channels=2)
+    # no token is known to this sink, so every key is a stranger's: two of them fit
+    sink = _sink(path, admission=KeyAdmission(Budget(stranger_channels=2)))
     assert not sink.write(K.pose("a", "t0_0"), _good(1), -1)
     assert not sink.write(K.pose("a", "t0_0"), _good(2), 2**64)
     assert sink.write(K.pose("a", "t0_0"), _good(3), T0_NS)
