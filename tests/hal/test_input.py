@@ -232,15 +232,45 @@ def test_keyboard_axes_ramp_while_held_and_fall_when_released(pygame_dummy) -> N
         key(pg, pg.KEYDOWN, "h")
         clock.advance(0.25)
         state = keys.poll()
-        assert state.axes["steer"] == pytest.approx(-0.5)  # 2 /s for 0.25 s
+        assert state.axes["steer"] == pytest.approx(0.5)  # left is +: 2 /s for 0.25 s
         assert state.axes["throttle"] == pytest.approx(1.0)  # 4 /s, capped at 1
         assert state.buttons == {"horn": True}
         key(pg, pg.KEYUP, "left")
         key(pg, pg.KEYUP, "h")
         clock.advance(0.1)
         state = keys.poll()
-    assert state.axes["steer"] == pytest.approx(-0.1)  # falls at 4 /s
+    assert state.axes["steer"] == pytest.approx(0.1)  # falls at 4 /s
     assert state.buttons == {"horn": False} and state.axes["brake"] == 0.0
+
+
+@pytest.mark.parametrize(("arrow", "turns_left"), [("left", True), ("right", False)])
+def test_keyboard_default_arrows_turn_the_car_their_way(pygame_dummy, arrow: str,
+                                                        turns_left: bool) -> None:  # fmt: skip
+    """The left arrow turns the car left. ISO 8855 (docs/protocol.md): yaw is counter-clockwise
+    seen from above, so a car turning left has a positive yaw rate. The keyboard's default axes
+    go through the desktop config's controls into the real drive loop."""
+    from carlaverse_nodes.drive.config import load_drive_config
+    from carlaverse_nodes.drive.vehicle_loop import DriveLoop
+
+    from tests.drive.support import CONFIGS, DT
+
+    pg = pygame_dummy
+    config, vehicle = load_drive_config(CONFIGS / "drive-desktop.yaml")
+    loop = DriveLoop(config, vehicle)
+    loop.engage_drive()
+    clock = ManualClock()
+    with hal.open_input({"backend": "keyboard", "options": {}}, clock=clock) as keys:
+        key(pg, pg.KEYDOWN, "up")  # 2 s of throttle to get rolling
+        for _ in range(2000):
+            clock.advance(DT)
+            out = loop.step(DT, keys.poll())
+        key(pg, pg.KEYUP, "up")
+        key(pg, pg.KEYDOWN, arrow)
+        for _ in range(1000):
+            clock.advance(DT)
+            out = loop.step(DT, keys.poll())
+    assert out.speed_mps > 2.0
+    assert (out.yaw_rate > 0.05) if turns_left else (out.yaw_rate < -0.05)
 
 
 def test_keyboard_unknown_key_name_is_a_config_error(pygame_dummy) -> None:

@@ -4,7 +4,7 @@
       backend: keyboard
       options:
         axes:
-          steer: {positive: right, negative: left, rise_per_s: 3, fall_per_s: 6}
+          steer: {positive: left, negative: right, rise_per_s: 3, fall_per_s: 6}
           throttle: {positive: up}
           brake: {positive: down}
         buttons: {horn: h, reverse: r}
@@ -40,7 +40,9 @@ class KeyAxis(StrictStruct):
 
 def _default_axes() -> dict[str, KeyAxis]:
     return {
-        "steer": KeyAxis(positive="right", negative="left", rise_per_s=2.0, fall_per_s=4.0),
+        # steer +1 is full left (ISO 8855: positive yaw is to the left), so the left arrow
+        # drives it up; the reverse turned the car away from the key pressed
+        "steer": KeyAxis(positive="left", negative="right", rise_per_s=2.0, fall_per_s=4.0),
         "throttle": KeyAxis(positive="up"),
         "brake": KeyAxis(positive="down"),
     }
