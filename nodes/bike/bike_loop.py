@@ -2,8 +2,8 @@
 
 `BikeLoop.step(dt, wheel_speed_mps, steer_axis, tailwind_mps, impulses)` runs one tick:
 
-    impulses → single-track bicycle → riding resistance → trainer command (calibrated table)
-    → fork feel
+    impulses → single-track bicycle → riding resistance (+ the missing inertia) → trainer
+    command (calibrated table, clipped to what the trainer renders) → fork feel
 
 and returns a `BikeOutput`: the pose (the lean as ISO 8855 roll, absolute velocity), the
 resistance force and the trainer's resistance level, and the fork's FFB command. Whoever runs
@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 from carlaverse_nodes.bike.config import BikeNodeConfig
 from carlaverse_nodes.bike.fork_feel import ForkFeel
+from carlaverse_nodes.bike.trainer_command import TrainerCommand, TrainerLimit
 
 from carlaverse.hal.ffb_packet import FfbCommand
 from carlaverse.messages import Impulse, Pose
@@ -45,6 +46,8 @@ class BikeOutput:
     fallen: bool
     ffb: FfbCommand
     impulses_applied: int
+    trainer_limit: TrainerLimit = TrainerLimit.NONE  # what the trainer cannot render now
+    trainer_missing_n: float = 0.0  # [N] wanted minus rendered force at the tyre
 
     def pose(self, seq: int = 0) -> Pose:
         """The pose telemetry sample: planar, the lean as roll, absolute velocity."""
@@ -62,6 +65,7 @@ class BikeLoop:
         self.table = table
         self.bike = Bicycle(config.bicycle)
         self.fork = ForkFeel(config.fork, config.bicycle)
+        self.trainer = TrainerCommand(table, config.bicycle.mass_kg, config.trainer_feel)
         self.t = 0.0
         self.inbox = ImpulseInbox(config.bicycle.mass_kg)
         self.grade_percent = config.road.grade_percent  # [%] along the heading, uphill positive
@@ -80,12 +84,13 @@ class BikeLoop:
         force = resistance_force(
             self.config.resistance, p.mass_kg, s.speed_mps, self.grade_percent, tailwind_mps
         )
-        percent = self.table.percent(s.speed_mps, force)
+        target = self.trainer.update(dt, wheel_speed_mps, force)  # the brake's own speed
         ffb = self.fork.update(dt, s.speed_mps, s.steer_rad, self.config.road.roughness)
         roll = -s.lean_rad  # the bicycle's lean is positive to the left; ISO roll to the right
         return BikeOutput(
             now, s.x, s.y, s.yaw, roll, s.vx, s.vy, s.yaw_rate, s.ax, s.ay, s.speed_mps,
-            s.steer_rad, force, percent, s.fallen, ffb, applied,
+            s.steer_rad, force, target.percent, s.fallen, ffb, applied, target.limit,
+            target.missing_n,
         )  # fmt: skip
 
     @property

@@ -12,6 +12,7 @@
                                             grade_percent is the fallback where the
                                             scenario declares none
     speed_source: trainer | speed_sensor    which wheel speed drives the bike
+    trainer_feel: {inertia, accel_tau_s}    the rider's missing mass added through the brake
     trainer, speed_sensor, input, ffb:      carlaverse.hal blocks
     fork, loop
 
@@ -24,6 +25,7 @@ from typing import Annotated, Literal
 
 import msgspec
 from carlaverse_nodes.bike.fork_feel import ForkFeelParams
+from carlaverse_nodes.bike.trainer_command import TrainerFeelParams
 
 from carlaverse.config import StrictStruct, resolve_path
 from carlaverse.fabric.node_client import NodeSettings
@@ -63,6 +65,7 @@ class BikeNodeConfig(StrictStruct):
     ffb: FfbConfig = FfbConfig(backend="sim")
     fork: ForkFeelParams = ForkFeelParams()
     loop: BikeLoopSettings = BikeLoopSettings()
+    trainer_feel: TrainerFeelParams = TrainerFeelParams()
 
 
 def resolve_table(config: BikeNodeConfig) -> ResistanceTable:

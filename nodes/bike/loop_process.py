@@ -140,6 +140,7 @@ class BikeRunner:
                      "steer_rad", "resistance_n", "resistance_percent", "fallen"):  # fmt: skip
             r[name] = getattr(out, name)
         r["roll"] = out.roll
+        r["trainer_limit"], r["trainer_missing_n"] = out.trainer_limit, out.trainer_missing_n
         r["power_w"], r["cadence_rpm"] = ts.power_w, ts.cadence_rpm
         r["grade_percent"] = self.loop.grade_percent
         r["ticks"], r["ffb_sent"], r["impulses_applied"] = self.ticks, self.ffb_sent, self.impulses
@@ -157,6 +158,7 @@ class BikeRunner:
             "distance_m": round(self.distance_m, 2),
             "resistance_percent": round(float(self.record["resistance_percent"]), 2),
             "trainer": dict(getattr(self.trainer, "counters", {})),
+            "trainer_limits": self.loop.trainer.summary(),  # what it could not render
             # control reads answered with the last copy: the node's process stalled mid-write
             "control_stale_reads": self.control.stale_reads,
         }

@@ -18,6 +18,7 @@ STATE = np.dtype(
         ("speed_mps", "<f8"), ("steer_rad", "<f8"),
         ("power_w", "<f8"), ("cadence_rpm", "<f8"), ("grade_percent", "<f8"),
         ("resistance_n", "<f8"), ("resistance_percent", "<f8"), ("fallen", "u1"),
+        ("trainer_limit", "u1"), ("trainer_missing_n", "<f8"),  # what it cannot render
         ("ticks", "<u8"), ("ffb_sent", "<u8"), ("impulses_applied", "<u8"),
         ("running", "u1"),
     ]

@@ -10,6 +10,7 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+import yaml
 from carlaverse_nodes.bike.shared_state import STATE
 from playwright.sync_api import Browser, Page
 
@@ -81,3 +82,25 @@ def test_the_bike_page_shows_power_and_cadence_from_the_trainer(
         page.wait_for_timeout(200)
     save_screenshot(page, screenshot_dir, "hmi-bike")
     assert page.errors == []
+
+
+def test_the_bike_page_says_when_the_trainer_cannot_render_the_climb(
+    tmp_path: Path, page: Page, screenshot_dir: Path
+) -> None:
+    """A 12 % road: m·g·sin(atan 0.12) = 105 N of slope alone, where the simulated trainer's
+    brake gives at most F_0 + F_max·(1 − e^(−v/4)) + k·v² ≈ 64 N at the ~2.8 m/s the 180 W
+    rider then rides. The page names the shortfall; the node's summary counts its seconds."""
+    config = tmp_path / "steep.yaml"
+    config.write_text(yaml.safe_dump({"road": {"grade_percent": 12.0}}))
+    with node_with_hmi(tmp_path, "bike", "bike", "--config", str(config)) as (_, node, url):
+        page.goto(url + "bike")
+        page.wait_for_function(
+            """() => (document.querySelector('[data-readout="warnings"]')?.textContent || "")
+                .includes("trainer at 100 %")""",
+            timeout=30000,
+        )
+        save_screenshot(page, screenshot_dir, "hmi-bike-steep")
+        assert page.errors == []
+        assert node.stop() == 0
+        limits = node.json()["extra"]["loop"]["trainer_limits"]
+    assert limits["too_steep_s"] > 0.0 and limits["too_steep_worst_n"] > 30.0, limits

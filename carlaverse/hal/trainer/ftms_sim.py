@@ -202,3 +202,8 @@ class SimFtmsTrainer(FtmsTrainer):
         the table's 1 m/s row). So the physics is brought to now first."""
         self.sim_link.poll(self.clock())
         self.peripheral.drive(speed_mps, accel_mps2)
+
+    def release(self) -> None:
+        """The rig lets go of the roller now: from here the rider and the brake move it."""
+        self.sim_link.poll(self.clock())
+        self.peripheral.rig = None
