@@ -27,6 +27,7 @@ from __future__ import annotations
 import hmac
 import html
 import ipaddress
+import logging
 import secrets
 import urllib.parse
 from collections.abc import Awaitable, Callable, Iterable, MutableMapping
@@ -37,6 +38,8 @@ Message = MutableMapping[str, Any]
 Receive = Callable[[], Awaitable[Message]]
 Send = Callable[[Message], Awaitable[None]]
 ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
+
+log = logging.getLogger(__name__)
 
 TOKEN_BYTES = 32  # 256 bit of randomness; Jupyter's token carries 192
 LOOPBACK_NAMES = ("127.0.0.1", "localhost", "::1")
@@ -135,7 +138,7 @@ class Door:
             return
         refusal = self._refusal(scope)
         if refusal is not None:
-            self.refused[refusal[0]] += 1
+            self._count(refusal[0], refusal[2])
             await _refuse(scope, send, refusal[1], refusal[2])
             return
         in_query = _query_token(scope)
@@ -162,12 +165,19 @@ class Door:
             return "token", 401, NEEDS_TOKEN
         return None
 
+    def _count(self, what: str, reason: str) -> None:
+        """Count a refusal; log the 1st, 10th, 100th… of each kind (a flood stays quiet)."""
+        self.refused[what] += 1
+        count = self.refused[what]
+        if str(count).strip("0") == "1":
+            log.warning("refused request #%d for its %s: %s", count, what, reason)
+
     def _matches(self, candidate: str) -> bool:
         return hmac.compare_digest(candidate.encode(), self._token)
 
     async def _set_cookie_and_redirect(self, scope: Scope, send: Send, token: str) -> None:
         if not self._matches(token):  # let in by its cookie, but the URL's token is wrong
-            self.refused["token"] += 1
+            self._count("token", NEEDS_TOKEN)
             await _refuse(scope, send, 401, NEEDS_TOKEN)
             return
         cookie = f"{self.cookie}={token}; Path=/; HttpOnly; SameSite=Strict"

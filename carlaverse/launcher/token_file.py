@@ -58,11 +58,9 @@ def write_opener(port: int, url: str, folder: Path | None = None) -> Path:
     return path
 
 
-def remove(path: Path, token: str | None = None) -> None:
-    """Remove a file written here; with `token`, only while it still holds that token."""
+def remove(path: Path) -> None:
+    """Remove a file written here (gone already is fine)."""
     with contextlib.suppress(FileNotFoundError):
-        if token is not None and path.read_text(encoding="utf-8").strip() != token:
-            return  # a later launcher on the same port wrote its own
         path.unlink()
 
 
