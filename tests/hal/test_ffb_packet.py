@@ -121,3 +121,12 @@ def test_encode_rejects_non_integers() -> None:
     with pytest.raises(FfbPacketError) as info:
         ffb_packet.encode(FfbCommand(damper=1.5))  # type: ignore[arg-type]
     assert info.value.reason is FfbPacketReason.NOT_AN_INTEGER
+
+
+def test_a_torque_toward_the_left_is_a_negative_constant_force() -> None:
+    """The wire's constant_force is positive toward the right; physics' torque toward the left.
+    2 N·m left of an 8 N·m full scale is a quarter of full scale, to the left: −2500."""
+    assert ffb_packet.constant_force(2.0, 8.0) == -2500
+    assert ffb_packet.constant_force(-2.0, 8.0) == 2500
+    assert ffb_packet.constant_force(-80.0, 8.0) == ffb_packet.FULL_SCALE  # clamped, not raised
+    assert ffb_packet.constant_force(80.0, 8.0) == -ffb_packet.FULL_SCALE
