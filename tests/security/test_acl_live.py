@@ -152,6 +152,42 @@ def test_a_participant_receives_only_its_own_audio(site: Site) -> None:
         wait_until(lambda o=observer: every <= scenes(o), 10, f"all scenes at {observer}")
 
 
+@pytest.mark.parametrize("spy", ["a-walk", "b-bike"])
+def test_naming_another_nodes_audio_key_exactly_gets_a_participant_nothing(
+    site: Site, spy: str
+) -> None:
+    """`audio/<id>` is private to `<id>` (docs/protocol.md, Key space) whether a participant
+    subscribes to `**` or to the other node's exact key, and for deletes as for puts.
+
+    The spy declares the exact subscription first and its own second, on one link, so once
+    its own scene has arrived through the second, its router knew the first: a leaked put
+    or delete (sent before the own scene, same publisher, same priority) would have come."""
+    auth, session = site.s["authority"], site.s[spy]
+    leaked, own = Inbox(), Inbox()
+    subscriptions = [
+        session.declare_subscriber(K.audio("a-drive"), leaked),
+        session.declare_subscriber(K.audio(spy), own),
+    ]
+    try:
+        own_scene = f"own-after-exact-{spy}".encode()
+
+        def exchange() -> bool:
+            auth.put(K.audio("a-drive"), f"exact-for-a-drive-{spy}".encode())
+            auth.delete(K.audio("a-drive"))
+            auth.put(K.audio(spy), own_scene)
+            return own_scene in own.payloads()
+
+        wait_until(exchange, 10, f"{spy}'s own scene through its exact subscription", poll=0.2)
+        assert leaked.items == [], leaked.items
+        wait_until(
+            lambda: f"exact-for-a-drive-{spy}".encode() in site.inbox["a-drive"].payloads(),
+            10, "the scene at its owner",
+        )  # fmt: skip
+    finally:
+        for subscription in subscriptions:
+            subscription.undeclare()
+
+
 def test_a_node_cannot_serve_authority_queries(site: Site) -> None:
     spoof = site.s["b-bike"].declare_queryable(
         K.authority("join"), lambda q: q.reply(q.key_expr, b"spoofed")
