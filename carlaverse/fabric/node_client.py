@@ -101,6 +101,8 @@ class NodeClient:
         config_yaml: str = "",
     ) -> None:
         check_token(settings.node_id)
+        if settings.site:  # the authority refuses any other (authority/join_check.py)
+            check_token(settings.site, "site name")
         if settings.node_id == AUTHORITY_ID:
             raise JoinRefused(f"node id {AUTHORITY_ID!r} is reserved for the authority")
         self.session = session
