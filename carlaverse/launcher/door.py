@@ -11,6 +11,11 @@ The rules are Jupyter's:
 - **Origin**, when a browser sends one, must be the launcher's own (the scheme `http` and the
   very Host the request names): a page elsewhere can neither open the socket.io channel nor
   post. 403 otherwise. Scripts send no Origin; the token is what they show.
+- **Fetch Metadata**: a request another page makes (an `<img>`, a frame, a script; browsers
+  say so in `Sec-Fetch-Site`/`Mode`/`Dest`) is refused unless it comes from the launcher's
+  own page: another port on 127.0.0.1 is the same *site*, so the Strict cookie goes along, and
+  an `<img>` loop there would otherwise make the launcher build page after page. Top-level
+  navigations pass (a link, the file:// page the browser is opened on).
 - **Token** (256 bit, fresh each launch): an HttpOnly SameSite=Strict cookie, an
   `Authorization: Bearer` header, or `?token=`. A page URL with `?token=` sets the cookie and
   redirects to the same URL without it, so the token leaves the address bar: a 303, or, when
@@ -130,7 +135,7 @@ class Door:
         self._token = token.encode()
         self.hosts = hosts
         self.cookie = cookie
-        self.refused = {"host": 0, "origin": 0, "token": 0}  # counted, for the log and tests
+        self.refused = {"host": 0, "origin": 0, "site": 0, "token": 0}  # for the log, tests
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
         if scope["type"] not in ("http", "websocket"):
@@ -156,6 +161,8 @@ class Door:
         origin = headers.get("origin")
         if origin is not None and not same_origin(origin, host):
             return "origin", 403, "requests from another site are refused"
+        if not _own_or_navigation(headers):
+            return "site", 403, "requests another page embeds are refused"
         shown = [
             _cookie(headers.get("cookie", ""), self.cookie),
             _bearer(headers.get("authorization", "")),
@@ -198,6 +205,16 @@ NEEDS_TOKEN = (
     "this launcher needs its launch token: open the URL it printed at start, or send the token "
     "from its token file (Authorization: Bearer TOKEN)"
 )
+
+
+def _own_or_navigation(headers: dict[str, str]) -> bool:
+    """Fetch Metadata's resource isolation: the launcher's own requests, a top-level
+    navigation, or a client that sends no metadata (a script; it shows the token)."""
+    site = headers.get("sec-fetch-site")
+    if site in (None, "same-origin", "none"):
+        return True
+    navigation = headers.get("sec-fetch-mode") == "navigate"
+    return navigation and headers.get("sec-fetch-dest", "document") == "document"
 
 
 def _query_token(scope: Scope) -> str | None:

@@ -133,12 +133,30 @@ def test_a_foreign_origin_is_refused_even_with_the_token(door: Door, app: Counti
     assert app.calls == 1
 
 
+def test_what_another_page_embeds_is_refused(door: Door, app: CountingApp) -> None:
+    """Fetch Metadata (w3c.github.io/webappsec-fetch-metadata): `Sec-Fetch-Site` says where a
+    request comes from, `Mode`/`Dest` what for. Another port on 127.0.0.1 is `same-site`."""
+    cookie = {**LOCAL, "cookie": f"{COOKIE}={TOKEN}"}
+    for site, mode, dest in (("same-site", "no-cors", "image"), ("cross-site", "no-cors", "image"),
+                             ("same-site", "navigate", "iframe"), ("same-site", "cors", "empty"),
+                             ("same-site", "no-cors", "script")):  # fmt: skip
+        headers = {**cookie, "sec-fetch-site": site, "sec-fetch-mode": mode, "sec-fetch-dest": dest}
+        assert call(door, headers=headers)[0] == 403, (site, mode, dest)
+    assert app.calls == 0
+    for site, mode, dest in (("same-origin", "no-cors", "image"), ("none", "navigate", "document"),
+                             ("same-site", "navigate", "document")):  # fmt: skip
+        headers = {**cookie, "sec-fetch-site": site, "sec-fetch-mode": mode, "sec-fetch-dest": dest}
+        assert call(door, headers=headers)[0] == 200, (site, mode, dest)
+    assert app.calls == 3
+
+
 def test_the_token_in_a_page_url_becomes_a_strict_cookie(door: Door, app: CountingApp) -> None:
     status, answer, _ = call(door, "/", f"token={TOKEN}&tab=config", LOCAL)
     assert status == 303 and answer["location"] == "/?tab=config"  # the token leaves the URL
     assert answer["set-cookie"] == f"{COOKIE}={TOKEN}; Path=/; HttpOnly; SameSite=Strict"
     # came from another site (the file:// page the launcher opens): a page of its own refreshes
-    cross = {**LOCAL, "sec-fetch-site": "cross-site"}
+    cross = {**LOCAL, "sec-fetch-site": "cross-site", "sec-fetch-mode": "navigate",
+             "sec-fetch-dest": "document"}  # fmt: skip
     status, answer, body = call(door, "/", f"token={TOKEN}", cross)
     assert status == 200 and "HttpOnly; SameSite=Strict" in answer["set-cookie"]
     assert b'content="0;url=/"' in body and TOKEN.encode() not in body

@@ -212,6 +212,32 @@ def test_another_origin_can_neither_frame_nor_drive_it(
     assert opened == "refused"
 
 
+def test_a_page_on_this_host_cannot_make_the_launcher_build_pages(
+    lab: tuple[ServedLauncher, Path], page: Page, attacker: str
+) -> None:
+    """An `<img>` loop: another port on 127.0.0.1 is the same site, so the operator's Strict
+    cookie goes along with each image request, and each GET / built a page session (~0.5 MB
+    here, see the first test). Requests another page embeds must be refused at the door
+    (Fetch Metadata: not a navigation, not from the launcher itself); thirty of them may not
+    grow the launcher by a fifth of what thirty sessions take."""
+    launcher, _ = lab
+    page.goto(launcher.url)  # the operator is logged in
+    page.goto(attacker)
+    process = psutil.Process(launcher.proc.pid)
+    before = process.memory_info().rss
+    settled = page.evaluate(
+        """url => Promise.all(Array.from({length: 30}, (_, i) => new Promise(done => {
+            const img = new Image();
+            img.onload = img.onerror = () => done(i);
+            img.src = url + "?n=" + i;
+        })))""",
+        launcher.base,
+    )
+    assert len(settled) == 30
+    grown_mb = (process.memory_info().rss - before) / 1e6
+    assert grown_mb < 3.0, f"the launcher grew {grown_mb:.1f} MB over 30 embedded requests"
+
+
 def open_config_tab(page: Page, launcher: ServedLauncher) -> None:
     page.goto(launcher.url)
     page.get_by_role("tab", name="Config").click()
