@@ -20,16 +20,16 @@ A page finds its layout by its own name (`/api/layout/<page>`); a page dropped i
 
 from __future__ import annotations
 
-import re
 from pathlib import Path
 from typing import Annotated, Literal
 
 import msgspec
 
 from carlaverse.config import ConfigError, StrictStruct, load_config, resolve_path
+from carlaverse.patterns import whole_ascii
 
 Cell = Annotated[int, msgspec.Meta(ge=1, le=24)]  # a grid line or span, in cells
-PAGE_NAME = re.compile(r"^[a-z0-9][a-z0-9_-]{0,39}$")
+PAGE_NAME = whole_ascii(r"[a-z0-9][a-z0-9_-]{0,39}")  # whole text: `$` let "dash\n" in
 WIDGETS = (
     "speedometer", "tachometer", "gear", "indicators", "lights", "adas", "warnings",
     "speed", "power", "cadence", "grade", "lights_panel", "gear_panel", "cruise_panel",

@@ -14,7 +14,6 @@ within the folder, never out of it (such a name is neither listed nor served).
 from __future__ import annotations
 
 import html
-import re
 from pathlib import Path
 
 import msgspec
@@ -23,9 +22,10 @@ from starlette.responses import FileResponse, HTMLResponse, JSONResponse, Respon
 from starlette.routing import Route
 
 from carlaverse.hmi.config import PAGE_NAME, Layout, LoadedHmiConfig
+from carlaverse.patterns import whole_ascii
 
 SHIPPED_PAGES = Path(__file__).parent / "pages"
-ASSET = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_-]*\.(js|mjs|css|svg|png|json|woff2)$")
+ASSET = whole_ascii(r"[A-Za-z0-9][A-Za-z0-9_-]*\.(js|mjs|css|svg|png|json|woff2)")
 
 
 class Site:

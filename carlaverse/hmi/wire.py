@@ -21,8 +21,10 @@ from typing import Annotated, Any, Literal
 
 import msgspec
 
+from carlaverse.patterns import anchored
+
 Finite = Annotated[float, msgspec.Meta(ge=-1e12, le=1e12)]  # JSON has no NaN; bounds it too
-ActionName = Annotated[str, msgspec.Meta(pattern=r"^[a-z0-9_]{1,32}$")]
+ActionName = Annotated[str, msgspec.Meta(pattern=anchored(r"[a-z0-9_]{1,32}"))]
 MAX_INPUT_BYTES = 1024  # a page's input is a few dozen bytes; anything longer is not ours
 
 

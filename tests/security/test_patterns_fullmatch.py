@@ -110,11 +110,6 @@ def _key(template: str) -> Callable[[str], bool]:
 
 K = Keys("lab")
 
-# carlaverse/hmi/ is being reworked by another change of issue 39; its three patterns
-# (`PAGE_NAME`, `ASSET`, `wire.ActionName`) end in `$` and are checked here, expected to fail
-# until that change makes them whole (`carlaverse.patterns.whole_ascii` / `anchored`).
-HMI_OWNED = pytest.mark.xfail(reason="carlaverse/hmi patterns end in `$`: fixed with the HMI")
-
 # (name, accepts(value) -> bool, a value it must accept)
 VALIDATORS: list[Any] = [
     ("node id", refuses(check_token, (KeySpaceError,)), "tum-drive-1"),
@@ -141,8 +136,8 @@ VALIDATORS: list[Any] = [
     ("join: hostname", lambda v: _join_accepts(hostname=v), "rig-7.example.org"),
     ("join: version", lambda v: _join_accepts(version=v), "0.7.2"),
     ("map lane id index", lambda v: _edge_and_index(f"edge_{v}") is not None, "12"),
-    pytest.param("hmi page name", lambda v: bool(PAGE_NAME.match(v)), "dash-1", marks=HMI_OWNED),
-    pytest.param("hmi asset name", lambda v: bool(ASSET.match(v)), "hmi.js", marks=HMI_OWNED),
+    pytest.param("hmi page name", lambda v: bool(PAGE_NAME.match(v)), "dash-1"),
+    pytest.param("hmi asset name", lambda v: bool(ASSET.match(v)), "hmi.js"),
 ]
 
 
@@ -241,7 +236,7 @@ def test_every_msgspec_pattern_has_an_example() -> None:
 
 @pytest.mark.parametrize(
     "where",
-    [pytest.param(w, marks=HMI_OWNED) if ".hmi." in w else w for w in sorted(PATTERN_EXAMPLES)],
+    [pytest.param(w) if ".hmi." in w else w for w in sorted(PATTERN_EXAMPLES)],
 )
 def test_each_msgspec_pattern_holds_for_the_whole_text(where: str) -> None:
     """As msgspec applies it: `re.search` on the value (so `^...$` alone is not whole)."""
