@@ -3,13 +3,22 @@
 Pipeline per axis, as in the paper's figure: first-order low-pass on a_x, a_y, a_z →
 cue formula → washout → clamp to the platform's limits.
 
-    pitch θ = a_x,LPF / a_ref · f_scale(v) + k_b · b_LPF + k_impulse · ḃ
+    pitch θ = a_x,LPF / a_ref · f_scale(v) + k_b · b_LPF + k_impulse · ḃ  (+ k_road · θ̃_road)
     roll  φ = a_y,LPF / a_y,ref + k_s · s_LPF
     heave z = k_jx · j̃_x + k_jz · j̃_z + z_brake        (+ collision jolts)
 
 j̃ are the jerks of the filtered accelerations after deadband, clamp and low-pass; z_brake is
 a negative half-sine heave impulse fired once per emergency brake application; ḃ is the rate
 of the filtered brake pedal (the raw pedal's rate is unbounded on a keyboard).
+
+The road reaches the platform through a_z — the body's vertical acceleration over the road
+profile (physics/vertical.py), whose jerk drives the heave as the paper intends for "curbs or
+road bumps" — and through θ_road, the body's pitch over the profile (front axle up: nose up),
+which the paper's pitch equation lacks: on a kerb or a bump the car really tilts, and a
+platform that heaves without tilting misplaces the bump. k_road = 0 gives the paper's θ.
+θ̃_road is θ_road through a first-order high-pass (τ = road_pitch_washout_s): a car standing
+on an uneven road sits a little pitched for as long as it stands, and a tilt held with
+nothing happening is a false cue, so only the change of the road's pitch is cued.
 
 Washout: a sustained acceleration keeps its tilt (the point of tilt coordination on a 3-DOF
 rig), and when the event ends each axis returns to neutral ("after an acceleration event",
@@ -59,6 +68,8 @@ class MotionCueingParams(StrictStruct):
     scale_speed_full_mps: Positive = 3.0  # f_scale(v) = 1 above [m/s]
     k_brake_rad: float = -0.02  # k_b: pitch per unit filtered brake pedal [rad]
     k_brake_rate_rad_s: float = -0.004  # k_impulse: pitch per pedal rate [rad·s]
+    k_road_pitch: float = 1.0  # k_road: platform pitch per body pitch over the road [rad/rad]
+    road_pitch_washout_s: Positive = 1.0  # τ of θ_road's high-pass [s]
     brake_lpf_s: NonNegative = 0.08  # [s]
     k_steer_rad: float = 0.015  # k_s: roll per unit filtered steer input [rad]
     steer_lpf_s: NonNegative = 0.15  # [s]
@@ -120,6 +131,7 @@ class MotionCueing:
         self._az = LowPass(p.accel_lpf_s)
         self._brake, self._steer = LowPass(p.brake_lpf_s), LowPass(p.steer_lpf_s)
         self._jx, self._jz = LowPass(p.jerk_lpf_s), LowPass(p.jerk_lpf_s)
+        self._road_pitch_slow: LowPass | None = None  # θ_road's low-pass, from its first value
         self._prev_ax = self._prev_az = self._prev_brake = 0.0
         self._armed = True
         self._pulses: list[_Pulse] = []
@@ -151,8 +163,10 @@ class MotionCueing:
         steer: float,
         rpm: float = 0.0,
         torque_nm: float = 0.0,
+        road_pitch_rad: float = 0.0,
     ) -> MotionCue:
-        """ax, ay, az body-frame accelerations [m/s²] (az without gravity); pedals 0..1."""
+        """ax, ay, az body-frame accelerations [m/s²] (az without gravity); pedals 0..1;
+        road_pitch_rad the body's pitch over the road, nose up positive [rad]."""
         p = self.params
         ax_f, ay_f, az_f = self._ax.update(ax, dt), self._ay.update(ay, dt), self._az.update(az, dt)
         brake_f = self._brake.update(brake, dt)
@@ -165,6 +179,7 @@ class MotionCueing:
         rolling = smoothstep(0.0, p.scale_speed_start_mps, abs(speed_mps))
         pitch = ax_f / p.a_ref_mps2_per_rad * f_scale
         pitch += rolling * (p.k_brake_rad * brake_f + p.k_brake_rate_rad_s * self.brake_rate)
+        pitch += p.k_road_pitch * self._road_pitch_change(road_pitch_rad, dt)
         roll = ay_f / p.ay_ref_mps2_per_rad + p.k_steer_rad * self._steer.update(steer, dt)
         heave = p.k_jx_m_per_mps3 * self._jerk(self._jx, ax_f, self._prev_ax, dt)
         heave += p.k_jz_m_per_mps3 * self._jerk(self._jz, az_f, self._prev_az, dt)
@@ -179,6 +194,18 @@ class MotionCueing:
             rpm=rpm,
             torque=torque_nm,
         )
+
+    def road_moved(self) -> None:
+        """The road under the car changed at once (a new spawn, a new surface): take the
+        attitude it gives as the rest, rather than cue the jump."""
+        self._road_pitch_slow = None
+
+    def _road_pitch_change(self, road_pitch: float, dt: float) -> float:
+        """θ̃_road: the road pitch less its low-pass (a first-order high-pass) [rad]."""
+        slow = self._road_pitch_slow
+        if slow is None:  # the car starts where it stands: no cue for the attitude it has
+            slow = self._road_pitch_slow = LowPass(self.params.road_pitch_washout_s, road_pitch)
+        return road_pitch - slow.update(road_pitch, dt)
 
     def _jerk(self, lpf: LowPass, accel: float, previous: float, dt: float) -> float:
         """Conditioned jerk j̃: derivative → deadband → clamp → low-pass [m/s³]."""

@@ -87,6 +87,19 @@ class Brakes(StrictStruct):
     front_bias: Fraction = 0.65  # share of braking force on the front axle [-]
 
 
+class Suspension(StrictStruct):
+    """The vertical model (physics/vertical.py): one quarter-car per axle, per kg of the
+    sprung mass it carries. Defaults: the "Golden Car" of the International Roughness Index
+    (Sayers, Transportation Research Record 1501, 1995), a reference passenger car: body
+    bounce at 1.3 Hz, wheel hop at 11 Hz."""
+
+    spring_per_kg: Positive = 63.3  # k_s/m_s [N/m per kg = 1/s²]
+    damping_per_kg: Positive = 6.0  # c_s/m_s [N·s/m per kg = 1/s]
+    tyre_per_kg: Positive = 653.0  # k_t/m_s [1/s²]
+    unsprung_ratio: Positive = 0.15  # m_u/m_s [-]
+    track_m: Positive = 1.55  # [m] between the wheels of an axle
+
+
 class VehicleParams(StrictStruct, kw_only=True):
     """One vehicle: `configs/vehicles/compact-car.yaml` is the reference."""
 
@@ -98,6 +111,7 @@ class VehicleParams(StrictStruct, kw_only=True):
     engine: Engine
     transmission: Transmission
     brakes: Brakes = Brakes()
+    suspension: Suspension = Suspension()
     description: str = ""
 
     def __post_init__(self) -> None:

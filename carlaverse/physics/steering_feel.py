@@ -7,6 +7,14 @@ the paper fades that torque out in favour of a synthetic, heavy parking spring a
 We fade with a smoothstep over [blend_start_kmh, 15 km/h]: the weight and its slope are
 continuous, so no field of the FFB command ever steps as the car slows down.
 
+Road shake comes from the same vertical model that heaves the motion platform
+(physics/vertical.py): the front wheels' vertical acceleration a_u over the road profile. The
+FFB's periodic effect carries a magnitude and a frequency, not a waveform, so the wheel gets
+magnitude = road_vibration_per_mps2 · a_u,rms and Rice's mean frequency of a_u,
+f = √(mean ȧ_u² / mean a_u²) / 2π (the zero-crossing rate of a random signal), both means
+over `road_vibration_window_s`. A smooth road, or a car at rest, shakes nothing; each ISO 8608
+roughness class doubles the profile's amplitude, and with it the shake.
+
 Sign conventions. Steering torque τ [N·m] is positive toward the left (counter-clockwise,
 like steering angle and yaw). The FFB command follows the hal's wire convention (carlaverse.hal
 ffb_packet): constant_force and spring_offset are positive toward the RIGHT, so
@@ -22,7 +30,7 @@ from typing import Annotated
 import msgspec
 
 from carlaverse.config import StrictStruct
-from carlaverse.physics.filters import clamp, smoothstep
+from carlaverse.physics.filters import LowPass, clamp, smoothstep
 from carlaverse.physics.impulse import ImpulseResponse
 from carlaverse.physics.tyre import self_aligning_torque
 
@@ -54,8 +62,8 @@ class SteeringFeelParams(StrictStruct):
     spring_deadband: Units = 0
     spring_saturation: Units = 10000
     engine_vibration: Units = 150  # at the redline; scaled by rpm/redline
-    road_vibration: Units = 1500  # at roughness 1 and 50 km/h or more
-    road_wavelength_m: Positive = 0.25  # dominant texture/bump spacing [m]
+    road_vibration_per_mps2: NonNegative = 80.0  # per m/s² RMS of the front wheel's shake
+    road_vibration_window_s: Positive = 0.1  # τ of that RMS and of its frequency [s]
     jolt_force_per_mps: NonNegative = 2500.0  # constant-force kick per 1 m/s lateral Δv
     jolt_vibration_per_mps: NonNegative = 1500.0  # vibration burst per 1 m/s |Δv|
     jolt_decay_s: Positive = 0.12  # e-folding time of the collision jolt [s]
@@ -103,6 +111,9 @@ class SteeringFeel:
         self._jolt_force = 0.0  # [units] decaying collision kick
         self._jolt_vibration = 0.0  # [units]
         self.aligning_torque_nm = 0.0  # last steering-wheel torque from M_z [N·m]
+        self._shake2 = LowPass(params.road_vibration_window_s)  # mean a_u² [(m/s²)²]
+        self._shake_rate2 = LowPass(params.road_vibration_window_s)  # mean ȧ_u² [(m/s³)²]
+        self._shake_prev = 0.0  # a_u of the last tick [m/s²]
 
     def aligning_torque(self, alpha_front: float, fz_front: float) -> float:
         """Self-aligning torque at the steering wheel [N·m], + = toward the left."""
@@ -122,16 +133,18 @@ class SteeringFeel:
         alpha_front: float,
         fz_front: float,
         rpm: float,
-        road_roughness: float = 0.0,
+        wheel_accel_mps2: float = 0.0,
         extra_torque_nm: float = 0.0,
     ) -> FfbCommandValues:
-        """One command. extra_torque_nm: e.g. lane keeping, + = toward the left [N·m]."""
+        """One command. wheel_accel_mps2: the front wheels' vertical acceleration over the
+        road [m/s²]; extra_torque_nm: e.g. lane keeping, + = toward the left [N·m]."""
         p = self.params
         w = blend_weight(speed_mps, p.blend_start_kmh, p.blend_end_kmh)
         self.aligning_torque_nm = self.aligning_torque(alpha_front, fz_front)
         torque = w * self.aligning_torque_nm + extra_torque_nm
         force = -torque / p.full_scale_torque_nm * FFB_FULL_SCALE + self._jolt_force
-        magnitude, frequency = self._vibration(speed_mps, rpm, road_roughness)
+        self._track_shake(dt, wheel_accel_mps2)
+        magnitude, frequency = self._vibration(rpm)
         self._decay_jolt(dt)
         damper_share = smoothstep(0.0, p.damper_speed_kmh * KMH, abs(speed_mps))
         return FfbCommandValues(
@@ -149,13 +162,21 @@ class SteeringFeel:
             vibration_frequency_hz=int(clamp(round(frequency), 0, FFB_MAX_VIBRATION_HZ)),
         )
 
-    def _vibration(self, speed_mps: float, rpm: float, roughness: float) -> tuple[float, float]:
-        """Engine firing rumble and road texture; the stronger one sets the frequency."""
+    def _track_shake(self, dt: float, accel: float) -> None:
+        """Running means of a_u² and ȧ_u² over the road-vibration window."""
+        rate = (accel - self._shake_prev) / dt
+        self._shake_prev = accel
+        self._shake2.update(accel * accel, dt)
+        self._shake_rate2.update(rate * rate, dt)
+
+    def _vibration(self, rpm: float) -> tuple[float, float]:
+        """Engine firing rumble and road shake; the stronger one sets the frequency."""
         p = self.params
         engine_mag = p.engine_vibration * clamp(rpm / self._redline, 0.0, 1.0)
         engine_hz = rpm / 60.0 * self._firings_per_rev
-        road_mag = p.road_vibration * roughness * smoothstep(0.0, 50.0 * KMH, abs(speed_mps))
-        road_hz = abs(speed_mps) / p.road_wavelength_m
+        mean2 = self._shake2.value
+        road_mag = p.road_vibration_per_mps2 * math.sqrt(mean2)
+        road_hz = math.sqrt(self._shake_rate2.value / mean2) / (2.0 * math.pi) if mean2 else 0.0
         magnitude, frequency = (
             (engine_mag, engine_hz) if engine_mag >= road_mag else (road_mag, road_hz)
         )

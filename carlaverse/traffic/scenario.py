@@ -13,6 +13,8 @@ serves the scenario exactly as it ran.
     egos: {drive: [{lane: A0B0_2, pos_m: 20}], walk: [{x: 50, y: 40, yaw_deg: 90}]}
     grades: {default_percent: 0, areas: [{polygon: [[0, 0], [30, 0], [30, 120], [0, 120]],
                                           grade_percent: 5, uphill_yaw_deg: 90}]}
+    surface: {roughness_class: B, bumps: [{line: [[20, -4], [20, 4]], height_m: 0.08,
+                                           length_m: 3}]}   (physics/road_surface.py)
 """
 
 from __future__ import annotations
@@ -34,6 +36,7 @@ from carlaverse.config import (
 )
 from carlaverse.messages import ACTOR_KINDS
 from carlaverse.patterns import anchored
+from carlaverse.physics.road_surface import RoadSurface
 from carlaverse.traffic.openscenario import import_triggers
 from carlaverse.traffic.soundscape import AudioSpec, check_siren_vehicles, named_vehicles
 from carlaverse.traffic.trigger_spec import TriggerSpec, check_triggers
@@ -335,6 +338,7 @@ class ScenarioSpec(StrictStruct, kw_only=True):
     session: Session = Session()
     collisions: CollisionSpec = CollisionSpec()
     grades: Grades = Grades()
+    surface: RoadSurface = RoadSurface()  # roughness, speed bumps, kerbs, potholes
     audio: AudioSpec = AudioSpec()
     triggers: list[TriggerSpec] = []  # scripted encounters (trigger_spec.py)
     openscenario: str | None = None  # an .xosc whose events become more triggers

@@ -11,7 +11,9 @@
     ffb:      {backend: udp | sim, options: {...}}
     motion:   {backend: udp | sim, options: {...}}
     gearbox:  vehicle | automatic | manual               override the vehicle's mode
-    adas, steering_feel, motion_cueing, loop, road
+    adas, steering_feel, motion_cueing, loop
+    road:     {mu_scale, roughness_class: A..H | null, roughness_seed}   where the scenario's
+              `surface:` gives no roughness class (bumps, kerbs, potholes come from it alone)
 
 No hardware id lives in code: device names, axis indices and keys are all here.
 """
@@ -33,6 +35,7 @@ from carlaverse.hal.motion_packet import MotionLimits
 from carlaverse.messages import Extent
 from carlaverse.physics.motion_cueing import MotionCueingParams
 from carlaverse.physics.params import VehicleParams, load_vehicle
+from carlaverse.physics.roughness import RoughnessClass
 from carlaverse.physics.steering_feel import SteeringFeelParams
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
@@ -53,10 +56,13 @@ class LoopSettings(StrictStruct):
 
 
 class RoadSettings(StrictStruct):
-    """The surface under the car until the world provides one."""
+    """The surface under the car where the scenario's `surface:` says nothing."""
 
     mu_scale: Annotated[float, msgspec.Meta(gt=0, le=1.5)] = 1.0  # grip relative to dry
-    roughness: Annotated[float, msgspec.Meta(ge=0, le=1)] = 0.1  # steering-wheel texture
+    # ISO 8608 class of the road's unevenness (physics/roughness.py), felt as heave, pitch and
+    # steering-wheel shake; null: perfectly smooth. A: a new motorway, C: a worn town street.
+    roughness_class: RoughnessClass | None = "A"
+    roughness_seed: int = 0  # the profile's seed: the same seed, the same road
 
 
 class DriveNodeConfig(StrictStruct):

@@ -2,8 +2,8 @@
 
 It runs in a process of its own (a busy Python thread would delay the fabric's callbacks by
 up to the interpreter's 5 ms switch interval, and vice versa), never touches the network, and
-exchanges state with the fabric process only through shared memory. Impulses and overrides
-arrive on a queue, polled every few ticks without waiting.
+exchanges state with the fabric process only through shared memory. Impulses, overrides and
+the scenario's road surface arrive on a queue, polled every few ticks without waiting.
 
 Timing and priority come from `carlaverse.realtime`: sleep until shortly before each
 deadline, then spin to it; the error between the deadline and the actual wake-up is measured
@@ -27,6 +27,7 @@ from carlaverse_nodes.loop_host import drain
 from carlaverse.hal import FfbCommand, MotionFrame, open_ffb, open_input, open_motion
 from carlaverse.messages import Impulse, Override
 from carlaverse.physics.params import VehicleParams
+from carlaverse.physics.road_surface import RoadSurface
 from carlaverse.realtime import Pacer, raise_priority
 from carlaverse.shm import SharedBlock, new_record
 
@@ -90,6 +91,7 @@ class _Runner:
         self.touch = TouchButtons()  # the web HMI's taps
         self.ffb_sent = self.motion_sent = self.impulses = self.ticks = 0
         self.motion_clipped = 0  # frames sent clipped to the motion device's limits
+        self.surface_features: int | None = None  # the scenario's bumps, kerbs, potholes
         self.distance_m = 0.0
 
     def session_now(self) -> float:
@@ -160,6 +162,9 @@ class _Runner:
                 self.loop.submit_override(event)
             elif isinstance(event, TouchPress):
                 self.touch.tap(event.action)
+            elif isinstance(event, RoadSurface):  # the scenario's, once per join
+                self.loop.set_surface(event)
+                self.surface_features = event.feature_count()
 
     def _read_control(self) -> None:
         c = self.control.read_latest()
@@ -215,6 +220,7 @@ class _Runner:
             "impulses_applied": self.impulses,
             "impulses_dropped": self.loop.impulses_dropped,  # non-finite or impossible Δv
             "distance_m": round(self.distance_m, 2),
+            "surface_features": self.surface_features,  # None: no scenario surface arrived
             # control reads answered with the last copy: the node's process stalled mid-write
             "control_stale_reads": self.control.stale_reads,
         }

@@ -3,13 +3,16 @@
 This process owns the fabric; the control loop runs in a child process (`loop_process`).
 The pose publisher reads the loop's shared state at the pose rate; the node's step forwards
 impulses and overrides to the loop's queue, hands it the session-clock offset and the spawn
-pose, and publishes the ego state when lights, indicator, gear or ADAS change.
+pose, and publishes the ego state when lights, indicator, gear or ADAS change. On each join
+it asks the authority for its scenario and hands the loop the `surface:` block (roughness,
+speed bumps, kerbs, potholes) on the same queue.
 """
 
 from __future__ import annotations
 
 import functools
 import logging
+import threading
 from typing import Any
 
 import msgspec
@@ -19,11 +22,14 @@ from carlaverse_nodes.drive.loop_process import LoopSpec, run_loop
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 from carlaverse_nodes.loop_host import LoopHost
 
+from carlaverse import messages as m
+from carlaverse.config import ConfigError
 from carlaverse.fabric.node_client import NodeClient
 from carlaverse.hal import FfbConfig, InputConfig, MotionConfig
 from carlaverse.hal.input.pursuit import scripted_route
 from carlaverse.messages import EgoState
 from carlaverse.physics.params import VehicleParams
+from carlaverse.physics.road_surface import RoadSurface
 
 log = logging.getLogger(__name__)
 
@@ -40,6 +46,7 @@ class DriveNode(LoopHost):
         self._last_state: tuple[int, int, int, bool] | None = None
         self._forwarded = 0
         self._hmi: DriveHmiBridge | None = None
+        self._surface_join = 0  # the join whose scenario was asked for
 
     @classmethod
     def with_backend(cls, config: DriveNodeConfig, backend: str) -> DriveNodeConfig:
@@ -74,6 +81,7 @@ class DriveNode(LoopHost):
 
     def step(self, client: NodeClient, now: float) -> None:
         self._tend_loop(client)
+        self._follow_surface(client)
         assert self._state is not None
         self._forwarded += self._forward(client.impulses) + self._forward(client.overrides)
         state = self._state.read_latest()
@@ -83,6 +91,24 @@ class DriveNode(LoopHost):
         self._publish_state(client, state)
         if not self._process.is_alive():
             raise RuntimeError(f"the control loop process died (exit {self._process.exitcode})")
+
+    def _follow_surface(self, client: NodeClient) -> None:
+        """Ask each authority joined for its scenario's road surface (off the step's thread:
+        the query waits on the authority); the loop gets it on its event queue."""
+        if client.joins != self._surface_join:
+            self._surface_join = client.joins
+            threading.Thread(target=self._fetch_surface, args=(client,), daemon=True).start()
+
+    def _fetch_surface(self, client: NodeClient) -> None:
+        raw = client.query("scenario")
+        if raw is None:  # no scenario (`--scenario none`) or no answer: the config's road
+            return
+        try:
+            surface = RoadSurface.from_scenario_yaml(m.SCENARIO.decode(raw).yaml)
+        except (m.MessageError, ConfigError) as exc:
+            log.warning("scenario surface unusable, driving the config's road instead: %s", exc)
+            return
+        self._events.put(surface)  # the loop reports it as `surface_features`
 
     def _publish_state(self, client: NodeClient, s: Any) -> None:
         if not s["running"]:

@@ -3,7 +3,8 @@
 `DriveLoop.step(dt, raw_input, impulses)` runs one tick:
 
     controls → automotive logic (gears, indicators, lights) → ADAS arbitration →
-    collision impulses → car physics (sub-stepped) → steering feel → motion cueing → output
+    collision impulses → car physics and vertical motion over the road (sub-stepped) →
+    steering feel → motion cueing → output
 
 and returns a `LoopOutput`: the pose and dashboard telemetry, the FFB command values and the
 motion cue. Whoever runs the loop (the node runtime, a test, a benchmark) owns the clock, the
@@ -29,7 +30,9 @@ from carlaverse.physics.car import Car
 from carlaverse.physics.impulse import ImpulseInbox
 from carlaverse.physics.motion_cueing import MotionCue, MotionCueing
 from carlaverse.physics.params import VehicleParams
+from carlaverse.physics.road_surface import RoadProfile, RoadSurface
 from carlaverse.physics.steering_feel import FfbCommandValues, SteeringFeel
+from carlaverse.physics.vertical import VerticalDynamics, VerticalState
 
 log = logging.getLogger(__name__)
 
@@ -66,6 +69,7 @@ class LoopOutput:
     motion: MotionCue
     state_changed: bool  # lights/indicator/gear/ADAS differ from the last tick: publish
     impulses_applied: int  # collision impulses applied in this tick
+    vertical: VerticalState  # heave, pitch and wheel shake over the road profile
 
     @property
     def speed_kmh(self) -> float:
@@ -106,6 +110,9 @@ class DriveLoop:
             vehicle.engine.cylinders,
         )
         self.motion_cueing = MotionCueing(config.motion_cueing)
+        self.vertical = VerticalDynamics(
+            vehicle.body, vehicle.suspension, self._road_profile(RoadSurface())
+        )
         self._clock = clock
         self.t = 0.0  # [s] accumulated loop time, used when no clock is injected
         self.lca_active = False
@@ -121,6 +128,21 @@ class DriveLoop:
     def place(self, x: float, y: float, yaw: float, speed_mps: float = 0.0) -> None:
         """Put the car at the spawn pose the authority granted."""
         self.car.place(x, y, yaw, speed_mps)
+        self._road_moved()
+
+    def set_surface(self, surface: RoadSurface) -> None:
+        """The scenario's road surface: its features, and its roughness where it names one."""
+        self.vertical.profile = self._road_profile(surface)
+        self._road_moved()
+
+    def _road_moved(self) -> None:
+        """Settle on the road now under the wheels instead of feeling the jump to it."""
+        self.vertical.place()
+        self.motion_cueing.road_moved()
+
+    def _road_profile(self, surface: RoadSurface) -> RoadProfile:
+        road = self.config.road
+        return RoadProfile.build(surface, road.roughness_class, road.roughness_seed)
 
     def engage_drive(self) -> None:
         """Select D (automatic) or first gear (manual), e.g. for a scripted start."""
@@ -141,20 +163,21 @@ class DriveLoop:
         steer, throttle, brake = self.adas.apply(cmd.steer, cmd.throttle, cmd.brake, s.vx, dt, now)
         applied = self._collisions(impulses, now)
         self._physics(dt, steer, throttle, brake, cmd.clutch)
-        road = self.config.road
         pt = car.powertrain
+        vertical = self.vertical.state()
         ffb = self.steering_feel.update(
-            dt, s.vx, s.alpha_front, s.fz_front, pt.rpm, road.roughness,
+            dt, s.vx, s.alpha_front, s.fz_front, pt.rpm, vertical.wheel_accel_mps2,
             self.adas.state.lane_keep_torque_nm,
         )  # fmt: skip
         motion = self.motion_cueing.update(
-            dt, s.ax, s.ay, 0.0, s.vx, brake, steer, pt.rpm, pt.engine_torque_nm
-        )
+            dt, s.ax, s.ay, vertical.heave_accel_mps2, s.vx, brake, steer, pt.rpm,
+            pt.engine_torque_nm, vertical.pitch_rad,
+        )  # fmt: skip
         blink_on = self.indicators.advance(dt)
         lights = (
             self.lights.bits("flash" in cmd.held, brake, pt.gear) | self.indicators.light_bits()
         )
-        return self._output(now, throttle, brake, blink_on, lights, ffb, motion, applied)
+        return self._output(now, throttle, brake, blink_on, lights, ffb, motion, applied, vertical)
 
     # ------------------------------------------------------------------ parts of a tick
 
@@ -209,8 +232,10 @@ class DriveLoop:
         n = max(self._substeps, math.ceil(dt / MAX_PHYSICS_DT_S))
         h = dt / n
         mu = self.config.road.mu_scale
+        s = self.car.state
         for _ in range(n):
             self.car.step(h, steer, throttle, brake, clutch, mu)
+            self.vertical.step(h, s.x, s.y, s.yaw, s.vx)
 
     def _output(
         self,
@@ -222,6 +247,7 @@ class DriveLoop:
         ffb: FfbCommandValues,
         motion: MotionCue,
         applied: int,
+        vertical: VerticalState,
     ) -> LoopOutput:
         s, pt, adas = self.car.state, self.car.powertrain, self.adas.state
         c, si = math.cos(s.yaw), math.sin(s.yaw)
@@ -233,5 +259,5 @@ class DriveLoop:
             now, s.x, s.y, s.yaw, s.vx * c - s.vy * si, s.vx * si + s.vy * c, s.yaw_rate,
             s.ax * c - s.ay * si, s.ax * si + s.ay * c, s.vx, s.steer, pt.rpm, pt.gear,
             pt.engine_torque_nm, throttle, brake, indicator, self.indicators.state.value,
-            blink_on, lights, self.lca_active, adas, ffb, motion, changed, applied,
+            blink_on, lights, self.lca_active, adas, ffb, motion, changed, applied, vertical,
         )  # fmt: skip

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import pytest
 
 from carlaverse.physics.impulse import ImpulseResponse
@@ -99,6 +101,16 @@ def test_vibration_follows_engine_rpm_and_road() -> None:
     idle = sf.update(0.001, 0.0, 0.0, FZ, rpm=900.0)
     # Three cylinders, four-stroke: 1.5 firings per revolution → 900/60·1.5 = 22.5 Hz.
     assert idle.vibration_frequency_hz in (22, 23)
-    rough = sf.update(0.001, 25.0, 0.0, FZ, rpm=2500.0, road_roughness=1.0)
-    assert rough.vibration_magnitude == PARAMS.road_vibration
-    assert rough.vibration_frequency_hz == round(25.0 / PARAMS.road_wavelength_m)
+    # The road shake: the front wheel moving as a(t) = A·sin(2π·f·t). Its RMS is A/√2 and
+    # Rice's mean frequency √(mean ȧ² / mean a²)/2π of a sine is f itself. 3 %: the window's
+    # first-order mean of a² (= A²/2·(1 − cos 4πft)) keeps a 2f ripple of 1/(4πf·τ) = 4 % of
+    # its mean, ±2 % in the RMS; 5 τ leave e^−5 = 0.7 % of the start; the finite-difference
+    # rate is 0.07 % low (ω·dt = 0.13).
+    amplitude, hz, dt = 40.0, 20.0, 0.001  # [m/s²], [Hz], [s]
+    for i in range(round(5 * PARAMS.road_vibration_window_s / dt)):
+        shake = amplitude * math.sin(2 * math.pi * hz * i * dt)
+        rough = sf.update(dt, 25.0, 0.0, FZ, rpm=2500.0, wheel_accel_mps2=shake)
+    expected = PARAMS.road_vibration_per_mps2 * amplitude / math.sqrt(2)
+    assert rough.vibration_magnitude == pytest.approx(expected, rel=0.03)
+    assert rough.vibration_magnitude > PARAMS.engine_vibration  # the road outweighs the engine
+    assert rough.vibration_frequency_hz == hz

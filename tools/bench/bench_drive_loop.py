@@ -85,11 +85,14 @@ def time_parts(seconds: float) -> dict[str, float]:
     stages = {
         "controls.read": lambda: loop.controls.read(sample),
         "car.step (powertrain + chassis)": lambda: loop.car.step(DT, 0.1, 0.5, 0.0),
+        "vertical.step (road profile + suspension)": lambda: loop.vertical.step(
+            DT, s.x, s.y, s.yaw, s.vx
+        ),
         "steering_feel.update": lambda: loop.steering_feel.update(
-            DT, s.vx, s.alpha_front, s.fz_front, pt.rpm, 0.1, 0.0
+            DT, s.vx, s.alpha_front, s.fz_front, pt.rpm, 3.0, 0.0
         ),
         "motion_cueing.update": lambda: loop.motion_cueing.update(
-            DT, s.ax, s.ay, 0.0, s.vx, 0.0, 0.1, pt.rpm, pt.engine_torque_nm
+            DT, s.ax, s.ay, 0.2, s.vx, 0.0, 0.1, pt.rpm, pt.engine_torque_nm, 0.001
         ),
         "DriveLoop.step (all)": lambda: loop.step(DT, sample),
     }
@@ -125,7 +128,8 @@ def report(seconds: float) -> str:
     rows += [f"| {k} | {v:.1f} |" for k, v in time_parts(min(seconds, 5.0)).items()]
     return (
         "One `DriveLoop.step` (controls → lights/indicators/gears → ADAS → impulses → car "
-        "physics → steering feel → motion cueing) over a scripted lap at 1 kHz, in this "
+        "physics and vertical motion over the road → steering feel → motion cueing) over a "
+        "scripted lap at 1 kHz, in this "
         f"process. Budget {BUDGET_US:.0f} µs, target < {TARGET_US:.0f} µs.\n\n"
         + "\n".join(rows)
         + "\n\n"
