@@ -4,22 +4,26 @@ All egos are moved at once, as columns (`EgoColumns`): the tick's work per ego i
 operations, not a Python object per ego and stage.
 
 An ego's latest pose sample was taken at `pose.t`, a little before the tick; it is moved on
-by its velocity and yaw rate to the tick time (at most `max_extrapolation_s`, then held), so
-the collision matrix and the traffic engine see where the human is now, not where they were.
+to the tick time by the one motion model (`carlaverse.dead_reckoning`: velocity turning at the
+yaw rate, acceleration; at most `max_extrapolation_s`, then held), so the collision matrix and
+the traffic engine see where the human is now, and where every node's view draws them.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
+import struct
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
+from msgspec.structs import astuple
 
 from carlaverse.authority.collisions import Actors
 from carlaverse.authority.domain import EgoTrack
-from carlaverse.messages import ACTOR_KINDS, EgoInfo, Pose
+from carlaverse.dead_reckoning import Motion, project_many
+from carlaverse.messages import ACTOR_KINDS, Extent, Pose
 from carlaverse.traffic.engine import EgoPlacement, EgoPlacements, NpcFrame, kind_code
 from carlaverse.traffic.scenario import CollisionSpec
 
@@ -118,46 +122,42 @@ class EgoColumns(Sequence[EgoNow]):
         return EgoPlacements(self.ids, self.actor_kinds, table)
 
 
+# A pose as a row of doubles, its fields in order (seq, t, x, y, z, roll, pitch, yaw, vx, vy,
+# vz, wx, wy, wz, ax, ay, az, flags); where `t` and the `Motion` fields lie in it.
+_POSE_ROW = struct.Struct(f"<{len(Pose.__struct_fields__)}d")
+_EXTENT_ROW = struct.Struct(f"<{len(Extent.__struct_fields__)}d")  # length, width, height
+_T = Pose.__struct_fields__.index("t")
+_MOTION = [Pose.__struct_fields__.index(f) for f in Motion._fields]
+
+
 def has_actor(track: EgoTrack) -> bool:
     return track.info.kind not in NO_ACTOR_KINDS and track.info.actor_kind in ACTOR_KINDS
 
 
 def egos_at(t: float, egos: Mapping[str, EgoTrack], max_extrapolation_s: float) -> EgoColumns:
-    """Every embodied ego with a pose, dead-reckoned to `t`, in node-id order."""
-    chosen = [egos[n] for n in sorted(egos)]
-    chosen = [k for k in chosen if k.last_pose is not None and has_actor(k)]
-    n = len(chosen)
-    # One flat pass per table instead of an array of tuples: a few hundred egos every tick.
-    motion = np.fromiter(
-        itertools.chain.from_iterable(_motion(k.last_pose) for k in chosen),  # type: ignore[arg-type]
-        dtype=np.float64,
-        count=9 * n,
-    )
-    pt, x, y, z, yaw, vx, vy, vz, wz = motion.reshape(n, 9).T
-    shape = np.fromiter(
-        itertools.chain.from_iterable(_shape(k.info) for k in chosen), dtype=np.float64, count=4 * n
-    ).reshape(n, 4)
-    dt = np.minimum(np.maximum(t - pt, 0.0), max_extrapolation_s)  # [s]
+    """Every embodied ego with a pose, dead-reckoned to `t` by the one motion model
+    (`carlaverse.dead_reckoning`, as every node's world view draws it), in node-id order."""
+    chosen = [k for n in sorted(egos) if (k := egos[n]).last_pose is not None and has_actor(k)]
+    infos = [k.info for k in chosen]
+    # Every field of every pose, and every extent, packed by `struct` in C: a third faster
+    # than `np.fromiter` over the same floats (a few hundred egos every tick).
+    rows = b"".join(itertools.starmap(_POSE_ROW.pack, map(astuple, [k.last_pose for k in chosen])))
+    c = np.frombuffer(rows).reshape(len(chosen), len(Pose.__struct_fields__)).T
+    extents = b"".join(itertools.starmap(_EXTENT_ROW.pack, map(astuple, [i.extent for i in infos])))
+    dt = np.minimum(np.maximum(t - c[_T], 0.0), max_extrapolation_s)  # [s]
+    now = project_many(Motion(*c[_MOTION]), dt)  # one copy of the columns it reads
     return EgoColumns(
-        [k.info.node_id for k in chosen],
-        [k.info.actor_kind for k in chosen],
-        x + vx * dt,
-        y + vy * dt,
-        z + vz * dt,
-        yaw + wz * dt,
-        vx,
-        vy,
-        *shape.T,
+        [i.node_id for i in infos],
+        [i.actor_kind for i in infos],
+        now.x,
+        now.y,
+        now.z,
+        now.yaw,
+        now.vx,
+        now.vy,
+        *np.frombuffer(extents).reshape(len(infos), 3).T,
+        np.fromiter([i.mass_kg for i in infos], np.float64, len(infos)),
     )
-
-
-def _motion(p: Pose) -> tuple[float, ...]:
-    return (p.t, p.x, p.y, p.z, p.yaw, p.vx, p.vy, p.vz, p.wz)
-
-
-def _shape(info: EgoInfo) -> tuple[float, float, float, float]:
-    e = info.extent
-    return (e.length, e.width, e.height, info.mass_kg)
 
 
 def build_actors(egos: Sequence[EgoNow], frame: NpcFrame, spec: CollisionSpec) -> Actors:

@@ -5,7 +5,8 @@ array. Building a Python object per NPC per batch costs far more than the rest o
 fabric work, and most nodes draw NPCs at most once per frame, some never. So a batch is kept
 as it came (ids and a read-only array view of the payload), and `frame(t)` interpolates every
 NPC at once with array arithmetic — Hermite on position with the sampled velocities, shortest
-arc on yaw — only when a renderer asks.
+arc on yaw — only when a renderer asks. Beyond the batches (or for an NPC new in the later
+one) it dead-reckons by the one motion model, `carlaverse.dead_reckoning`.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from carlaverse.dead_reckoning import npc_motion, project_many, wrap_angles
 from carlaverse.fabric.remote_actor import InterpolationSettings, StreamTiming, hermite
 from carlaverse.messages import ACTOR_KINDS, NPC_DTYPE, NpcBatch
 
@@ -115,11 +117,10 @@ def _columns(rows: np.ndarray) -> dict[str, np.ndarray]:
 
 def _extrapolate(b: _Batch, t: float, limit_s: float) -> NpcFrame:
     dt = max(-limit_s, min(limit_s, t - b.t))
-    c = _columns(b.rows)
-    yaw = _wrap(c["yaw"] + b.rows["yaw_rate"] * dt)
+    m = npc_motion(b.rows)
+    now = project_many(m, dt)
     flag = np.full(len(b.ids), dt != 0.0)
-    return NpcFrame(t, b.ids, c["x"] + c["vx"] * dt, c["y"] + c["vy"] * dt, c["z"], yaw,
-                    c["vx"], c["vy"], flag, b.rows)  # fmt: skip
+    return NpcFrame(t, b.ids, now.x, now.y, m.z, now.yaw, now.vx, now.vy, flag, b.rows)
 
 
 def _interpolate(a: _Batch, b: _Batch, t: float) -> NpcFrame:
@@ -135,19 +136,19 @@ def _interpolate(a: _Batch, b: _Batch, t: float) -> NpcFrame:
         known = idx >= 0
         # Row 0 stands in for newcomers (replaced below); an empty batch has no row 0.
         ca = _columns(a.rows[np.where(known, idx, 0)]) if len(a.ids) else dict(cb)
-        back = t - b.t  # newcomers: dead-reckoned back from their first sample
         ca = {k: np.where(known, v, cb[k]) for k, v in ca.items()}
-        cb_x, cb_y = cb["x"] + cb["vx"] * back, cb["y"] + cb["vy"] * back
     x = hermite(ca["x"], ca["vx"], cb["x"], cb["vx"], s, h)
     y = hermite(ca["y"], ca["vy"], cb["y"], cb["vy"], s, h)
-    if not known.all():
-        x, y = np.where(known, x, cb_x), np.where(known, y, cb_y)
     z = ca["z"] + (cb["z"] - ca["z"]) * s
-    yaw = _wrap(ca["yaw"] + _wrap(cb["yaw"] - ca["yaw"]) * s)
+    yaw = wrap_angles(ca["yaw"] + wrap_angles(cb["yaw"] - ca["yaw"]) * s)
     vx = ca["vx"] + (cb["vx"] - ca["vx"]) * s
     vy = ca["vy"] + (cb["vy"] - ca["vy"]) * s
+    if not known.all():  # newcomers: dead-reckoned back from their first sample
+        back = project_many(npc_motion(b.rows), t - b.t)
+        x, y, yaw = (
+            np.where(known, x, back.x),
+            np.where(known, y, back.y),
+            np.where(known, yaw, back.yaw),
+        )
+        vx, vy = np.where(known, vx, back.vx), np.where(known, vy, back.vy)
     return NpcFrame(t, b.ids, x, y, z, yaw, vx, vy, ~known, b.rows)
-
-
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return a - 2 * np.pi * np.floor((a + np.pi) / (2 * np.pi))

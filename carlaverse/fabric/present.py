@@ -41,6 +41,7 @@ class Projector:
         self._sample: Pose | None = None
         self._pending = False  # a sample not yet drawn: the next frame starts its blend
         self._t0 = 0.0
+        self._at_t0: Pose | None = None  # the new sample projected to T0 (once per blend)
         self._p0: _Vec3 = (0.0, 0.0, 0.0)
         self._v0: _Vec3 = (0.0, 0.0, 0.0)
         self._yaw0 = 0.0
@@ -81,7 +82,7 @@ class Projector:
             if shown is not None:
                 self.snaps += 1
             shown = ((at_t0.x, at_t0.y, at_t0.z), (at_t0.vx, at_t0.vy, at_t0.vz), at_t0.yaw)
-        self._t0 = now
+        self._t0, self._at_t0 = now, at_t0
         self._p0, self._v0, self._yaw0 = shown
 
     def _shown_at(self, now: float) -> tuple[_Vec3, _Vec3, float] | None:
@@ -93,7 +94,8 @@ class Projector:
         return (p.x, p.y, p.z), (p.vx, p.vy, p.vz), p.yaw
 
     def _blend(self, target: Pose, s: Pose, tau: float, lam: float) -> Pose:
-        at_t0 = project(s, min(self._t0 - s.t, self.s.max_projection_s))
+        at_t0 = self._at_t0
+        assert at_t0 is not None, "a blend before its start"
         v1 = (at_t0.vx, at_t0.vy, at_t0.vz)
         acc = (at_t0.ax, at_t0.ay, at_t0.az)  # A'
         p_t = (target.x, target.y, target.z)

@@ -18,6 +18,7 @@ from typing import Protocol
 
 import numpy as np
 
+from carlaverse.dead_reckoning import npc_motion, project_many
 from carlaverse.messages import ACTOR_KINDS, NPC_DTYPE
 from carlaverse.traffic.scenario import ScriptedVehicle
 
@@ -49,17 +50,18 @@ class NpcFrame:
         return len(self.ids)
 
     def at(self, t: float) -> NpcFrame:
-        """The frame dead-reckoned to engine time `t` (velocity and yaw rate held): the
-        engine may step more coarsely than the authority ticks, so between its steps the
-        collision matrix and the NPC batches see NPCs where they are now, not where the last
-        step left them."""
+        """The frame dead-reckoned to engine time `t` by the one motion model
+        (`carlaverse.dead_reckoning`: velocity turning at the yaw rate): the engine may step
+        more coarsely than the authority ticks, so between its steps the collision matrix and
+        the NPC batches see NPCs where they are now, not where the last step left them."""
         dt = t - self.t
         if dt == 0.0 or not self.ids:
             return self
+        now = project_many(npc_motion(self.rows), dt)
         rows = self.rows.copy()
-        rows["x"] += rows["vx"] * dt
-        rows["y"] += rows["vy"] * dt
-        rows["yaw"] = np.remainder(rows["yaw"] + rows["yaw_rate"] * dt + np.pi, 2 * np.pi) - np.pi
+        rows["x"], rows["y"], rows["yaw"], rows["vx"], rows["vy"] = (
+            now.x, now.y, now.yaw, now.vx, now.vy
+        )  # fmt: skip
         return NpcFrame(t, self.ids, rows)
 
 
