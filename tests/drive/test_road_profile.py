@@ -105,6 +105,17 @@ def test_climbing_a_kerb_pitches_the_nose_up_while_only_the_front_is_on_it() -> 
     kerb = Kerb(polygon=[(10.0, -5.0), (40.0, -5.0), (40.0, 5.0), (10.0, 5.0)], height_m=0.1,
                 edge_m=0.1)  # fmt: skip
     outs = drive_east(loop_on(RoadSurface(kerbs=[kerb])), 2.0, 6.0)
+    # The edge is half a cosine: z(e) = h/2·(1 − cos(π·e/w)) over the edge width w, e = v·t
+    # into it. z̈ = h/2·(π·v/w)²·cos(π·e/w): the wheel is pushed up hardest at the foot,
+    # a = h·(π·v/w)²/2 ≈ 197 m/s² here (a kerb is sharp), and pulled down as hard at the top.
+    z = [o.vertical.road_front_m for o in outs]
+    accel = [(z[i + 1] - 2 * z[i] + z[i - 1]) / DT**2 for i in range(1, len(z) - 1)]
+    foot = next(i for i, zi in enumerate(z) if zi > 0.0)
+    v = outs[foot].speed_mps
+    expected = 0.1 * (math.pi * v / 0.1) ** 2 / 2
+    # 3 %: the held speed (< 1 % in v²) and the edge's 50 ticks, whose second difference is
+    # (ω·dt)²/12 ≈ 0.03 % low; the foot falls between two ticks, ±1 tick of 50 in the peak.
+    assert max(accel[foot - 5 : foot + 5]) == pytest.approx(expected, rel=0.03)
     straddling = [o for o in outs if o.vertical.road_front_m > 0.099 > o.vertical.road_rear_m]
     assert len(straddling) > 0.9 * 2.64 / 2.0 / DT  # ~1.3 s at 2 m/s over the wheelbase
     # With the front axle up 10 cm and the rear not, the body settles nose up by
