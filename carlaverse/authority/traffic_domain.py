@@ -58,6 +58,7 @@ class DomainStats:
     contacts: int = 0
     impulses: int = 0
     npcs_removed: int = 0
+    trigger_failures: int = 0  # trigger conditions that could not be computed, counted not raised
 
 
 class TrafficDomain:
@@ -123,6 +124,7 @@ class TrafficDomain:
         frame = self._engine.last_read() if stepped else self._engine.npcs()
         npcs = frame.at(scenario_s)
         self._triggers.tick(t, scenario_s, now, npcs, out)
+        self.stats.trigger_failures = self._triggers.failed
         actors = build_actors(now, npcs, self._spec.collisions)
         self._publish_contacts(t, self._collisions.step(t, actors, out.next_seq), out)
         self._remove_hit_npcs(t)

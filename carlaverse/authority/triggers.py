@@ -23,7 +23,7 @@ from carlaverse.analysis.footprints import time_to_contact
 from carlaverse.authority.actors import EgoColumns, EgoNow
 from carlaverse.authority.domain import Outbox
 from carlaverse.authority.weather import WeatherPublisher
-from carlaverse.expr import compile_condition
+from carlaverse.expr import ExpressionError, compile_condition
 from carlaverse.geometry import inside_polygon
 from carlaverse.messages import Notice, TriggerFired
 from carlaverse.traffic import trigger_spec as ts
@@ -101,6 +101,7 @@ class Trigger:
         names = {"t", *spec.measure, *(f"fired_{i}" for i in all_ids)}
         self.condition = compile_condition(spec.when, names)
         self.fired = 0
+        self.failed = 0  # ticks its condition could not be computed
         self.held_before = False
         self._last: dict[str, tuple[float, float]] = {}  # crossed: the centre last tick
         self._crossed: set[str] = set()
@@ -148,6 +149,7 @@ class TriggerRunner:
         self._weather = weather
         self._arrivals: dict[str, ts.Arrival] = {}  # NPC id -> its timed arrival
         self.fired = 0
+        self.failed = 0  # condition evaluations that failed, all triggers together
 
     def tick(
         self, t: float, scenario_s: float, egos: Sequence[EgoNow], frame: NpcFrame, out: Outbox
@@ -156,7 +158,7 @@ class TriggerRunner:
         counts = {f"fired_{tr.spec.id}": float(tr.fired) for tr in self._triggers}
         for trigger in self._triggers:
             values = trigger.measure(world)
-            holds = trigger.condition({**values, **counts, "t": scenario_s})
+            holds = self._holds(trigger, {**values, **counts, "t": scenario_s})
             fresh = holds and not trigger.held_before
             trigger.held_before = holds
             if fresh and (trigger.fired == 0 or trigger.spec.repeat):
@@ -164,6 +166,20 @@ class TriggerRunner:
         # A commanded speed holds from the engine's next step on, for one step: the step, not
         # the tick, is the interval to plan over (the engine may step less often than we tick).
         self._steer(world, self._engine.step_length_s)
+
+    def _holds(self, trigger: Trigger, values: dict[str, float]) -> bool:
+        """The condition, or False where it cannot be computed this tick (a division by a
+        measurement that is zero now, say): counted and said once per trigger, never raised
+        into the authority's tick, which would end the session for every participant."""
+        try:
+            return trigger.condition(values)
+        except ExpressionError as exc:
+            trigger.failed += 1
+            self.failed += 1
+            if trigger.failed == 1:
+                log.warning("trigger %s: %s; counted as not holding while it fails",
+                            trigger.spec.id, exc)  # fmt: skip
+            return False
 
     def _fire(self, trigger: Trigger, values: dict[str, float], t: float, out: Outbox) -> None:
         trigger.fired += 1

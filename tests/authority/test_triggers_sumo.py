@@ -157,3 +157,25 @@ triggers:
 """)  # fmt: skip
     with pytest.raises(ConfigError, match=r"trigger go: the name 'speed' is not allowed"):
         load_scenario(bad)
+
+
+def test_a_condition_that_fails_at_run_time_is_counted_and_the_tick_goes_on(
+    tmp_path: Path, net_cache
+) -> None:
+    """`1 / (t - t)` divides by zero at every tick. It compiles (nothing in it is constant),
+    and an exception out of the authority's tick would end the session for everyone: the
+    failing trigger must read as not holding, be counted, and leave the others working."""
+    scenario = write_scenario(tmp_path, f"""{CROSSING_MAP}
+triggers:
+  - {{id: broken, when: "1 / (t - t) > 0", actions: [{{type: message, text: never}}]}}
+  - {{id: later, when: "t > 0.5", actions: [{{type: message, text: still here}}]}}
+""")  # fmt: skip
+    out = MemoryOutbox()
+    ticks = round(1.0 / TICK_S)
+    with domain_of(scenario, net_cache) as domain:
+        for k in range(ticks):
+            domain.tick(T0 + k * TICK_S, {}, out)
+        failed = domain.stats.trigger_failures
+    fired = [e.trigger_id for e in out.events if isinstance(e, TriggerFired)]
+    assert fired == ["later"]
+    assert failed == ticks  # every tick's evaluation of 'broken', none of 'later'
