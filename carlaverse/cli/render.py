@@ -1,11 +1,14 @@
 """`carlaverse render SESSION|FILE.mcap --camera NODE_ID|free --out F.png|F.mp4`.
 
 Renders offscreen, through the same world view a live node uses, either a recorded moment
-(`--at T`) or clip of a recording, or a live session as it is now (a still) or from now on
-(a clip, in real time). The camera rides with a node (`--camera car-1`, from its head
-position in the rig), or looks over the map (`--camera free`).
+(`--at S` seconds into the recording, or `--at-session T` on the session clock) or clip of a
+recording, or a live session as it is now (a still) or from now on (a clip, in real time).
+The camera rides with a node (`--camera car-1`, from its head position in the rig), chases
+it from behind and above (`--camera car-1 --chase`, `render.chase`), or looks over the map
+(`--camera free`; a world with neither a map nor actors is an error, not an empty picture).
 
     carlaverse render lab.mcap --camera car-1 --at 12.5 --out car1.png
+    carlaverse render lab.mcap --camera car-1 --chase --at 20 --duration 10 --out chase.mp4
     carlaverse render demo --connect tcp/127.0.0.1:7447 --out now.png
     carlaverse render demo --connect tcp/127.0.0.1:7447 --out next5s.mp4 --duration 5
 
@@ -20,6 +23,7 @@ import os
 import threading
 import time
 from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -28,6 +32,7 @@ from carlaverse.cli.common import (
     attend,
     fabric_from_args,
     fail,
+    print_json,
     say,
     stop_on_signals,
 )
@@ -45,10 +50,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument("--camera", default=FREE, help="node id to ride with, or 'free'")
     parser.add_argument(
+        "--chase",
+        action="store_true",
+        help="with --camera NODE_ID: follow it from 6 m behind and 2.5 m above, looking at it "
+        "(the camera swings round a turn with a 0.5 s lag)",
+    )
+    when = parser.add_mutually_exclusive_group()
+    when.add_argument(
         "--at",
         type=float,
+        metavar="S",
+        help="seconds from the recording's start (its first sample); default: the first pose",
+    )
+    when.add_argument(
+        "--at-session",
+        type=float,
         metavar="T",
-        help="session time [s] of a recording (default: the first pose)",
+        help="session time [s] of the recording's moment instead (the clock poses carry)",
     )
     parser.add_argument("--out", type=Path, required=True, help="F.png (a still) or F.mp4 (a clip)")
     parser.add_argument("--duration", type=float, default=5.0, help="clip length [s] (MP4)")
@@ -56,6 +74,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rig", default=DEFAULT_RIG, help="render config with the camera rig")
     parser.add_argument("--width", type=int, help="override the rig's resolution (simple rigs)")
     parser.add_argument("--height", type=int, help="override the rig's resolution (simple rigs)")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print one JSON object: out, frames, the session time of the first frame (t) and "
+        "of the recording's start (recording_start, null when live)",
+    )
     live = parser.add_argument_group("live session")
     live.add_argument(
         "--join-timeout",
@@ -96,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
     stop = stop_on_signals() if live else threading.Event()  # Ctrl-C leaves a session cleanly
     render = _render_live if live else _render_recording
     try:
-        frames = render(args, stop)
+        shown = render(args, stop)
     except (FabricUnreachable, WorldMissing) as exc:  # no router, authority or world in time
         waited = f" (waited --join-timeout {args.join_timeout:g} s)"
         return fail("render", f"{exc}{waited}", stop.exit_code() if stop.is_set() else 5)
@@ -104,8 +128,21 @@ def run(args: argparse.Namespace) -> int:
         return fail("render", str(exc), 3)
     except (ConfigError, RecordingError, RenderError, FollowError, ValueError) as exc:
         return fail("render", str(exc), 1)
-    print(f"render: {frames} frame(s) -> {args.out}")
+    if args.json:
+        print_json({"out": str(args.out), "frames": shown.frames, "t": shown.first_t,
+                    "recording_start": shown.recording_start})  # fmt: skip
+    else:
+        print(f"render: {shown.frames} frame(s) -> {args.out}")
     return 0
+
+
+@dataclass
+class Shown:
+    """What a render drew: how many frames, and when the first one is on the session clock."""
+
+    frames: int = 0
+    first_t: float | None = None  # [s] session time of frame 0
+    recording_start: float | None = None  # [s] session time of the recording's first sample
 
 
 def _usage_problem(args: argparse.Namespace) -> str:
@@ -114,14 +151,19 @@ def _usage_problem(args: argparse.Namespace) -> str:
         return f"--out {args.out}: give a .png (still) or .mp4 (clip) file"
     if args.duration <= 0 or args.fps <= 0:
         return "--duration and --fps must be > 0"
+    if args.chase and args.camera == FREE:
+        return "--chase follows a node: give --camera NODE_ID"
     if is_recording(args.source):
         if not Path(args.source).is_file():
             return f"{args.source}: no such recording"
         if args.connect or args.listen or args.roster:
             return "--connect, --listen and --roster are for a live session, not a recording"
+        if args.at is not None and args.at < 0:
+            return f"--at {args.at:g}: give seconds >= 0 from the recording's start"
         return ""
-    if args.at is not None:
-        return f"--at is for recordings; a live session ({args.source!r}) renders as it is now"
+    if args.at is not None or args.at_session is not None:
+        flag = "--at" if args.at is not None else "--at-session"
+        return f"{flag} is for recordings; a live session ({args.source!r}) renders as it is now"
     if args.join_timeout <= 0:
         return f"--join-timeout {args.join_timeout}: give seconds > 0"
     return _fabric_problem(args)
@@ -160,21 +202,37 @@ def _config(args: argparse.Namespace):  # -> RenderConfig
     return config
 
 
-def _render_recording(args: argparse.Namespace, stop: threading.Event) -> int:
+def _render_recording(args: argparse.Namespace, stop: threading.Event) -> Shown:
     from carlaverse.recording.reading import recorded_map
-    from carlaverse.render.recording import RecordedWorld, first_pose_time
+    from carlaverse.render.recording import RecordedWorld, first_pose_time, recording_start_time
     from carlaverse.render.renderer import Renderer
 
     world = RecordedWorld(args.source)
-    start = args.at if args.at is not None else first_pose_time(args.source)
-    with Renderer(_config(args), recorded_map(args.source)) as renderer:
-        frames = _capture(args, renderer, lambda k: world.frame(start + k / args.fps), stop)
+    shown = Shown(recording_start=recording_start_time(args.source))
+    if args.at is not None:
+        start = shown.recording_start + args.at
+    elif args.at_session is not None:
+        start = args.at_session
+    else:
+        start = first_pose_time(args.source)
+    road_map = recorded_map(args.source)
+    first = world.frame(start)
+    if args.camera == FREE and road_map is None and not first.actors:
+        raise ValueError(
+            f"{args.source} has no map and no actors at t = {start:.3f} s: nothing for "
+            "--camera free to show (was anything recorded? try a later --at)"
+        )
+    with Renderer(_config(args), road_map) as renderer:  # the world reads forward only
+        shown.frames = _capture(
+            args, renderer, lambda k: first if k == 0 else world.frame(start + k / args.fps), stop
+        )
+    shown.first_t = first.t
     if world.bad_samples:  # a damaged or foreign sample is skipped, not drawn: say how many
         say("render")(f"{world.bad_samples} recorded samples could not be read and were skipped")
-    return frames
+    return shown
 
 
-def _render_live(args: argparse.Namespace, stop: threading.Event) -> int:
+def _render_live(args: argparse.Namespace, stop: threading.Event) -> Shown:
     from carlaverse.fabric.node_client import NodeSettings
     from carlaverse.keys import Keys
 
@@ -190,7 +248,7 @@ def _render_live(args: argparse.Namespace, stop: threading.Event) -> int:
 
 
 def _draw_live(args: argparse.Namespace, session: Any, node: Any, deadline: float,
-               stop: threading.Event) -> int:  # fmt: skip
+               stop: threading.Event) -> Shown:  # fmt: skip
     from carlaverse.render.live import LiveWorld
     from carlaverse.render.renderer import Renderer
 
@@ -205,7 +263,7 @@ def _draw_live(args: argparse.Namespace, session: Any, node: Any, deadline: floa
         if pace.repeated:
             slow = "drawing is slower than --fps; the clip keeps the session's pace"
             say("render")(f"{pace.repeated} of {frames} frames repeat the one before: {slow}")
-        return frames
+        return Shown(frames, pace.first_t)
     finally:
         world.close()
 
@@ -220,6 +278,7 @@ class RealTime:
         self.period_s = 1.0 / fps
         self.start = time.monotonic()
         self.repeated = 0
+        self.first_t: float | None = None  # [s] session time of frame 0
 
     def __call__(self, k: int) -> Any:
         late_s = time.monotonic() - (self.start + k * self.period_s)
@@ -227,7 +286,10 @@ class RealTime:
             self.repeated += 1
             return None
         time.sleep(max(0.0, -late_s))
-        return self.frame()
+        frame = self.frame()
+        if k == 0:
+            self.first_t = frame.t
+        return frame
 
 
 def _capture(args: argparse.Namespace, renderer: Any, frame_at: Callable[[int], Any],
@@ -236,9 +298,9 @@ def _capture(args: argparse.Namespace, renderer: Any, frame_at: Callable[[int], 
     frames were written. `frame_at(k)` None repeats the previous image."""
     from carlaverse.render.video import ClipWriter, save_png
 
-    follow = None if args.camera == FREE else args.camera
+    draw = _drawer(args, renderer)
     if args.out.suffix.lower() == ".png":
-        renderer.draw(frame_at(0), follow=follow)
+        draw(frame_at(0))
         save_png(args.out, renderer.images()[0])
         return 1
     w, h = renderer.layout.outputs[0]
@@ -249,8 +311,28 @@ def _capture(args: argparse.Namespace, renderer: Any, frame_at: Callable[[int], 
                 break  # Ctrl-C: the clip so far is a valid file
             frame = frame_at(k)
             if frame is not None:
-                renderer.draw(frame, follow=follow)
+                draw(frame)
             clip.add(renderer.images()[0])
     finally:
         clip.close()
     return clip.frames
+
+
+def _drawer(args: argparse.Namespace, renderer: Any) -> Callable[[Any], None]:
+    """How a frame is drawn: from the followed node's head, chasing it, or over the map."""
+    if args.camera == FREE:
+        return lambda frame: renderer.draw(frame)
+    if not args.chase:
+        return lambda frame: renderer.draw(frame, follow=args.camera)
+    from carlaverse.render.chase import ChaseCamera
+    from carlaverse.render.renderer import FollowError
+
+    chase = ChaseCamera(renderer.layout.head)
+
+    def draw(frame: Any) -> None:
+        actor = frame.actor(args.camera)
+        if actor is None:  # the same one-line error as riding with it
+            raise FollowError(f"no actor {args.camera!r} at t = {frame.t:.3f} s to chase")
+        renderer.draw(frame, eye=chase.eye(actor, frame.t))
+
+    return draw

@@ -46,6 +46,20 @@ def first_pose_time(path: str | Path) -> float:
     return sample.publish_time_ns / 1e9 if sample else 0.0
 
 
+def receive_offset_ns(path: str | Path) -> int:
+    """[ns] the recorder's log time minus session time, from the first pose (0 without one:
+    the log time is all there is)."""
+    pose = first_pose(path)
+    return pose.log_time_ns - pose.publish_time_ns if pose else 0
+
+
+def recording_start_time(path: str | Path) -> float:
+    """Session time [s] at which the recording starts: when its first sample was received
+    (a recorder usually starts before the nodes, so this is before the first pose)."""
+    first = next(iter_samples(path), None)  # in ns until the end: 1e18 ns do not fit a float
+    return (first.log_time_ns - receive_offset_ns(path)) / 1e9 if first else 0.0
+
+
 class RecordedWorld:
     """Replays a recording into a WorldView, forward only."""
 
@@ -57,9 +71,7 @@ class RecordedWorld:
         self.bad_samples = 0
         self._samples: Iterator[RecordedSample] = iter_samples(path)
         self._next: RecordedSample | None = next(self._samples, None)
-        pose = first_pose(path)
-        # [s] log time minus session time; without poses the log time is all there is
-        self._offset_s = (pose.log_time_ns - pose.publish_time_ns) / 1e9 if pose else 0.0
+        self._offset_s = receive_offset_ns(path) / 1e9  # [s] log time minus session time
 
     def advance(self, t: float) -> None:
         """Feed every sample received up to session time `t` [s], then update the view."""
