@@ -3,7 +3,9 @@
 Every child connects to the lab's router endpoint (loopback, a free port by default) and joins
 the lab's session; the session is watched as an observer once a router runs. A node's config
 and the authority's scenario are files inside the config dir or shipped ones (`launcher.files`):
-a process started from the page reads nothing else. The demo is the
+a process started from the page reads nothing else. A node may serve its web HMI; one beyond
+loopback prints a pairing URL, which the lab keeps in memory for the page's QR code
+(`launcher.hmi_pairing`). The demo is the
 one `carlaverse demo` runs — its authority and node arguments come from `cli.demo` — but each
 of its processes is a child here, listed, logged and stoppable on its own.
 """
@@ -18,6 +20,7 @@ from carlaverse.cli import demo
 from carlaverse.config import ConfigError
 from carlaverse.keys import check_token
 from carlaverse.launcher.files import ConfigDir
+from carlaverse.launcher.hmi_pairing import LOOPBACK, PairingWatch, hmi_argv
 from carlaverse.launcher.presence import PresenceRow, SessionWatch
 from carlaverse.launcher.processes import Child, LaunchError, Supervisor
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind, node_kinds
@@ -37,6 +40,8 @@ class Lab:
         self.files = files
         self.supervisor = supervisor or Supervisor()
         self.watch: SessionWatch | None = None
+        # node name → the child that serves an HMI and the watch for its pairing URL
+        self._pairings: dict[str, tuple[Child, PairingWatch]] = {}
         self._scratch = tempfile.TemporaryDirectory(prefix="carlaverse-launcher-")
 
     @property
@@ -54,10 +59,18 @@ class Lab:
             "authority", "authority", demo.authority_argv(args, self.endpoint)
         )
 
-    def start_node(self, kind: str, node_id: str, config: str = "") -> Child:
-        """`carlaverse join KIND --id NODE_ID`; a kind with devices and no config runs on sim."""
+    def start_node(
+        self,
+        kind: str,
+        node_id: str,
+        config: str = "",
+        hmi_port: int | None = None,
+        hmi_bind: str = LOOPBACK,
+    ) -> Child:
+        """`carlaverse join KIND --id NODE_ID`; a kind with devices and no config runs on sim.
+        `hmi_port`: it serves its web HMI there, on `hmi_bind` (an IP address)."""
         try:
-            load_node_kind(kind)
+            kind_cls = load_node_kind(kind)
         except UnknownNodeKind as exc:
             raise LaunchError(str(exc)) from exc
         check_token(node_id, "node id")
@@ -67,7 +80,24 @@ class Lab:
             argv += ["--config", str(self._file(config))]
         elif kind not in HEADLESS_KINDS:
             argv += ["--backend", "sim"]
-        return self.supervisor.start(node_id, "node", argv)
+        if hmi_port is None:
+            return self.supervisor.start(node_id, "node", argv)
+        argv += hmi_argv(hmi_port, hmi_bind)
+        if not hasattr(kind_cls, "hmi_bridge"):
+            raise LaunchError(f"node kind {kind!r} has no web HMI (drive and bike have one)")
+        pairing = PairingWatch(hmi_port)
+        child = self.supervisor.start(node_id, "node", argv, on_stderr=pairing.feed)
+        self._pairings[node_id] = (child, pairing)
+        return child
+
+    def hmi_pairings(self) -> list[tuple[str, str]]:
+        """(node, pairing URL) of each running node whose HMI printed one; memory only."""
+        found = []
+        for name, (child, pairing) in sorted(self._pairings.items()):
+            url = pairing.url  # a child of that name started later is another process
+            if url is not None and child.running and self.supervisor.get(name) is child:
+                found.append((name, url))
+        return found
 
     def start_demo(self, kinds: list[str], duration_s: float, scenario: str = "town") -> list[str]:
         """What `carlaverse demo --nodes KINDS` starts, as children here; the node ids."""

@@ -6,6 +6,11 @@ SIGINT to the child first (every command shuts down cleanly on it — a node lea
 closes its file — and stops its own helpers, such as a drive node's loop process, in order),
 then SIGKILL to the group and to any descendant that left it, after a grace.
 
+Its stdout and stderr are read apart, each line into one live log (the two streams' order
+is kept within each, approximately between them), so a caller may watch stderr alone for a
+line only the command itself writes there (`on_stderr`: a node's HMI pairing URL). No line
+kept holds a URL's token: `?token=…` replaces it (`redact_tokens`).
+
     supervisor = Supervisor()
     supervisor.start("router", "router", ["router", "--listen", "tcp/127.0.0.1:7447"])
     supervisor.lines("router", since=0)      # (next index, new log lines)
@@ -15,12 +20,14 @@ then SIGKILL to the group and to any descendant that left it, after a grace.
 from __future__ import annotations
 
 import os
+import re
 import signal
 import subprocess
 import sys
 import threading
 import time
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import IO
 
@@ -28,6 +35,7 @@ import psutil
 
 LOG_LINES = 2000  # lines kept per child; older ones scroll away
 STOP_GRACE_S = 8.0  # [s] after SIGINT, the group is killed
+TOKEN_VALUE = re.compile(r"(?<=[?&]token=)[^\s&#]+")  # a credential in a URL's query
 
 
 class LaunchError(ValueError):
@@ -36,7 +44,7 @@ class LaunchError(ValueError):
 
 @dataclass
 class Child:
-    """One started command and its merged stdout/stderr, numbered from 0."""
+    """One started command and the lines of its stdout and stderr, numbered from 0."""
 
     name: str
     role: str  # router | authority | node | tool
@@ -58,7 +66,7 @@ class Child:
         with self.lock:
             if len(self.log) == self.log.maxlen:
                 self.first_line += 1
-            self.log.append(line.rstrip("\n"))
+            self.log.append(redact_tokens(line.rstrip("\n")))
 
     def lines_since(self, index: int) -> tuple[int, list[str]]:
         """The lines numbered `index` and on, and the index after the last."""
@@ -77,8 +85,11 @@ class Supervisor:
         self.children: dict[str, Child] = {}
         self._lock = threading.Lock()
 
-    def start(self, name: str, role: str, argv: list[str]) -> Child:
-        """Run `carlaverse ARGV…` as `name`; LaunchError if `name` runs already."""
+    def start(
+        self, name: str, role: str, argv: list[str], on_stderr: Callable[[str], None] | None = None
+    ) -> Child:
+        """Run `carlaverse ARGV…` as `name`; LaunchError if `name` runs already.
+        `on_stderr` sees each line of its stderr as written, before the log's redaction."""
         if not argv:
             raise LaunchError(f"{name}: no command to run")
         with self._lock:
@@ -90,7 +101,7 @@ class Supervisor:
                 [*self.command, *argv],
                 stdin=subprocess.DEVNULL,
                 stdout=subprocess.PIPE,
-                stderr=subprocess.STDOUT,
+                stderr=subprocess.PIPE,
                 text=True,
                 env=env,
                 start_new_session=True,  # its own process group: stopped as a whole tree
@@ -98,7 +109,8 @@ class Supervisor:
             child = Child(name, role, list(argv), proc)
             child.add_line(f"$ carlaverse {' '.join(argv)}")
             self.children[name] = child
-        threading.Thread(target=_pump, args=(child, proc.stdout), daemon=True).start()
+        pumps = [_Pump(child, proc.stdout), _Pump(child, proc.stderr, on_stderr)]
+        threading.Thread(target=_follow, args=(child, pumps), daemon=True).start()
         return child
 
     def get(self, name: str) -> Child | None:
@@ -126,11 +138,35 @@ class Supervisor:
         stop_children(children, self.grace_s)  # a role not named above
 
 
-def _pump(child: Child, stream: IO[str] | None) -> None:
-    if stream is None:
-        return
-    for line in stream:
-        child.add_line(line)
+def redact_tokens(line: str) -> str:
+    """`line` with every URL's `token=` value replaced by `…`."""
+    return TOKEN_VALUE.sub("…", line)
+
+
+class _Pump(threading.Thread):
+    """Copies one of a child's streams into its log, line by line, until the stream closes."""
+
+    def __init__(
+        self, child: Child, stream: IO[str] | None, watch: Callable[[str], None] | None = None
+    ) -> None:
+        super().__init__(name=f"log-{child.name}", daemon=True)
+        self.child, self.stream, self.watch = child, stream, watch
+
+    def run(self) -> None:
+        if self.stream is None:
+            return
+        for line in self.stream:
+            if self.watch is not None:
+                self.watch(line)
+            self.child.add_line(line)
+
+
+def _follow(child: Child, pumps: list[_Pump]) -> None:
+    """Both streams into the log, then the exit code as its last line."""
+    for pump in pumps:
+        pump.start()
+    for pump in pumps:
+        pump.join()
     child.add_line(f"[exited with code {child.proc.wait()}]")
 
 
