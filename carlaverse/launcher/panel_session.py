@@ -13,7 +13,9 @@ from nicegui import run, ui
 
 from carlaverse.config import shipped_dir
 from carlaverse.keys import KeySpaceError
+from carlaverse.launcher.hmi_pairing import EVERY_ADDRESS, LOOPBACK
 from carlaverse.launcher.lab import Lab
+from carlaverse.launcher.panel_pairing import pairing_panel
 from carlaverse.launcher.presence import PresenceRow
 from carlaverse.launcher.processes import Child, LaunchError
 
@@ -39,6 +41,7 @@ def session_panel(lab: Lab) -> None:
             _start_cards(lab)
         with ui.column().classes("w-2/3 gap-3"):
             _processes_and_logs(lab)
+            pairing_panel(lab)
             _presence(lab)
 
 
@@ -99,11 +102,33 @@ def _node_card(lab: Lab) -> None:
             autocomplete=_shipped(),
         )
         config.props("dense data-testid=node-config")
+        hmi_port, hmi_bind = _hmi_fields()
 
         def start() -> Awaitable[None]:
-            return _act(lab.start_node, kind.value, node_id.value, config.value)
+            port = None if hmi_port.value is None else int(hmi_port.value)
+            return _act(
+                lab.start_node, kind.value, node_id.value, config.value, port, hmi_bind.value
+            )
 
         ui.button("Start node", on_click=start).props("data-testid=start-node")
+
+
+def _hmi_fields() -> tuple[ui.number, ui.select]:
+    """The node's web HMI (drive, bike): a port, empty for none, and the address it serves on."""
+    with ui.row().classes("no-wrap items-end"):
+        port = ui.number("HMI port", placeholder="none", min=1, max=65535, precision=0)
+        port.props("dense clearable data-testid=node-hmi-port")
+        bind = ui.select(
+            {LOOPBACK: "this machine only", EVERY_ADDRESS: "this machine's network address"},
+            label="HMI served to",
+            value=LOOPBACK,
+        ).props("dense data-testid=node-hmi-bind")
+    warning = ui.label(
+        "Anyone on the network can reach this HMI: it asks for a pairing token, shown as a QR "
+        "code under Processes for a cabin tablet to scan. Plain HTTP: use a network you trust."
+    ).classes("text-xs text-orange-700")
+    warning.bind_visibility_from(bind, "value", backward=lambda v: v != LOOPBACK)
+    return port, bind
 
 
 def _shipped() -> list[str]:
