@@ -37,7 +37,6 @@ precision as x → 0: c1 = 2 sin²(x/2) / x, es = −c1 / x, ec by its series be
 
 from __future__ import annotations
 
-import math
 from math import pi as PI
 from math import sin
 from typing import NamedTuple
@@ -45,21 +44,12 @@ from typing import NamedTuple
 import numpy as np
 
 from carlaverse.messages import Pose
+from carlaverse.support.angles import wrap_angle, wrap_angles
 
 SERIES_BELOW = 0.1  # [rad] |x| under which ec is its series (sin x − x cancels)
 # A turn angle closer to 0 than this is replaced by it: every coefficient then takes its limit
 # (s1 → 1, c1 → 0, es → −½, ec → 0) without a branch, and its square does not underflow.
 NO_TURN = 1e-150  # [rad]
-
-
-def wrap_angle(a: float) -> float:
-    """Map an angle [rad] to [−π, π)."""
-    return a - 2 * math.pi * math.floor((a + math.pi) / (2 * math.pi))
-
-
-def wrap_angles(a: np.ndarray) -> np.ndarray:
-    """`wrap_angle` for an array of angles."""
-    return a - 2 * np.pi * np.floor((a + np.pi) / (2 * np.pi))
 
 
 # ------------------------------------------------------------------ one actor

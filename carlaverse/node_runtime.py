@@ -33,7 +33,7 @@ from carlaverse.config import StrictStruct, to_yaml
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
 from carlaverse.fabric.session import FabricSettings, open_session
-from carlaverse.fabric.stats import StreamSummary
+from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.fabric.waiting import POLL_S, SessionWait, WaitNotice
 from carlaverse.messages import Notice
 from carlaverse.security.redact import redact_yaml

@@ -17,7 +17,7 @@ from array import array
 from collections.abc import Iterable
 from typing import Any
 
-from carlaverse.fabric.stats import percentile
+from carlaverse.support.stats import percentile
 
 log = logging.getLogger(__name__)
 

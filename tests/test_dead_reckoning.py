@@ -18,11 +18,12 @@ from hypothesis import strategies as st
 from carlaverse import messages as m
 from carlaverse.authority.actors import egos_at
 from carlaverse.authority.domain import EgoTrack
-from carlaverse.dead_reckoning import Motion, npc_motion, project, project_many, wrap_angle
+from carlaverse.dead_reckoning import Motion, npc_motion, project, project_many
 from carlaverse.fabric.npc_table import NpcTable
 from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import Pose
+from carlaverse.support.angles import wrap_angle
 from carlaverse.traffic.engine import NpcFrame
 
 FIELDS = ("x", "y", "z", "vx", "vy", "vz")

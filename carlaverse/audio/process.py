@@ -29,8 +29,8 @@ from carlaverse.audio.config import AudioConfig
 from carlaverse.audio.ears import BlockSpec, Ears
 from carlaverse.audio.scene import LOCAL
 from carlaverse.fabric.session import FabricSettings
-from carlaverse.fabric.stats import percentile
 from carlaverse.keys import Keys
+from carlaverse.support.stats import percentile
 
 log = logging.getLogger(__name__)
 

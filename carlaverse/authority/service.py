@@ -34,9 +34,9 @@ from carlaverse.authority.pose_intake import RING_CAPACITY, PoseIntake
 from carlaverse.config import StrictStruct
 from carlaverse.fabric.clock import Clock
 from carlaverse.fabric.guard import HandlerGuard, Tally, reply_err
-from carlaverse.fabric.stats import percentile
 from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse
 from carlaverse.realtime import raise_priority
+from carlaverse.support.stats import percentile
 
 log = logging.getLogger(__name__)
 

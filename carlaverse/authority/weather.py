@@ -14,6 +14,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from carlaverse.messages import Weather
+from carlaverse.support.angles import wrap_degrees
 from carlaverse.traffic.scenario import WeatherKey, WeatherSpec, WeatherValues
 
 ANGLE_FIELDS = {"sun_azimuth_deg", "wind_direction_deg"}
@@ -90,7 +91,7 @@ def _blend(a: dict[str, float], b: dict[str, float], w: float) -> dict[str, floa
     out = {}
     for name in a:
         if name in ANGLE_FIELDS:
-            delta = (b[name] - a[name] + 180.0) % 360.0 - 180.0
+            delta = wrap_degrees(b[name] - a[name])
             out[name] = (a[name] + w * delta) % 360.0
         else:
             out[name] = a[name] + w * (b[name] - a[name])
@@ -101,7 +102,7 @@ def _changed(old: dict[str, float], new: dict[str, float]) -> bool:
     for name, value in new.items():
         delta = value - old[name]
         if name in ANGLE_FIELDS:
-            delta = (delta + 180.0) % 360.0 - 180.0
+            delta = wrap_degrees(delta)
         if abs(delta) >= CHANGE_EPS.get(name, DEFAULT_EPS):
             return True
     return False

@@ -20,7 +20,7 @@ import msgspec
 from carlaverse import messages as m
 from carlaverse.authority.service import TickSummary
 from carlaverse.cli import wire_catalog as wc
-from carlaverse.fabric.stats import StreamSummary
+from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.node_runtime import NodeSummary
 
 REGENERATE = "carlaverse schema --write-doc docs/protocol.md"

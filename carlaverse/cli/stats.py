@@ -22,7 +22,7 @@ from carlaverse.config import ConfigError
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
 from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config
-from carlaverse.fabric.stats import StreamSummary
+from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, check_token
 
 

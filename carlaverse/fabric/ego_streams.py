@@ -23,8 +23,9 @@ import numpy as np
 from msgspec.structs import astuple
 
 from carlaverse.fabric.remote_actor import InterpolationSettings, RemoteActor
-from carlaverse.fabric.stats import StreamSummary, percentile
+from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.messages import Pose, PoseColumns, pose_columns
+from carlaverse.support.stats import percentile
 
 RING = 64  # samples kept per sender for its actor: 1.28 s at 50 Hz, longer than any delay
 WINDOW = 1024  # samples per sender in its latency statistics: 20 s at 50 Hz

@@ -17,7 +17,7 @@ from collections.abc import Callable, Iterator, Mapping
 
 import zenoh
 
-from carlaverse.hal.ratelimit import RateLimitedLog
+from carlaverse.support.ratelog import RateLimitedLog
 
 
 class Tally(Mapping[str, int]):

@@ -24,8 +24,9 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from carlaverse.dead_reckoning import project, wrap_angle
+from carlaverse.dead_reckoning import project
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
+from carlaverse.support.angles import wrap_angle
 
 if TYPE_CHECKING:
     from carlaverse.fabric.remote_actor import InterpolationSettings

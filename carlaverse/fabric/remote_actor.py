@@ -25,9 +25,10 @@ from enum import Enum
 from typing import Literal
 
 from carlaverse.config import StrictStruct
-from carlaverse.dead_reckoning import project, wrap_angle
+from carlaverse.dead_reckoning import project
 from carlaverse.fabric.present import Projector
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
+from carlaverse.support.angles import wrap_angle
 
 _Vec4 = tuple[float, float, float, float]  # x, y, z [m], yaw [rad]
 RenderMode = Literal["past", "present"]

@@ -13,7 +13,7 @@ import socket
 from collections.abc import Callable
 
 from carlaverse.hal.errors import DeviceError
-from carlaverse.hal.ratelimit import RateLimitedLog
+from carlaverse.support.ratelog import RateLimitedLog
 
 log = logging.getLogger(__name__)
 

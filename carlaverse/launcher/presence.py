@@ -26,7 +26,7 @@ from carlaverse.fabric.session import (
     reachable,
     reaches_anyone,
 )
-from carlaverse.fabric.stats import StreamSummary
+from carlaverse.fabric.stream_summary import StreamSummary
 
 log = logging.getLogger(__name__)
 

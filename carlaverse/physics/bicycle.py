@@ -24,6 +24,7 @@ from typing import Annotated
 import msgspec
 
 from carlaverse.config import StrictStruct
+from carlaverse.support.angles import wrap_angle
 
 G_MPS2 = 9.81  # [m/s²]
 Positive = Annotated[float, msgspec.Meta(gt=0)]
@@ -115,7 +116,7 @@ class Bicycle:
         s.vx, s.vy = vx, vy
         s.x += vx * dt
         s.y += vy * dt
-        s.yaw = math.remainder(s.yaw + yaw_rate * dt, math.tau)
+        s.yaw = wrap_angle(s.yaw + yaw_rate * dt)
         s.speed_mps, s.steer_rad, s.yaw_rate = speed, steer, yaw_rate
         if not s.fallen:
             s.lean_rad = lean_angle(speed, yaw_rate, p.max_lean_rad)

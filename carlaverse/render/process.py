@@ -29,9 +29,9 @@ from typing import Any
 
 from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.fabric.session import FabricSettings
-from carlaverse.fabric.stats import percentile
 from carlaverse.render.live import OwnPoseBlock
 from carlaverse.render.rig import RenderConfig
+from carlaverse.support.stats import percentile
 
 log = logging.getLogger(__name__)
 

@@ -27,6 +27,7 @@ import msgspec
 from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import Pose
+from carlaverse.support.stats import percentile
 
 RENDERERS = ("past", "present", "naive")
 Frame = tuple[float, float, float, float]  # now, time shown [s], x, y [m]
@@ -83,14 +84,6 @@ class Metrics:
         return dataclasses.asdict(self)
 
 
-def quantile(values: Sequence[float], q: float) -> float:
-    """Nearest-rank q-quantile (0..1) of `values`; NaN for none."""
-    if not values:
-        return math.nan
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
-
-
 def measure(frames: Sequence[Frame], truth: Truth) -> Metrics:
     """The four figures of one renderer over consecutive `frames` of one actor."""
     shown_err, now_err, lags, jumps = [], [], [], []
@@ -106,10 +99,10 @@ def measure(frames: Sequence[Frame], truth: Truth) -> Metrics:
         previous = (x, y, tn[0], tn[1])
     return Metrics(
         frames=len(frames),
-        shown_p95_m=quantile(shown_err, 0.95),
+        shown_p95_m=percentile(shown_err, 0.95),
         shown_max_m=max(shown_err, default=math.nan),
-        now_p50_m=quantile(now_err, 0.5),
-        now_p95_m=quantile(now_err, 0.95),
+        now_p50_m=percentile(now_err, 0.5),
+        now_p95_m=percentile(now_err, 0.95),
         now_max_m=max(now_err, default=math.nan),
         lag_mean_ms=1e3 * sum(lags) / len(lags) if lags else math.nan,
         jump_max_m=max(jumps, default=math.nan),

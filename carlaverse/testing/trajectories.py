@@ -17,6 +17,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from carlaverse.messages import Pose
+from carlaverse.support.angles import wrap_angle
 
 GRID_S = 0.001  # [s]
 
@@ -48,7 +49,7 @@ class Trajectory:
         yaw, yaw_rate = self._yaw  # type: ignore[attr-defined]
         f = self._lerp
         return Pose(
-            seq, t, f(self.x, t), f(self.y, t), yaw=math.remainder(f(yaw, t), math.tau),
+            seq, t, f(self.x, t), f(self.y, t), yaw=wrap_angle(f(yaw, t)),
             vx=f(vx, t), vy=f(vy, t), wz=f(yaw_rate, t), ax=f(ax, t), ay=f(ay, t),
         )  # fmt: skip
 

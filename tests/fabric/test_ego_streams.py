@@ -11,8 +11,8 @@ from carlaverse_nodes.scripted.trajectories import CirclePath
 from carlaverse import messages as m
 from carlaverse.fabric import ego_streams, world_view
 from carlaverse.fabric.remote_actor import InterpolationSettings, RemoteActor
-from carlaverse.fabric.stats import percentile
 from carlaverse.fabric.world_view import WorldView
+from carlaverse.support.stats import percentile
 
 CIRCLE = CirclePath(radius=30.0, speed_mps=14.0)
 

@@ -13,6 +13,7 @@ from carlaverse_nodes.scripted.trajectories import CirclePath, PolylinePath
 from carlaverse.fabric.remote_actor import InterpolationSettings, Phase, RemoteActor
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
+from carlaverse.support.stats import percentile
 
 CIRCLE = CirclePath(radius=30.0, speed_mps=14.0)
 S = InterpolationSettings()
@@ -53,10 +54,6 @@ def run_stream(
     return errors, actor
 
 
-def p95(values: list[float]) -> float:
-    return values[int(0.95 * (len(values) - 1))]
-
-
 def test_clean_stream_interpolates_a_circle_exactly() -> None:
     errors, actor = run_stream(CIRCLE, 0.0005, 0.0002, 0.0)
     assert errors[-1] < 1e-3  # Hermite with sampled velocities is near-exact on a circle
@@ -65,7 +62,7 @@ def test_clean_stream_interpolates_a_circle_exactly() -> None:
 
 def test_jitter_and_loss_stay_within_ten_centimetres() -> None:
     errors, actor = run_stream(CIRCLE, 0.030, 0.010, 0.05)
-    assert p95(errors) <= 0.10
+    assert percentile(errors, 0.95) <= 0.10
     # the delay grew to cover latency + jitter, within the clamp
     assert 0.05 < actor.delay_s <= S.max_delay_s
 
@@ -74,7 +71,7 @@ def test_corners_are_smoothed_not_teleported() -> None:
     square = PolylinePath(points=[(0, 0), (40, 0), (40, 40), (0, 40)], speed_mps=14.0)
     errors, actor = run_stream(square, 0.02, 0.005, 0.02)
     # velocity jumps at corners: Hermite cuts them by a few cm, never a jump
-    assert p95(errors) < 0.10 and errors[-1] < 0.5
+    assert percentile(errors, 0.95) < 0.10 and errors[-1] < 0.5
     assert actor.snaps == 0
 
 

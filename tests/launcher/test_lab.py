@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from carlaverse import messages as m
-from carlaverse.fabric.stats import StreamSummary
+from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.keys import KeySpaceError
 from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.lab import Lab

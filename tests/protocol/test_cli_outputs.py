@@ -11,7 +11,7 @@ from pathlib import Path
 import msgspec
 
 from carlaverse.authority.service import TickSummary
-from carlaverse.fabric.stats import StreamSummary
+from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.node_runtime import NodeSummary
 from tests.support import Cluster
 

@@ -21,7 +21,7 @@ from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
 from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.session import FabricSettings, open_session
-from carlaverse.fabric.stats import percentile
+from carlaverse.support.stats import percentile
 from carlaverse.testing.linkemu import LinkEmulator, LinkProfile
 from tests.support import Cluster, StallWatch, wait_until
 

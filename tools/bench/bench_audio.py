@@ -33,7 +33,7 @@ from carlaverse.audio.ears import Ears
 from carlaverse.audio.output import SimulatedOutput
 from carlaverse.audio.process import AudioSummary, SceneInbox, _loop
 from carlaverse.audio.renderer import build_renderer
-from carlaverse.fabric.stats import percentile
+from carlaverse.support.stats import percentile
 
 SCENE_HZ = 20.0
 COUNTS = (8, 32, 64)

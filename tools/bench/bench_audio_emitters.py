@@ -32,8 +32,8 @@ from benchdoc import RunInfo, command_line, write_section
 from carlaverse.authority.actors import EgoColumns, EgoNow
 from carlaverse.authority.memory_outbox import MemoryOutbox
 from carlaverse.authority.sound_publisher import SoundPublisher
-from carlaverse.fabric.stats import percentile as pct
 from carlaverse.messages import NPC_DTYPE, MapArea, Weather
+from carlaverse.support.stats import percentile as pct
 from carlaverse.traffic.engine import NpcFrame, kind_code
 from carlaverse.traffic.soundscape import AudioSpec, ConstructionZone, SirenSpec
 

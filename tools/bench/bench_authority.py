@@ -38,6 +38,7 @@ from carlaverse.authority.domain import EgoTrack
 from carlaverse.authority.memory_outbox import MemoryOutbox
 from carlaverse.authority.traffic_domain import TrafficDomain, load_domain
 from carlaverse.messages import EgoInfo, Extent, MapReply, Pose
+from carlaverse.support.stats import percentile as pct
 
 TICK_S = 0.02  # [s] 50 Hz
 EGOS = 16
@@ -178,11 +179,6 @@ def _measure(domain: TrafficDomain, seconds: float, warmup_s: float) -> dict[str
         "bytes_per_s": out.bytes_sent / (t or 1.0),
         "sumo_cpu": sumo_share,
     }
-
-
-def pct(values: list[float], q: float) -> float:
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]
 
 
 def report(results: list[dict[str, Any]]) -> str:

@@ -28,6 +28,7 @@ from carlaverse_nodes.drive.vehicle_loop import DriveLoop
 
 from carlaverse.hal import InputState
 from carlaverse.messages import Override
+from carlaverse.support.stats import percentile
 
 ROOT = Path(__file__).resolve().parents[2]
 CONFIGS = ("drive-desktop", "drive-wheel", "drive-cabin")
@@ -106,8 +107,8 @@ def time_parts(seconds: float) -> dict[str, float]:
 
 
 def pct(values: list[int], q: float) -> float:
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(q * len(ordered)))] / 1000.0
+    """The q-quantile of `values` [ns] in µs."""
+    return percentile(values, q) / 1000.0
 
 
 def report(seconds: float) -> str:

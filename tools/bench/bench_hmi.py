@@ -31,6 +31,7 @@ from typing import Any
 
 from benchdoc import RunInfo, command_line, write_section
 
+from carlaverse.support.stats import percentile
 from carlaverse.testing.chromium import launch_chromium
 
 TARGET_RATE_HZ = 30.0  # the dashboard's floor
@@ -128,17 +129,13 @@ def _combine(figures: list[dict[str, Any]]) -> dict[str, Any]:
         gaps += [b - a for a, b in itertools.pairwise(arrivals)]
     return {
         "rate_hz": min(rates),
-        "gap_p99_ms": _quantile(sorted(gaps), 0.99),
+        "gap_p99_ms": percentile(gaps, 0.99),
         "p50_ms": statistics.median(latencies),
-        "p99_ms": _quantile(latencies, 0.99),
+        "p99_ms": percentile(latencies, 0.99),
         "max_ms": latencies[-1],
         "offset_ms": max(f["bestRttMs"] for f in figures) / 2,
         "frames": len(latencies),
     }
-
-
-def _quantile(ordered: list[float], q: float) -> float:
-    return ordered[min(len(ordered) - 1, round(q * (len(ordered) - 1)))]
 
 
 def _hmi_url(node: subprocess.Popen[str]) -> str:

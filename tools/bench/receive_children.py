@@ -15,7 +15,7 @@ from typing import Any, NamedTuple
 
 from benchdoc import own_cpu_s
 
-from carlaverse.fabric.stats import percentile
+from carlaverse.support.stats import percentile
 
 SESSION = "recv"
 NODE_ID = "listener"

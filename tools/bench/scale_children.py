@@ -15,14 +15,9 @@ from typing import Any
 
 from benchdoc import own_cpu_s
 
+from carlaverse.support.stats import percentile
+
 SESSION = "scale"
-
-
-def percentile(values: list[float], q: float) -> float:
-    if not values:
-        return float("nan")
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, int(q * len(ordered)))]
 
 
 class GcPauses:

@@ -16,8 +16,8 @@ from collections.abc import Callable
 from carlaverse.hal import ffb_packet
 from carlaverse.hal.ffb_packet import FfbPacketError
 from carlaverse.hal.ffb_server.actuator import ForceActuator
-from carlaverse.hal.ratelimit import RateLimitedLog
 from carlaverse.hal.udp_server import WatchdogUdpServer
+from carlaverse.support.ratelog import RateLimitedLog
 
 log = logging.getLogger(__name__)
 

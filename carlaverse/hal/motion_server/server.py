@@ -21,8 +21,8 @@ from carlaverse.hal.motion_packet import (
     MotionPacketReason,
 )
 from carlaverse.hal.motion_server.platform import MotionPlatform
-from carlaverse.hal.ratelimit import RateLimitedLog
 from carlaverse.hal.udp_server import WatchdogUdpServer
+from carlaverse.support.ratelog import RateLimitedLog
 
 log = logging.getLogger(__name__)
 

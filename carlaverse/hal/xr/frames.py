@@ -29,6 +29,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from carlaverse.support.angles import wrap_angle, wrap_degrees
+
 Quaternion = tuple[float, float, float, float]  # (w, x, y, z)
 Matrix = tuple[tuple[float, float, float], ...]
 
@@ -87,7 +89,7 @@ def openxr_to_world(
     c, s = math.cos(stage.yaw), math.sin(stage.yaw)
     return WorldHead(
         stage.x + f * c - lt * s, stage.y + f * s + lt * c, u,
-        _wrap(stage.yaw + yaw_in_stage), pitch, roll,
+        wrap_angle(stage.yaw + yaw_in_stage), pitch, roll,
     )  # fmt: skip
 
 
@@ -125,7 +127,7 @@ class UnrealRotation:
 def _unreal(a: float, b: float, c: float, stage_yaw_deg: float) -> UnrealRotation:
     """Yaw a, roll b, pitch c about OpenXR's +y, +z, +x [rad] as Unreal degrees."""
     return UnrealRotation(
-        pitch=math.degrees(c), yaw=_wrap_deg(stage_yaw_deg - math.degrees(a)),
+        pitch=math.degrees(c), yaw=wrap_degrees(stage_yaw_deg - math.degrees(a)),
         roll=-math.degrees(b),
     )  # fmt: skip
 
@@ -143,11 +145,3 @@ def unreal_rotation(orientation: Quaternion, stage_yaw_deg: float = 0.0) -> Unre
     """The head's rotation as `carla.Rotation` composes it (yaw, pitch, roll): exact."""
     a, c, b = yxz_euler(orientation)
     return _unreal(a, b, c, stage_yaw_deg)
-
-
-def _wrap(angle: float) -> float:
-    return math.atan2(math.sin(angle), math.cos(angle))
-
-
-def _wrap_deg(angle: float) -> float:
-    return (angle + 180.0) % 360.0 - 180.0

@@ -25,6 +25,7 @@ from carlaverse.hal.device import Clock
 from carlaverse.hal.errors import DeviceError
 from carlaverse.hal.xr import XrHeadset
 from carlaverse.hal.xr.sim import yaw_pitch_quaternion
+from carlaverse.support.angles import wrap_angle
 
 
 class MouseLookOptions(StrictStruct):
@@ -56,5 +57,5 @@ class MouseLook(XrHeadset):
             self.pitch += (dy if o.invert_y else -dy) * step  # screen y grows downwards
         limit = math.radians(o.max_pitch_deg)
         self.pitch = max(-limit, min(limit, self.pitch))
-        self.yaw = math.atan2(math.sin(self.yaw), math.cos(self.yaw))
+        self.yaw = wrap_angle(self.yaw)
         return (0.0, o.eye_height_m, 0.0), yaw_pitch_quaternion(self.yaw, self.pitch), True

@@ -13,7 +13,7 @@ import statistics
 from dataclasses import dataclass
 from typing import Any
 
-from carlaverse.fabric.stats import percentile
+from carlaverse.support.stats import percentile
 from peers.registry import LOW_LATENCY, REFERENCE, load
 from peers.zenoh_bare import BareZenoh
 

@@ -16,11 +16,3 @@ class StreamSummary(msgspec.Struct, frozen=True):
     jitter_ms: float
     loss: float  # fraction of sequence numbers never seen
     last_seen_s: float  # [s] age of the newest sample when summarised
-
-
-def percentile(values: list[float], q: float) -> float:
-    """The q-quantile (0..1) by nearest rank; NaN for no values."""
-    if not values:
-        return float("nan")
-    ordered = sorted(values)
-    return ordered[min(len(ordered) - 1, max(0, round(q * (len(ordered) - 1))))]
