@@ -36,7 +36,7 @@ from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.fabric.waiting import POLL_S, SessionWait, WaitNotice
 from carlaverse.messages import Notice
-from carlaverse.security.redact import redact_yaml
+from carlaverse.redact import redact_yaml
 
 log = logging.getLogger(__name__)
 

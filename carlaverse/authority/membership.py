@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from carlaverse.authority.domain import EgoTrack
 from carlaverse.authority.join_check import join_problem
 from carlaverse.messages import EgoInfo, JoinRequest, Pose
-from carlaverse.security.redact import redact_yaml
+from carlaverse.redact import redact_yaml
 
 MAX_NODES = 512  # joined nodes per session; beyond it a join is refused, not stored
 MAX_TOKENS = 4096  # presence tokens remembered; more are not tracked (an id flood)

@@ -19,9 +19,9 @@ from typing import Any
 from carlaverse.cli.common import fail
 from carlaverse.config import ConfigError
 from carlaverse.fabric.session import FabricSettings
+from carlaverse.redact import redact
 from carlaverse.security.acl import site_acl
 from carlaverse.security.certs import CertificateError
-from carlaverse.security.redact import redact
 from carlaverse.security.roster import LoadedRoster, load_roster
 from carlaverse.security.sites import node_fabric_settings, password_files, router_settings_for_site
 from carlaverse.security.zenoh_entries import CredentialError, write_private

@@ -1,4 +1,4 @@
-"""Secrets out of what a recording keeps and what a replay serves (`security.redact`'s rule).
+"""Secrets out of what a recording keeps and what a replay serves (`carlaverse.redact`'s rule).
 
 Nodes redact their own config before joining, but a recording may come from an older node,
 or a forged `authority/configs` reply may carry anything; so the file writer and the replay
@@ -15,7 +15,7 @@ import msgspec
 from carlaverse import messages
 from carlaverse.keys import KeySpaceError, parse
 from carlaverse.recording.encoding import KeyFormat, payload_of
-from carlaverse.security.redact import UNREADABLE, redact, redact_yaml
+from carlaverse.redact import UNREADABLE, redact, redact_yaml
 
 
 def holds_configs(key: str) -> bool:

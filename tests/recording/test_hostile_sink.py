@@ -21,7 +21,7 @@ from carlaverse.recording.admission import Budget, KeyAdmission
 from carlaverse.recording.reading import iter_samples, read_attachments, read_metadata
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.sink import McapSink
-from carlaverse.security.redact import REDACTED
+from carlaverse.redact import REDACTED
 from tests.recording.conftest import GatedSink
 from tests.recording.hostile import hostile_payloads
 from tests.support import wait_until

@@ -21,7 +21,7 @@ from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
 from carlaverse.recording.archive import CONFIG_ATTACHMENT
 from carlaverse.recording.reading import iter_samples, read_attachments, read_metadata
-from carlaverse.security.redact import REDACTED
+from carlaverse.redact import REDACTED
 from carlaverse.security.zenoh_entries import write_private
 from tests.security.lab import SESSION, Lab
 from tests.support import Cluster, Proc, free_port, wait_until

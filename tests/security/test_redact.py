@@ -8,7 +8,7 @@ import yaml
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from carlaverse.security.redact import REDACTED, UNREADABLE, is_secret_name, redact, redact_yaml
+from carlaverse.redact import REDACTED, UNREADABLE, is_secret_name, redact, redact_yaml
 from carlaverse.security.zenoh_entries import tls_entries, usrpwd_entries
 
 PEM = "-----BEGIN PRIVATE KEY-----\nMIIEvQIBADANBg\n-----END PRIVATE KEY-----\n"
