@@ -114,7 +114,7 @@ def _check_rig(path: Path, data: Any, kind: str) -> None:
 
 
 def _check_trainer_table(path: Path, data: Any, kind: str) -> None:
-    from carlaverse.physics.resistance import load_table
+    from carlaverse.hal.trainer.resistance_table import load_table
 
     load_table(path)  # also strictly increasing axes and the table's shape
 

@@ -21,10 +21,11 @@ from carlaverse_nodes.bike.fork_feel import ForkFeel
 from carlaverse_nodes.bike.trainer_command import TrainerCommand, TrainerLimit
 
 from carlaverse.hal.ffb_packet import FfbCommand
+from carlaverse.hal.trainer.resistance_table import ResistanceTable
 from carlaverse.messages import Impulse, Pose
 from carlaverse.physics.bicycle import Bicycle
 from carlaverse.physics.impulse import ImpulseInbox
-from carlaverse.physics.resistance import ResistanceTable, resistance_force
+from carlaverse.physics.resistance import resistance_force
 
 
 @dataclass(slots=True)

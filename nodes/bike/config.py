@@ -31,9 +31,10 @@ from carlaverse.config import StrictStruct, resolve_path
 from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.fabric.session import FabricSettings
 from carlaverse.hal import FfbConfig, InputConfig, SpeedSensorConfig, TrainerConfig
+from carlaverse.hal.trainer.resistance_table import ResistanceTable, load_table
 from carlaverse.messages import Extent
 from carlaverse.physics.bicycle import BicycleParams
-from carlaverse.physics.resistance import ResistanceParams, ResistanceTable, load_table
+from carlaverse.physics.resistance import ResistanceParams
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 DEFAULT_TABLE = "bike-trainer-table.yaml"

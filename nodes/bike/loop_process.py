@@ -18,8 +18,9 @@ from carlaverse_nodes.bike.shared_state import CONTROL, STATE
 from carlaverse_nodes.loop_host import drain
 
 from carlaverse.hal import open_ffb, open_input, open_speed_sensor, open_trainer
+from carlaverse.hal.trainer.resistance_table import ResistanceTable
 from carlaverse.messages import Impulse
-from carlaverse.physics.resistance import ResistanceTable, tailwind
+from carlaverse.physics.resistance import tailwind
 from carlaverse.realtime import Pacer, raise_priority
 from carlaverse.shm import SharedBlock, new_record
 

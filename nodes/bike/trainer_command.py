@@ -40,7 +40,7 @@ from typing import Annotated, Any
 import msgspec
 
 from carlaverse.config import StrictStruct
-from carlaverse.physics.resistance import ResistanceTable
+from carlaverse.hal.trainer.resistance_table import ResistanceTable
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]

@@ -11,7 +11,7 @@ from carlaverse.cli.calibrate import ManualClock
 from carlaverse.hal import open_trainer
 from carlaverse.hal.trainer import ftms_codec as codec
 from carlaverse.hal.trainer.ftms_sim import FlywheelParams, SimFtmsTrainer, brake_force
-from carlaverse.physics.resistance import ResistanceTable, load_table
+from carlaverse.hal.trainer.resistance_table import ResistanceTable, load_table
 
 
 def sim_trainer(**options: object) -> tuple[SimFtmsTrainer, ManualClock]:

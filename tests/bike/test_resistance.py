@@ -10,13 +10,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from carlaverse.config import ConfigError
-from carlaverse.physics.resistance import (
-    ResistanceParams,
-    ResistanceTable,
-    load_table,
-    resistance_force,
-    tailwind,
-)
+from carlaverse.hal.trainer.resistance_table import ResistanceTable, load_table
+from carlaverse.physics.resistance import ResistanceParams, resistance_force, tailwind
 
 P = ResistanceParams(rolling_coefficient=0.004, drag_coefficient=0.9, frontal_area_m2=0.5,
                      air_density_kgm3=1.2)  # fmt: skip

@@ -23,7 +23,7 @@ import numpy as np
 
 from carlaverse.config import StrictStruct
 from carlaverse.hal.trainer.ftms import FtmsTrainer
-from carlaverse.physics.resistance import ResistanceTable
+from carlaverse.hal.trainer.resistance_table import ResistanceTable
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 DriveSpeed = Callable[[float, float], None]  # roller speed [m/s] from now, ramping [m/s²]
