@@ -108,7 +108,7 @@ def load_domain(scenario: str, seed: int | None) -> GlobalDomain:
     if scenario == "none":
         return EmptyDomain()
     try:
-        from carlaverse.traffic import load_domain as load_traffic_domain
+        from carlaverse.authority.traffic_domain import load_domain as load_traffic_domain
     except ModuleNotFoundError as exc:
         raise ConfigError(
             scenario,
