@@ -1,6 +1,8 @@
 """Body pose: a walker's joint angles from a camera, as the paper's Pose Process makes them.
 
-    sources        what a walk node polls: `open_body_source(BodyConfig) -> poll()/close()`
+    skeleton       what a walk node polls (`SkeletonSource`: poll()/close()), its options
+                   (`BodyConfig`) and the Skeleton's joint bytes
+    sources        the shipped sources: `camera_source`, `synthetic_source`
     pose_process   camera + landmarker in a process of their own (the `camera` source)
     landmarker     MediaPipe's pose landmarker → 33 world landmarks
     kinematics     landmarks → body frame → shoulder/hip Euler, elbow/knee hinge, neck

@@ -27,7 +27,7 @@ import msgspec
 from carlaverse import messages as m
 from carlaverse.body.errors import BodyPoseError
 from carlaverse.body.model import require
-from carlaverse.body.sources import BodyConfig, Clock, angles_bytes, visible_joints
+from carlaverse.body.skeleton import BodyConfig, Clock, angles_bytes, visible_joints
 from carlaverse.hal.errors import HalError
 
 log = logging.getLogger(__name__)

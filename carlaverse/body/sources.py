@@ -12,67 +12,28 @@
 inference never stalls the node's loop; `synthetic` poses the sim camera's walker in-process
 and needs neither a camera nor mediapipe. Both stamp `Skeleton.t` with the frame's capture
 time on `time.monotonic()` (the walk node moves it onto session time) and leave `seq` to the
-node. A factory raises ValueError in one line when its source cannot start.
+node. A factory raises ValueError in one line when its source cannot start. What a source is,
+its options and the Skeleton's joint encoding are in `skeleton`.
 """
 
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Mapping
-from typing import Annotated, Any, Literal, Protocol
-
-import msgspec
-import numpy as np
+from collections.abc import Mapping
+from typing import Any
 
 from carlaverse import messages as m
-from carlaverse.body.kinematics import JOINTS, LANDMARK_INDEX, LIMBS, joint_angles
-from carlaverse.config import StrictStruct, convert
+from carlaverse.body.kinematics import joint_angles
+from carlaverse.body.skeleton import (
+    BodyConfig,
+    Clock,
+    SkeletonSource,
+    angles_bytes,
+    visible_joints,
+)
+from carlaverse.config import convert
 from carlaverse.hal.camera import Camera, CameraConfig, registry
 from carlaverse.hal.device import open_device
-
-Clock = Callable[[], float]  # [s]
-JointAngles = Mapping[str, tuple[float, float, float]]
-# The landmarks each joint's angles are computed from; a joint is sent only when all of them
-# are visible enough (a limb out of the picture is guessed by MediaPipe, not seen).
-NECK_LANDMARKS = ("left_ear", "right_ear", "left_eye", "right_eye", "mouth_left", "mouth_right")
-JOINT_LANDMARKS = {"neck": NECK_LANDMARKS} | {
-    joint: limb[2:5] for limb in LIMBS for joint in limb[:2]
-}
-
-
-class BodyConfig(StrictStruct):
-    """`body.options` of a walk node's config, for the `camera` and `synthetic` sources."""
-
-    camera: CameraConfig = msgspec.field(
-        default_factory=lambda: CameraConfig(backend="opencv")
-    )  # which camera, when source is camera
-    model: str | None = None  # pose landmarker .task; default: the one `build-model` made
-    rate_hz: Annotated[float, msgspec.Meta(gt=0, le=120)] = 30.0  # [1/s]
-    min_visibility: Annotated[float, msgspec.Meta(ge=0, le=1)] = 0.5  # per landmark, 0..1
-    start_timeout_s: Annotated[float, msgspec.Meta(gt=0)] = 60.0  # [s] camera + model ready
-    # The CPU the pose process runs on: "last" (of those this process may use), a number, or
-    # "any" (the scheduler moves it). MediaPipe's landmarker is one thread busy most of each
-    # frame; moved between cores it refills its caches, which showed as a long latency tail
-    # (tools/bench/bench_body_pose.py measures both).
-    cpu: Literal["last", "any"] | Annotated[int, msgspec.Meta(ge=0)] = "last"
-
-
-class SkeletonSource(Protocol):
-    def poll(self) -> m.Skeleton | None: ...
-
-    def close(self) -> None: ...
-
-
-def visible_joints(angles: JointAngles, visibility: np.ndarray, minimum: float) -> JointAngles:
-    """The joints whose landmarks are all at least `minimum` visible."""
-    seen = {name for name, i in LANDMARK_INDEX.items() if visibility[i] >= minimum}
-    return {joint: value for joint, value in angles.items() if seen >= set(JOINT_LANDMARKS[joint])}
-
-
-def angles_bytes(angles: JointAngles) -> tuple[list[str], bytes]:
-    """Joint names in `JOINTS` order and their (roll, pitch, yaw) as float32 little-endian."""
-    names = [j for j in JOINTS if j in angles]
-    return names, np.array([angles[j] for j in names], dtype="<f4").reshape(-1).tobytes()
 
 
 class SyntheticBodySource:

@@ -4,26 +4,26 @@
       source: none            # the default: no avatar joints are sent
       options: {}             # the source's own typed options
 
-A source is any object with `poll() -> Skeleton | None` (the newest joints not yet handed out,
-never blocking: a source doing vision runs it in a process of its own) and `close()`. The node
-polls it every step and publishes what it returns on `ego/<id>/skeleton`, giving it the
-node's sequence number and moving its `t` (the source's `time.monotonic()` at capture) onto
-session time. Sources are registered in `SOURCES` as name -> "module:factory", or named
-directly by such an import path (a lab's own source); a factory takes the `options` mapping
-and returns the source (it decodes its options itself, so a typo is an error naming the
-field).
+A source is any `carlaverse.body.skeleton.SkeletonSource`: `poll() -> Skeleton | None` (the
+newest joints not yet handed out, never blocking: a source doing vision runs it in a process of
+its own) and `close()`. The node polls it every step and publishes what it returns on
+`ego/<id>/skeleton`, giving it the node's sequence number and moving its `t` (the source's
+`time.monotonic()` at capture) onto session time. Sources are registered in `SOURCES` as
+name -> "module:factory", or named directly by such an import path (a lab's own source); a
+factory takes the `options` mapping and returns the source (it decodes its options itself, so a
+typo is an error naming the field).
 """
 
 from __future__ import annotations
 
 import importlib
 from collections.abc import Mapping
-from typing import Any, Protocol
+from typing import Any
 
 import msgspec
 
+from carlaverse.body.skeleton import SkeletonSource
 from carlaverse.config import ConfigError, StrictStruct, convert
-from carlaverse.messages import Skeleton
 
 SOURCES: dict[str, str] = {  # name -> "module:factory"; "none" is built in
     "camera": "carlaverse.body.sources:camera_source",  # webcam + MediaPipe (carlaverse.body)
@@ -32,15 +32,9 @@ SOURCES: dict[str, str] = {  # name -> "module:factory"; "none" is built in
 
 
 OPTIONS: dict[str, str] = {  # name -> "module:Type" of its options, checked with the config
-    "camera": "carlaverse.body.sources:BodyConfig",
-    "synthetic": "carlaverse.body.sources:BodyConfig",
+    "camera": "carlaverse.body.skeleton:BodyConfig",
+    "synthetic": "carlaverse.body.skeleton:BodyConfig",
 }
-
-
-class SkeletonSource(Protocol):
-    def poll(self) -> Skeleton | None: ...
-
-    def close(self) -> None: ...
 
 
 class BodySettings(StrictStruct):

@@ -21,13 +21,14 @@ from typing import Any
 import msgspec
 import zenoh
 from carlaverse_nodes.loop_host import LoopHost
-from carlaverse_nodes.walk.body import SkeletonSource, check_body, open_skeleton_source
+from carlaverse_nodes.walk.body import check_body, open_skeleton_source
 from carlaverse_nodes.walk.config import WalkNodeConfig, node_settings
 from carlaverse_nodes.walk.loop_process import WalkLoopSpec, run_walk_loop
 from carlaverse_nodes.walk.shared_state import CONTROL, STATE
 from carlaverse_nodes.walk.walkable import Walkable
 
 from carlaverse import messages as m
+from carlaverse.body.skeleton import SkeletonSource
 from carlaverse.fabric.node_client import NodeClient
 from carlaverse.hal import XrConfig, xr
 from carlaverse.hal.errors import HalError

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from carlaverse.body.pose_process import CameraBodySource
-from carlaverse.body.sources import BodyConfig
+from carlaverse.body.skeleton import BodyConfig
 from carlaverse.hal.camera import CameraConfig
 from carlaverse.hal.device import open_device
 from carlaverse.hal.errors import DeviceError

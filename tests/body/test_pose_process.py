@@ -12,7 +12,8 @@ import pytest
 
 from carlaverse.body.errors import BodyPoseError
 from carlaverse.body.pose_process import CameraBodySource
-from carlaverse.body.sources import BodyConfig, SyntheticBodySource
+from carlaverse.body.skeleton import BodyConfig
+from carlaverse.body.sources import SyntheticBodySource
 from carlaverse.hal.camera import CameraConfig
 from carlaverse.render.live import joint_angles
 from tests.support import wait_until

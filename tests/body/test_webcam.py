@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from carlaverse.body.pose_process import CameraBodySource
-from carlaverse.body.sources import BodyConfig
+from carlaverse.body.skeleton import BodyConfig
 from carlaverse.hal.camera import CameraConfig, registry
 from carlaverse.hal.device import open_device
 from tests.support import wait_until

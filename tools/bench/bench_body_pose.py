@@ -26,7 +26,7 @@ from benchdoc import RunInfo, command_line, write_section
 from carlaverse import messages as m
 from carlaverse.body.model import require
 from carlaverse.body.pose_process import CameraBodySource
-from carlaverse.body.sources import BodyConfig
+from carlaverse.body.skeleton import BodyConfig
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.hal.camera import CameraConfig
 from carlaverse.keys import Keys
