@@ -22,22 +22,33 @@ snaps. Beyond `max_projection_s` without a new sample the actor is held where it
 from __future__ import annotations
 
 import math
-from typing import TYPE_CHECKING
+from typing import Protocol
 
 from carlaverse.dead_reckoning import project
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
 from carlaverse.support.angles import wrap_angle
 
-if TYPE_CHECKING:
-    from carlaverse.fabric.remote_actor import InterpolationSettings
-
 _Vec3 = tuple[float, float, float]
+
+
+class ProjectionSettings(Protocol):
+    """The three of a node's `InterpolationSettings` present mode reads (structural, so this
+    module needs nothing of `remote_actor`, which builds a `Projector` per actor)."""
+
+    @property
+    def max_projection_s(self) -> float: ...  # [s] projected at most this far past a sample
+
+    @property
+    def present_blend_s(self) -> float: ...  # [s] a correction is blended in over this
+
+    @property
+    def snap_distance_m(self) -> float: ...  # [m] a larger disagreement snaps
 
 
 class Projector:
     """The present-mode renderer of one actor. Not thread-safe: one owner."""
 
-    def __init__(self, settings: InterpolationSettings) -> None:
+    def __init__(self, settings: ProjectionSettings) -> None:
         self.s = settings
         self._sample: Pose | None = None
         self._pending = False  # a sample not yet drawn: the next frame starts its blend
