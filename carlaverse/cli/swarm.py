@@ -20,7 +20,7 @@ from carlaverse.cli.common import (
 from carlaverse.config import ConfigError, invalid_at
 from carlaverse.fabric.session import FabricError, FabricUnreachable, open_session
 from carlaverse.keys import KeySpaceError
-from carlaverse.swarm import Swarm, SwarmReport, SwarmSettings
+from carlaverse.swarm.generator import Swarm, SwarmReport, SwarmSettings
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

@@ -12,7 +12,7 @@ from carlaverse.cli import main
 from carlaverse.cli.swarm import add_arguments, settings_from_args
 from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.messages import Pose, decode_pose
-from carlaverse.swarm import Swarm, SwarmSettings
+from carlaverse.swarm.generator import Swarm, SwarmSettings
 from tests.support import Cluster, wait_until
 
 EGOS = 12

@@ -7,7 +7,7 @@ import math
 import numpy as np
 from carlaverse_nodes.scripted.trajectories import PolylinePath
 
-from carlaverse.swarm_paths import MAX_SPEED_MPS, MIN_SPEED_MPS, BlockLoops
+from carlaverse.swarm.paths import MAX_SPEED_MPS, MIN_SPEED_MPS, BlockLoops
 
 
 def test_a_block_loop_is_the_polyline_around_its_corners() -> None:

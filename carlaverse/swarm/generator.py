@@ -5,7 +5,7 @@ participant: one Zenoh session, one publisher per ego key, and one timer for all
 timer divides each pose period into `slots` and sends a slice of the egos in each, so the
 swarm offers a steady stream (as many independent nodes would) rather than one burst of N
 poses every period. Every ego joins, holds its liveliness token and leaves like a real node
-(`carlaverse.swarm_membership`); poses follow loops around city blocks (`swarm_paths`).
+(`membership`); poses follow loops around city blocks (`paths`).
 """
 
 from __future__ import annotations
@@ -25,8 +25,8 @@ from carlaverse.config import StrictStruct
 from carlaverse.fabric.clock import MonotonicClock, SessionClock
 from carlaverse.fabric.interest import TiledPublisher
 from carlaverse.keys import Keys, check_token
-from carlaverse.swarm_membership import SwarmMembership
-from carlaverse.swarm_paths import BlockLoops
+from carlaverse.swarm.membership import SwarmMembership
+from carlaverse.swarm.paths import BlockLoops
 
 log = logging.getLogger(__name__)
 
