@@ -25,8 +25,18 @@ def test_snapshot_parts_hold_all_npcs_lights_and_weather(net_cache: Path) -> Non
         assert npc is out.npcs[-1]
         assert npc.ids == frame.ids and len(npc.ids) >= 40
         rows, step = npc.array(), domain.engine.step_length_s
-        for column in ("kind", "length", "width", "height", "vx", "vy", "lights"):
+        for column in ("kind", "length", "width", "height", "yaw_rate", "lights"):
             assert (rows[column] == frame.rows[column]).all(), column
+        # Dead reckoning at a constant turn rate keeps an NPC's speed and turns its velocity
+        # with its heading (docs/architecture.md, one motion model): the same speed, and the
+        # velocity turned from the step's by the heading turned since (float32 rows).
+        assert np.allclose(np.hypot(rows["vx"], rows["vy"]),
+                           np.hypot(frame.rows["vx"], frame.rows["vy"]), atol=1e-3)  # fmt: skip
+        turned = np.arctan2(rows["vy"], rows["vx"]) - np.arctan2(frame.rows["vy"], frame.rows["vx"])
+        heading = rows["yaw"] - frame.rows["yaw"]
+        moving = np.hypot(frame.rows["vx"], frame.rows["vy"]) > 0.1
+        off = np.angle(np.exp(1j * (turned - heading)))[moving]
+        assert np.abs(off).max() < 1e-3
         # dead-reckoned from the engine's last step to the batch's time: at most half a step
         reach = np.hypot(frame.rows["vx"], frame.rows["vy"]) * step / 2 + 1e-3
         assert (np.hypot(rows["x"] - frame.rows["x"], rows["y"] - frame.rows["y"]) <= reach).all()
