@@ -14,7 +14,7 @@ import yaml
 from carlaverse_nodes.bike.shared_state import STATE
 from playwright.sync_api import Browser, Page
 
-from carlaverse.shm import SharedBlock, block_name
+from carlaverse.shm import BlockReader, block_name
 from tests.browser import save_screenshot
 from tests.hmi.live import LoopRecord, assert_within, node_with_hmi
 from tests.support import wait_until
@@ -43,20 +43,18 @@ def loop_state(tmp_path: Path, chromium: Browser) -> Iterator[tuple[str, LoopRec
 
 
 def _watch(readings: LoopRecord, stop: threading.Event) -> None:
-    block: SharedBlock | None = None
+    # BlockReader, as a viewer reads: a torn read (the loop writing while we copy, more likely
+    # on a loaded host) is counted and skipped. A bare SharedBlock.read raised TornRead here,
+    # which ended this thread silently and left the test waiting for a rider who was pedalling.
+    reader = BlockReader(block_name("t", "bike", "state"), STATE)
     try:
         while not stop.wait(0.01):
-            try:
-                block = block or SharedBlock(block_name("t", "bike", "state"), STATE)
-            except FileNotFoundError:
-                continue  # the node makes it when its loop starts
-            s = block.read()
-            if s["running"]:
+            s = reader.read()
+            if s is not None:
                 names = ("power_w", "cadence_rpm", "grade_percent", "speed_mps")
                 readings.add(float(s["t"]), {name: float(s[name]) for name in names})
     finally:
-        if block is not None:
-            block.close()
+        reader.close()
 
 
 def test_the_bike_page_shows_power_and_cadence_from_the_trainer(
