@@ -649,6 +649,15 @@ class MapLane(msgspec.Struct, frozen=True, array_like=True):
     width: Finite  # [m]
     centerline: list[tuple[Finite, Finite]]  # [m]
     allow: list[str] = []
+    speed: Finite = 0.0  # [m/s] its speed limit (SUMO lane speed); 0 when not known
+    change_left: bool = True  # a car may change from it to the lane on its left (changeLeft)
+    change_right: bool = True  # a car may change from it to the lane on its right (changeRight)
+    opposite: str = ""  # the oncoming lane beyond its left edge that may be used to overtake
+    # What rules a vehicle at the lane's end, from SUMO's junction type and link states: signal |
+    # major | yield | stop | allway_stop | right_before_left | left_before_right | zipper, or ""
+    # for nothing (a dead end, a pedestrian lane); a receiver reads a word it does not know as "".
+    right_of_way: str = ""  # what rules a vehicle at its end (Map lane rules, below)
+    successors: list[str] = []  # the lanes its connections lead to, beyond the junction
 
 
 class MapArea(msgspec.Struct, frozen=True, array_like=True):

@@ -1,9 +1,11 @@
 """The map reply (`authority/map`) built from a SUMO network with sumolib.
 
 Every lane of the network goes in, internal junction lanes included, each with its centre
-line, width and kind (road, sidewalk, bike, crossing, walkingarea, rail); junction shapes and
-polygons (vegetation, water, buildings) become areas — from the map's .poly.xml, or generated
-(`scenery`) when it has none; every traffic light gets a position and, per link index of its
+line, width and kind (road, sidewalk, bike, crossing, walkingarea, rail), its speed limit,
+lane-change and overtaking rules, the right of way at its end and the lanes it leads to
+(`lane_rules`); junction shapes and polygons (vegetation, water, buildings) become areas —
+from the map's .poly.xml, or generated (`scenery`) when it has none; every traffic light
+gets a position and, per link index of its
 state string, the lane that link controls (the crossing itself for pedestrian signals, the
 incoming lane otherwise).
 """
@@ -17,6 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from carlaverse.messages import SCHEMA_VERSION, MapArea, MapLane, MapLight, MapReply
+from carlaverse.traffic.lane_rules import may_change, read_change_rules, right_of_way
 from carlaverse.traffic.scenery import scenery
 from carlaverse.traffic.sumo_tools import SumoMissingError
 
@@ -59,14 +62,17 @@ AREA_WORDS = {
 
 
 def read_net(path: Path) -> Any:
-    """The network as a sumolib object, with internal lanes and pedestrian connections."""
+    """The network as a sumolib object, with internal lanes and pedestrian connections (and
+    the lane-change rules sumolib leaves out, as lane params: `lane_rules`)."""
     try:
         import sumolib
     except ImportError as exc:
         raise SumoMissingError(
             f"sumolib is missing ({exc}); pip install 'carlaverse[authority]'"
         ) from exc
-    return sumolib.net.readNet(str(path), withInternal=True, withPedestrianConnections=True)
+    net = sumolib.net.readNet(str(path), withInternal=True, withPedestrianConnections=True)
+    read_change_rules(path, net)
+    return net
 
 
 def build_map_reply(
@@ -99,6 +105,12 @@ def map_lanes(net: Any) -> list[MapLane]:
                     lane.getWidth(),
                     [(x, y) for x, y, *_ in lane.getShape()],
                     _allow(permissions),
+                    lane.getSpeed(),
+                    may_change(lane, "changeLeft"),
+                    may_change(lane, "changeRight"),
+                    lane.getNeigh() or "",
+                    right_of_way(lane),
+                    [link.getToLane().getID() for link in lane.getOutgoing()],
                 )
             )
     return lanes
