@@ -4,20 +4,31 @@ It sees what a human sees (where the vehicle is, where the road goes, how fast i
 and answers with what a human does (steering-wheel angle, throttle, brake), so the vehicle's
 own physics stays in the loop. Steering follows pure pursuit on the kinematic bicycle:
 δ = atan(2 L sin α / l_d), with α the heading error to the look-ahead point; speed follows a
-proportional controller that brakes to a stop at the end of the path.
+proportional controller that brakes to a stop at the end of the path, and, with
+`corner_accel_mps2`, slows for bends ahead (`speed_plan`). Pure pursuit cuts a bend's corner
+by about l_d²/(2R); with `lookahead_time_s` the look-ahead shrinks with the speed, so a slow
+turn at a junction keeps nearer its lane. A path with `loop_from` never
+ends: after its last waypoint it goes on at that one (0: a closed loop).
+
+`map_lanes` asks the node for a route along the session map's lanes (`traffic.lane_route`):
+the node plans it from its spawn and hands it to the driver (`SimInput.follow`); the
+configured waypoints are then driven only in a session without a map.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from typing import Annotated
+from collections.abc import Iterator
+from typing import Annotated, Literal
 
 import msgspec
 
 from carlaverse.config import StrictStruct
+from carlaverse.hal.input.speed_plan import corner_speeds
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
+MIN_LOOKAHEAD_M = 2.5  # [m] the nearest a speed-scaled look-ahead comes
 
 # The headless nodes' scripted lap: a rounded 120 m × 80 m block starting at the spawn.
 _BLOCK = [(0, 0), (50, 0), (60, 10), (60, 70), (50, 80), (-50, 80), (-60, 70), (-60, 10), (-50, 0)]
@@ -39,6 +50,12 @@ class PathFollow(StrictStruct):
     steer_axis: str = "steer"
     throttle_axis: str = "throttle"
     brake_axis: str = "brake"
+    loop_from: Annotated[int, msgspec.Meta(ge=0)] | None = None  # after the last, go on here
+    corner_accel_mps2: Positive | None = None  # [m/s²] bends no faster than √(a·R); None: off
+    brake_decel_mps2: Positive = 2.5  # [m/s²] slowing planned before a bend
+    map_lanes: Literal["none", "car", "bike"] = "none"  # keep to the map's lanes of this kind
+    route_seed: int | None = None  # the route's turns (None: from the node id)
+    lookahead_time_s: Positive | None = None  # [s] slower: look nearer (v·t, ≥ 2.5 m, ≤ l_d)
 
 
 class VehicleState(msgspec.Struct, frozen=True):
@@ -52,11 +69,20 @@ class PurePursuit:
     """Tracks progress along the path; `controls` maps a vehicle state to pedal and wheel."""
 
     def __init__(self, path: PathFollow) -> None:
+        if path.loop_from is not None and path.loop_from >= len(path.waypoints):
+            raise ValueError(f"loop_from {path.loop_from}: the path has only "
+                             f"{len(path.waypoints)} waypoints")  # fmt: skip
         self.path = path
-        self.index = 0  # nearest waypoint so far; only moves forward
+        self.index = 0  # nearest waypoint so far; only moves forward (round a loop)
         self.arc_m = [0.0]  # [m] path length from the first waypoint to each waypoint
         for a, b in itertools.pairwise(path.waypoints):
             self.arc_m.append(self.arc_m[-1] + math.dist(a, b))
+        self.speed_cap: list[float] | None = None  # [m/s] per waypoint, for the bends
+        if path.corner_accel_mps2 is not None:
+            self.speed_cap = corner_speeds(
+                path.waypoints, path.target_speed_mps, path.corner_accel_mps2,
+                path.brake_decel_mps2, path.loop_from,
+            )  # fmt: skip
 
     def controls(self, state: VehicleState) -> dict[str, float]:
         self._advance(state)
@@ -71,25 +97,49 @@ class PurePursuit:
             self.path.brake_axis: max(0.0, min(1.0, -pedal)),
         }
 
+    def _ahead(self) -> Iterator[int]:
+        """The nearest waypoint's index and those after it along the path, each at most once
+        (round a loop: from `loop_from` on)."""
+        i, last = self.index, len(self.path.waypoints) - 1
+        yield i
+        for _ in range(last):
+            if i < last:
+                i += 1
+            elif self.path.loop_from is not None:
+                i = self.path.loop_from
+            else:
+                return  # the end of an open path
+            yield i
+
     def _advance(self, state: VehicleState) -> None:
         points = self.path.waypoints
-        best = min(
-            range(self.index, min(len(points), self.index + 50)),
+        self.index = min(
+            itertools.islice(self._ahead(), 50),
             key=lambda i: math.hypot(points[i][0] - state.x, points[i][1] - state.y),
         )
-        self.index = best
 
     def _lookahead_point(self, state: VehicleState) -> tuple[float, float]:
         points = self.path.waypoints
-        for point in points[self.index :]:
-            if math.hypot(point[0] - state.x, point[1] - state.y) >= self.path.lookahead_m:
+        reach = self.path.lookahead_m  # [m]
+        if self.path.lookahead_time_s is not None:  # a slow turn cuts its corner less
+            reach = min(reach, max(MIN_LOOKAHEAD_M, abs(state.speed) * self.path.lookahead_time_s))
+        i = self.index
+        for i in self._ahead():
+            point = points[i]
+            if math.hypot(point[0] - state.x, point[1] - state.y) >= reach:
                 return point
-        return points[-1]
+        return points[i]
 
     def _speed_goal(self, state: VehicleState) -> float:
-        """Target speed, ramped down to 0 over the stop distance before the last waypoint."""
+        """Target speed (slowed for bends when asked), ramped down to 0 over the stop distance
+        before the last waypoint of an open path."""
+        goal = self.path.target_speed_mps
+        if self.speed_cap is not None:
+            goal = self.speed_cap[self.index]
+        if self.path.loop_from is not None:
+            return goal
         nearest = self.path.waypoints[self.index]
         to_nearest = math.hypot(nearest[0] - state.x, nearest[1] - state.y)
         remaining = self.arc_m[-1] - self.arc_m[self.index] + to_nearest  # [m]
         fraction = min(1.0, remaining / self.path.stop_distance_m)
-        return self.path.target_speed_mps * fraction
+        return min(goal, self.path.target_speed_mps * fraction)

@@ -5,7 +5,8 @@ Three modes, chosen by `mode`:
 - `random_walk`: each axis is seeded mean-reverting noise around its mean (a stress driver);
 - `path`: a pure-pursuit driver steers along waypoints and holds a target speed; the node
   feeds it the vehicle state with `observe()` each tick, so the node's own physics stays in
-  the loop, as with a human.
+  the loop, as with a human. A node may hand it another route (`follow`: one it planned
+  along the map's lanes) or have it wait, braking, for one (`hold`).
 Given the same options, seed and clock readings, the output is identical.
 
     input:
@@ -59,6 +60,12 @@ def check_options(options: SimInputOptions) -> None:
     where = "input.options (backend 'sim')"
     if options.mode == "path" and options.path is None:
         raise ConfigError(where, "mode 'path' needs a `path:` block with waypoints")
+    path = options.path
+    if path is not None and path.loop_from is not None and path.loop_from >= len(path.waypoints):
+        raise ConfigError(
+            where, f"path.loop_from {path.loop_from} is past the last of the "
+            f"{len(path.waypoints)} waypoints (the first is 0)",
+        )  # fmt: skip
     for i, keyframe in enumerate(options.profile):
         unknown = (set(keyframe.axes) - set(options.axes)) | (
             set(keyframe.buttons) - set(options.buttons)
@@ -87,6 +94,24 @@ class SimInput(InputDevice):
         )
         self.driver = PurePursuit(options.path) if options.path else None
         self.vehicle: VehicleState | None = None
+        self.holding = False  # braking until `follow` hands a route
+
+    def follow(
+        self, waypoints: list[tuple[float, float]] | None, loop_from: int | None = None
+    ) -> None:
+        """Drive `waypoints` [m] from now (after the last, go on at `loop_from`); None: the
+        configured path again. Only a `path` driver takes a route; other modes ignore it."""
+        self.holding = False
+        path = self.options.path
+        if path is None or self.options.mode != "path":
+            return
+        if waypoints is not None:
+            path = msgspec.structs.replace(path, waypoints=waypoints, loop_from=loop_from)
+        self.driver = PurePursuit(path)
+
+    def hold(self) -> None:
+        """Brake, wheel straight, until `follow` (the node is fetching the route)."""
+        self.holding = True
 
     def observe(self, x: float, y: float, yaw: float, speed: float) -> None:
         """Tell the path driver where the vehicle is [m, m, rad, m/s]."""
@@ -111,6 +136,8 @@ class SimInput(InputDevice):
         return dict(zip(self.options.axes, self.noise.at(t).tolist(), strict=True))
 
     def _path(self) -> Axes:
+        if self.holding and self.driver is not None:
+            return {self.driver.path.brake_axis: 1.0}
         if self.driver is None or self.vehicle is None:
             return {}  # no state yet: hands off, feet off
         return self.driver.controls(self.vehicle)
