@@ -119,6 +119,14 @@ class LoopHost:
 
         return source
 
+    def _loop_pose(self) -> tuple[float, float, float] | None:
+        """The loop's x, y [m] and yaw [rad] now (None before its first tick, or closed)."""
+        with self._state_lock:
+            if self._state is None:
+                return None
+            s = self._state.read_latest()
+        return (float(s["x"]), float(s["y"]), float(s["yaw"])) if s["running"] else None
+
     def _pose_extras(self, s: Any) -> dict[str, float]:
         """Pose fields beyond the plane the loop reports too (a bike's lean, a car's yaw rate);
         none for a walker: the body stands upright, the head's pitch stays local."""

@@ -16,6 +16,7 @@ from carlaverse_nodes.bike.bike_loop import BikeLoop, BikeOutput
 from carlaverse_nodes.bike.config import BikeNodeConfig
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
 from carlaverse_nodes.loop_host import drain
+from carlaverse_nodes.map_route import DriverRoute
 
 from carlaverse.hal import open_ffb, open_input, open_speed_sensor, open_trainer
 from carlaverse.hal.trainer.resistance_table import ResistanceTable
@@ -125,6 +126,8 @@ class BikeRunner:
         for event in drain(self.events):
             if isinstance(event, Impulse):
                 self.pending.append(event)
+            elif isinstance(event, DriverRoute):  # the scripted rider's, along the map
+                event.apply([self.input])
 
     def _read_control(self) -> None:
         c = self.control.read_latest()

@@ -5,7 +5,8 @@ This process owns the fabric; the physics + haptics loop runs in a child process
 node's step forwards impulses to the loop's queue and hands it the clock offset, the spawn
 pose, the authority's wind, and the road's grade under the bike (looked up here, at the
 step rate, in the scenario's `grades:`; the node config's `road.grade_percent` where the
-scenario says nothing).
+scenario says nothing). A scripted rider that keeps to the map's lanes (`--backend sim`) gets
+its route along them on the loop's queue (`map_route`).
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ from carlaverse_nodes.bike.loop_process import BikeLoopSpec, run_bike_loop
 from carlaverse_nodes.bike.road_grade import RoadGrade
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
 from carlaverse_nodes.loop_host import LoopHost
+from carlaverse_nodes.map_route import MapRoute, map_lanes
 
 from carlaverse import messages as m
 from carlaverse.config import ConfigError
@@ -45,14 +47,17 @@ class BikeNode(LoopHost):
         self._grades: RoadGrade | None = None  # the scenario's, once fetched
         self._grades_join = 0  # the join whose scenario was asked for
         self._hmi: BikeHmiBridge | None = None
+        self._route: MapRoute | None = None  # the scripted rider's, along the map's lanes
 
     @classmethod
     def with_backend(cls, config: BikeNodeConfig, backend: str) -> BikeNodeConfig:
-        """Every device simulated: a rider on the simulated FTMS trainer laps a block."""
+        """Every device simulated: a rider on the simulated FTMS trainer keeps to the map's
+        bike lanes or the right edge of its roads, and laps a block where there is no map."""
         if backend != "sim":
             raise ValueError(f"--backend {backend!r}: the bike node can force only 'sim'")
         route = {"waypoints": scripted_route(), "wheelbase_m": config.bicycle.wheelbase_m,
-                 "max_steer_rad": config.bicycle.max_steer_rad, "lookahead_m": 5.0}  # fmt: skip
+                 "max_steer_rad": config.bicycle.max_steer_rad, "lookahead_m": 5.0,
+                 "map_lanes": "bike"}  # fmt: skip
         rider = InputConfig(backend="sim", options={"axes": ["steer"], "mode": "path",
                                                      "path": route})  # fmt: skip
         return msgspec.structs.replace(
@@ -66,6 +71,9 @@ class BikeNode(LoopHost):
         self._start_loop(
             session, node_id, run_bike_loop, spec, clock_offset=offset, grade_percent=grade
         )
+        lanes = map_lanes(self.config.input)
+        if lanes is not None:
+            self._route = MapRoute(*lanes, self._events)
 
     def hmi_bridge(self) -> BikeHmiBridge:
         """The web HMI's view of this bike (carlaverse join bike --hmi PORT)."""
@@ -79,6 +87,8 @@ class BikeNode(LoopHost):
         weather = client.world.weather
         wind = (weather.wind_speed_mps, weather.wind_direction_deg) if weather else (0.0, 0.0)
         self._tend_loop(client, wind_speed_mps=wind[0], wind_from_deg=wind[1])
+        if self._route is not None:
+            self._route.tend(client, self._loop_pose)
         if self._hmi is not None:
             self._hmi.clock_offset = client.clock.offset
         self._follow_grade(client)
@@ -119,5 +129,6 @@ class BikeNode(LoopHost):
 
     def report(self) -> dict[str, Any]:
         areas = len(self._grades.tilts) if self._grades is not None else None
+        route = self._route.report() if self._route is not None else None
         return {"loop": self._loop_summary, "events_forwarded": self._forwarded,
-                "scenario_grade_areas": areas}  # fmt: skip
+                "scenario_grade_areas": areas, "map_route": route}  # fmt: skip

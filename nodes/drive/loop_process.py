@@ -23,6 +23,7 @@ from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 from carlaverse_nodes.drive.touch import TouchButtons, TouchPress
 from carlaverse_nodes.drive.vehicle_loop import DriveLoop, LoopOutput
 from carlaverse_nodes.loop_host import drain
+from carlaverse_nodes.map_route import DriverRoute
 
 from carlaverse.hal import FfbCommand, MotionFrame, open_ffb, open_input, open_motion
 from carlaverse.messages import Impulse, Override
@@ -165,6 +166,8 @@ class _Runner:
             elif isinstance(event, RoadSurface):  # the scenario's, once per join
                 self.loop.set_surface(event)
                 self.surface_features = event.feature_count()
+            elif isinstance(event, DriverRoute):  # the scripted driver's, along the map
+                event.apply(self.inputs)
 
     def _read_control(self) -> None:
         c = self.control.read_latest()

@@ -5,7 +5,8 @@ The pose publisher reads the loop's shared state at the pose rate; the node's st
 impulses and overrides to the loop's queue, hands it the session-clock offset and the spawn
 pose, and publishes the ego state when lights, indicator, gear or ADAS change. On each join
 it asks the authority for its scenario and hands the loop the `surface:` block (roughness,
-speed bumps, kerbs, potholes) on the same queue.
+speed bumps, kerbs, potholes) on the same queue. A scripted driver that keeps to the map's
+lanes (`--backend sim`) gets its route along them the same way (`map_route`).
 """
 
 from __future__ import annotations
@@ -16,11 +17,17 @@ import threading
 from typing import Any
 
 import msgspec
-from carlaverse_nodes.drive.config import DriveNodeConfig, node_settings, resolve_vehicle
+from carlaverse_nodes.drive.config import (
+    DriveNodeConfig,
+    input_configs,
+    node_settings,
+    resolve_vehicle,
+)
 from carlaverse_nodes.drive.hmi_bridge import DriveHmiBridge
 from carlaverse_nodes.drive.loop_process import LoopSpec, run_loop
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 from carlaverse_nodes.loop_host import LoopHost
+from carlaverse_nodes.map_route import MapRoute, map_lanes
 
 from carlaverse import messages as m
 from carlaverse.config import ConfigError
@@ -47,10 +54,12 @@ class DriveNode(LoopHost):
         self._forwarded = 0
         self._hmi: DriveHmiBridge | None = None
         self._surface_join = 0  # the join whose scenario was asked for
+        self._route: MapRoute | None = None  # the scripted driver's, along the map's lanes
 
     @classmethod
     def with_backend(cls, config: DriveNodeConfig, backend: str) -> DriveNodeConfig:
-        """Every device on `backend`; for `sim`, a scripted driver laps a block."""
+        """Every device on `backend`; for `sim`, a scripted driver keeps to the map's car
+        lanes, slowing for bends (3 m/s² sideways), and laps a block where there is no map."""
         if backend != "sim":
             raise ValueError(f"--backend {backend!r}: the drive node can force only 'sim'")
         route = {
@@ -58,6 +67,9 @@ class DriveNode(LoopHost):
             "target_speed_mps": 12.0,
             "wheelbase_m": self_wheelbase(config),
             "max_steer_rad": 0.593,
+            "corner_accel_mps2": 3.0,
+            "lookahead_time_s": 0.8,
+            "map_lanes": "car",
         }
         driver = InputConfig(backend="sim", options={"mode": "path", "path": route})
         return msgspec.structs.replace(
@@ -70,6 +82,9 @@ class DriveNode(LoopHost):
         """Create the shared blocks and start the control process."""
         spec = functools.partial(LoopSpec, self.config, self.vehicle)
         self._start_loop(session, node_id, run_loop, spec, clock_offset=offset)
+        lanes = next(filter(None, map(map_lanes, input_configs(self.config))), None)
+        if lanes is not None:
+            self._route = MapRoute(*lanes, self._events)
 
     def hmi_bridge(self) -> DriveHmiBridge:
         """The web HMI's view of this car (carlaverse join drive --hmi PORT)."""
@@ -81,6 +96,8 @@ class DriveNode(LoopHost):
 
     def step(self, client: NodeClient, now: float) -> None:
         self._tend_loop(client)
+        if self._route is not None:
+            self._route.tend(client, self._loop_pose)
         self._follow_surface(client)
         assert self._state is not None
         self._forwarded += self._forward(client.impulses) + self._forward(client.overrides)
@@ -133,7 +150,9 @@ class DriveNode(LoopHost):
         self._stop_loop()
 
     def report(self) -> dict[str, Any]:
-        return {"loop": self._loop_summary, "events_forwarded": self._forwarded}
+        route = self._route.report() if self._route is not None else None
+        return {"loop": self._loop_summary, "events_forwarded": self._forwarded,
+                "map_route": route}  # fmt: skip
 
 
 def self_wheelbase(config: DriveNodeConfig) -> float:
