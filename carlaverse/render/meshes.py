@@ -1,8 +1,13 @@
-"""Building triangle meshes: ribbons along centre lines, filled polygons, prisms and boxes.
+"""Building triangle meshes: ribbons along centre lines, filled polygons, prisms, boxes, spheres.
 
 One `MeshBuilder` collects many shapes into one Panda3D Geom with per-vertex colours and
 normals, so a whole map layer is one draw call rather than thousands. Coordinates are the
 world frame (x east, y north, z up) [m]; colours are (r, g, b, a) in 0..1.
+
+A builder given a texture also writes texture coordinates: by default the vertex's (x, y)
+in metres divided by the metres one repeat covers (`tile_m`), so that ground surfaces of any
+shape share one seamless, true-to-scale pattern; walls pass their own (`uvs`). Further
+textures on the same coordinates go on named stages (`add_texture`).
 """
 
 from __future__ import annotations
@@ -18,6 +23,11 @@ from panda3d.core import (
     GeomVertexData,
     GeomVertexFormat,
     GeomVertexWriter,
+    RenderAttrib,
+    RenderState,
+    Texture,
+    TextureAttrib,
+    TextureStage,
     Triangulator,
 )
 
@@ -34,12 +44,22 @@ MAX_SEGMENT_M = 5.0
 class MeshBuilder:
     """Accumulates triangles; `node()` turns them into one GeomNode."""
 
-    def __init__(self, name: str) -> None:
+    def __init__(
+        self, name: str, texture: Texture | None = None, tile_m: tuple[float, float] = (1.0, 1.0)
+    ) -> None:
         self.name = name
-        self._data = GeomVertexData(name, GeomVertexFormat.get_v3n3c4(), Geom.UH_static)
+        textured = texture is not None
+        fmt = GeomVertexFormat.get_v3n3c4t2() if textured else GeomVertexFormat.get_v3n3c4()
+        self._data = GeomVertexData(name, fmt, Geom.UH_static)
         self._vertex = GeomVertexWriter(self._data, "vertex")
         self._normal = GeomVertexWriter(self._data, "normal")
         self._color = GeomVertexWriter(self._data, "color")
+        self._uv = GeomVertexWriter(self._data, "texcoord") if textured else None
+        self._tile_m = tile_m
+        self._stages: list[tuple[TextureStage, Texture]] = []
+        self._attribs: list[RenderAttrib] = []
+        if texture is not None:
+            self._stages.append((TextureStage.get_default(), texture))
         self._tris = GeomTriangles(Geom.UH_static)
         self._count = 0
 
@@ -47,19 +67,64 @@ class MeshBuilder:
     def empty(self) -> bool:
         return self._count == 0
 
-    def _add(self, p: Point3, n: Point3, c: Color) -> int:
+    @property
+    def triangles(self) -> int:
+        return self._tris.get_num_vertices() // 3
+
+    def add_attrib(self, attrib: RenderAttrib) -> None:
+        """A render attribute of the whole mesh (transparency, say)."""
+        self._attribs.append(attrib)
+
+    def add_texture(self, stage: TextureStage, texture: Texture) -> None:
+        """Another texture on the same coordinates (a textured builder only)."""
+        if self._uv is None:
+            raise ValueError(f"mesh {self.name!r} has no texture coordinates for {stage.name!r}")
+        self._stages.append((stage, texture))
+
+    def _add(self, p: Point3, n: Point3, c: Color, uv: Point2 | None = None) -> int:
         self._vertex.add_data3(*p)
         self._normal.add_data3(*n)
         self._color.add_data4(*c)
+        if self._uv is not None:
+            if uv is None:  # ground: metres east and north, one repeat per tile
+                uv = (p[0] / self._tile_m[0], p[1] / self._tile_m[1])
+            self._uv.add_data2(*uv)
         self._count += 1
         return self._count - 1
 
-    def quad(self, a: Point3, b: Point3, c: Point3, d: Point3, color: Color) -> None:
-        """A flat quad a-b-c-d, counter-clockwise seen from its front."""
+    def quad(self, a: Point3, b: Point3, c: Point3, d: Point3, color: Color,
+             uvs: Sequence[Point2] | None = None) -> None:  # fmt: skip
+        """A flat quad a-b-c-d, counter-clockwise seen from its front (`uvs`: its corners')."""
         n = _normal(a, b, c)
-        i = [self._add(p, n, color) for p in (a, b, c, d)]
+        corners = uvs if uvs is not None else (None, None, None, None)
+        i = [self._add(p, n, color, uv) for p, uv in zip((a, b, c, d), corners, strict=True)]
         self._tris.add_vertices(i[0], i[1], i[2])
         self._tris.add_vertices(i[0], i[2], i[3])
+
+    def wall(self, a: Point2, b: Point2, z0: float, z1: float, color: Color,
+             u0: float = 0.0) -> None:  # fmt: skip
+        """A vertical quad from a to b (facing right of a→b), z0..z1; texture coordinates
+        in metres along the wall (from `u0`) and up, divided by the tile."""
+        length = math.dist(a, b)
+        tu, tv = self._tile_m
+        uvs = [(u0 / tu, z0 / tv), ((u0 + length) / tu, z0 / tv),
+               ((u0 + length) / tu, z1 / tv), (u0 / tu, z1 / tv)]  # fmt: skip
+        self.quad((*a, z0), (*b, z0), (*b, z1), (*a, z1), color, uvs)
+
+    def sphere(self, center: Point3, radii: Point3, color: Color,
+               bumps: Sequence[float] | None = None, subdivisions: int = 1) -> None:  # fmt: skip
+        """An ellipsoid from a subdivided icosahedron, smooth-shaded. `bumps` scales each
+        vertex's radius (one factor per vertex, `icosphere_size(subdivisions)` of them), so a
+        tree crown can be lumpy; its normals stay those of the sphere, which reads as foliage."""
+        points, faces = icosphere(subdivisions)
+        cx, cy, cz = center
+        base = self._count
+        for k, (x, y, z) in enumerate(points):
+            f = bumps[k] if bumps is not None else 1.0
+            self._add((cx + radii[0] * x * f, cy + radii[1] * y * f, cz + radii[2] * z * f),
+                      (x, y, z), color)  # fmt: skip
+        for a, b, c in faces:
+            self._tris.add_vertices(base + a, base + b, base + c)
 
     def ribbon(self, line: Sequence[Point2], width: float, z: float, color: Color) -> None:
         """A flat strip `width` wide centred on a polyline, facing up."""
@@ -68,6 +133,22 @@ class MeshBuilder:
         right = offset_line(line, -width / 2)
         for k in range(len(line) - 1):
             self.quad((*right[k], z), (*right[k + 1], z), (*left[k + 1], z), (*left[k], z), color)
+
+    def strip(self, line: Sequence[Point2], width: float, z: float, color: Color) -> None:
+        """A ribbon whose texture runs along it: u is the distance along the line, v across
+        (both in metres over the tile), for kerb stones and paint that follow a curve."""
+        line = densify(line, MAX_SEGMENT_M)
+        left = offset_line(line, width / 2)
+        right = offset_line(line, -width / 2)
+        tu, tv = self._tile_m
+        walked = 0.0
+        for k in range(len(line) - 1):
+            step = math.dist(line[k], line[k + 1])
+            u0, u1, v1 = walked / tu, (walked + step) / tu, width / tv
+            uvs = [(u0, 0.0), (u1, 0.0), (u1, v1), (u0, v1)]
+            self.quad((*right[k], z), (*right[k + 1], z), (*left[k + 1], z), (*left[k], z), color,
+                      uvs)  # fmt: skip
+            walked += step
 
     def grid(self, bounds: tuple[float, float, float, float], z: float, color: Color,
              cells: int) -> None:  # fmt: skip
@@ -146,8 +227,56 @@ class MeshBuilder:
         geom = Geom(self._data)
         geom.add_primitive(self._tris)
         node = GeomNode(self.name)
-        node.add_geom(geom)
+        state = RenderState.make_empty()
+        if self._stages:
+            attrib = TextureAttrib.make()
+            for stage, texture in self._stages:
+                attrib = attrib.add_on_stage(stage, texture)
+            state = RenderState.make(attrib)
+        for extra in self._attribs:
+            state = state.add_attrib(extra)
+        node.add_geom(geom, state)
         return node
+
+
+def icosphere_size(subdivisions: int) -> int:
+    """The number of vertices of `icosphere(subdivisions)`."""
+    return 10 * 4**subdivisions + 2
+
+
+def icosphere(subdivisions: int) -> tuple[list[Point3], list[tuple[int, int, int]]]:
+    """Unit-sphere vertices and counter-clockwise (from outside) faces of a subdivided
+    icosahedron: 20 × 4^subdivisions triangles of nearly equal size."""
+    t = (1 + math.sqrt(5)) / 2
+    raw = [(-1, t, 0), (1, t, 0), (-1, -t, 0), (1, -t, 0), (0, -1, t), (0, 1, t),
+           (0, -1, -t), (0, 1, -t), (t, 0, -1), (t, 0, 1), (-t, 0, -1), (-t, 0, 1)]  # fmt: skip
+    points = [_unit(p) for p in raw]
+    faces = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4),
+             (11, 10, 2), (10, 7, 6), (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8),
+             (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10), (8, 6, 7), (9, 8, 1)]  # fmt: skip
+    for _ in range(subdivisions):
+        middle: dict[tuple[int, int], int] = {}
+        finer = []
+        for a, b, c in faces:
+            ab, bc, ca = (_midpoint(points, middle, u, v) for u, v in ((a, b), (b, c), (c, a)))
+            finer += [(a, ab, ca), (b, bc, ab), (c, ca, bc), (ab, bc, ca)]
+        faces = finer
+    return points, faces
+
+
+def _midpoint(points: list[Point3], middle: dict[tuple[int, int], int], a: int, b: int) -> int:
+    """The index of the unit-sphere point halfway between points a and b (made once per edge)."""
+    key = (min(a, b), max(a, b))
+    if key not in middle:
+        pa, pb = points[a], points[b]
+        points.append(_unit(((pa[0] + pb[0]) / 2, (pa[1] + pb[1]) / 2, (pa[2] + pb[2]) / 2)))
+        middle[key] = len(points) - 1
+    return middle[key]
+
+
+def _unit(p: tuple[float, float, float]) -> Point3:
+    length = math.sqrt(p[0] ** 2 + p[1] ** 2 + p[2] ** 2)
+    return (p[0] / length, p[1] / length, p[2] / length)
 
 
 # ----------------------------------------------------------------- 2D helpers

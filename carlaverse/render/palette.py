@@ -19,6 +19,26 @@ TREE_CROWN: Color = (0.16, 0.38, 0.16, 1.0)
 WATER: Color = (0.18, 0.33, 0.52, 1.0)
 BUILDING: Color = (0.70, 0.66, 0.60, 1.0)
 POLE: Color = (0.25, 0.25, 0.27, 1.0)
+KERB: Color = (0.70, 0.69, 0.66, 1.0)
+ROOF: Color = (0.30, 0.29, 0.29, 1.0)
+# Facade plaster colours, one per building (its id picks): white, cream, sand, ochre, brick
+# red, grey, pale green.
+FACADES: tuple[Color, ...] = (
+    (0.92, 0.91, 0.88, 1.0),
+    (0.93, 0.87, 0.74, 1.0),
+    (0.84, 0.76, 0.62, 1.0),
+    (0.86, 0.70, 0.46, 1.0),
+    (0.72, 0.42, 0.32, 1.0),
+    (0.70, 0.70, 0.70, 1.0),
+    (0.78, 0.84, 0.74, 1.0),
+)
+TREE_CROWNS: tuple[Color, ...] = (  # greens of different species
+    (0.16, 0.38, 0.16, 1.0),
+    (0.22, 0.42, 0.14, 1.0),
+    (0.12, 0.32, 0.15, 1.0),
+    (0.28, 0.45, 0.18, 1.0),
+)
+SIGN_POLE: Color = (0.62, 0.63, 0.65, 1.0)  # galvanised steel
 HOUSING: Color = (0.08, 0.08, 0.09, 1.0)
 
 LANE_COLORS: dict[str, Color] = {

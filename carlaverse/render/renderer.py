@@ -4,9 +4,9 @@
     renderer.draw(frame, follow="car-1")             # or eye=Eye(...) for a free camera
     images = renderer.camera_images()                # one (h, w, 3) array per camera
 
-The scene is in rooms: `scene_roads` and `scene_areas` build the static map meshes,
-`traffic_lights` the signal heads, `actors` the moving layer, `weather` light and fog,
-`cameras` the rig, `graphics` the engine and its outputs.
+The scene is in rooms: `scene_static` builds the static map meshes (roads, paint, land,
+buildings, trees, signs), `traffic_lights` the signal heads, `actors` the moving layer,
+`weather` light and fog, `cameras` the rig, `graphics` the engine and its outputs.
 """
 
 from __future__ import annotations
@@ -19,10 +19,8 @@ from carlaverse.render.actors import ActorLayer
 from carlaverse.render.cameras import CameraRig, Eye, overview_eye
 from carlaverse.render.frame import ActorDraw, SceneFrame
 from carlaverse.render.graphics import Graphics
-from carlaverse.render.meshes import MeshBuilder
 from carlaverse.render.rig import RenderConfig, RigLayout, layout
-from carlaverse.render.scene_areas import build_areas, build_ground
-from carlaverse.render.scene_roads import build_lanes, stop_line
+from carlaverse.render.scene_static import build_static
 from carlaverse.render.traffic_lights import TrafficLightLayer
 from carlaverse.render.weather import WeatherLayer
 
@@ -56,14 +54,8 @@ class Renderer:
         """Static meshes, flattened: the whole map costs a handful of draw calls."""
         static = self.world.attach_new_node("map")
         road = static.attach_new_node("road")  # kept apart: wetness darkens it alone
-        meshes = [build_ground(self.bounds)]
-        road_meshes: list[MeshBuilder] = []
-        if road_map is not None:
-            junctions = [a for a in road_map.areas if a.kind == "junction"]
-            road_meshes = [build_areas(junctions), build_lanes(road_map.lanes)]
-            road_meshes.append(_stop_lines(road_map))
-            meshes.append(build_areas([a for a in road_map.areas if a.kind != "junction"]))
-        for parent, group in ((static, meshes), (road, road_meshes)):
+        scene = build_static(road_map, self.bounds)
+        for parent, group in ((static, scene.land), (road, scene.road)):
             for mesh in group:
                 if not mesh.empty:
                     parent.attach_new_node(mesh.node())
@@ -122,14 +114,3 @@ class Renderer:
 
 def actor_eye(actor: ActorDraw) -> Eye:
     return Eye(actor.x, actor.y, actor.z, actor.yaw, actor.pitch, actor.roll)
-
-
-def _stop_lines(road_map: MapReply) -> MeshBuilder:
-    lanes = {lane.id: lane for lane in road_map.lanes}
-    mesh = MeshBuilder("stop_lines")
-    controlled = {lane_id for light in road_map.lights for lane_id in light.controlled_lanes}
-    for lane_id in sorted(controlled):
-        lane = lanes.get(lane_id)
-        if lane is not None and lane.kind in ("road", "bike") and len(lane.centerline) >= 2:
-            stop_line(mesh, lane)
-    return mesh

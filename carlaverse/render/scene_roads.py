@@ -1,86 +1,123 @@
-"""Road surfaces from the map's lanes: lanes with markings, sidewalks, bike lanes, crossings.
+"""Road surfaces from the map's lanes: asphalt, sidewalks with kerbs, bike lanes, junctions.
 
-Lane markings follow SUMO's lane numbering (`<edge>_<index>`, index 0 rightmost): a lane's
-right edge is a solid line when it is the edge's rightmost lane, and its left edge is dashed
-when the edge has a lane further left, solid otherwise. Internal junction lanes (ids that
-start with ':') carry no markings, as on real junctions. Crossings are zebra stripes: white
-bars the crossing's full width, alternating along the walking direction.
+Three meshes, one texture each (a draw call each once flattened): asphalt under every lane a
+vehicle uses, the junctions and the crossings (bike lanes and rails tinted); paving for
+sidewalks and walking areas, which stand a kerb's height above the road; and kerb stones —
+the vertical face where a sidewalk meets the road (its lane on the left in SUMO's numbering,
+`<edge>_<index>`, index 0 rightmost) and around walking areas, and a strip of kerb on top.
+A sidewalk's outer side has no face: the land beside it is taken to be level with it.
+The paint on top is `scene_markings`.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import itertools
+import math
+from collections.abc import Sequence
 
-from carlaverse.messages import MapLane
+from carlaverse.messages import MapArea, MapLane
 from carlaverse.patterns import is_ascii_decimal
 from carlaverse.render import palette
-from carlaverse.render.meshes import MeshBuilder, dashes, offset_line
+from carlaverse.render.meshes import MeshBuilder, Point2, offset_line, open_outline, polygon_area
+from carlaverse.render.textures import TextureSet
 
-LINE_WIDTH_M = 0.12  # [m] a lane marking
-DASH_ON_M, DASH_OFF_M = 3.0, 6.0  # [m] lane-divider dashes (urban, as in Germany's StVO)
-ZEBRA_ON_M, ZEBRA_OFF_M = 0.5, 0.5  # [m] zebra bars and gaps along the walking direction
-STOP_LINE_M = 0.30  # [m] the stop line's depth
+KERB_TOP_M = 0.15  # [m] the kerb stone's width seen from above
+PEDESTRIAN_KINDS = ("sidewalk", "walkingarea")
+VEHICLE_KINDS = ("road", "bike", "rail")
 
 
-def build_lanes(lanes: Iterable[MapLane]) -> MeshBuilder:
-    """All lane surfaces and their markings, as one mesh."""
+def build_roads(
+    lanes: Sequence[MapLane], junctions: Sequence[MapArea], tex: TextureSet
+) -> list[MeshBuilder]:
+    """Asphalt, paving and kerbs of every lane and junction."""
     lanes = [lane for lane in lanes if len(lane.centerline) >= 2 and lane.width > 0]
-    indices = _lane_indices(lanes)
-    mesh = MeshBuilder("lanes")
+    asphalt = MeshBuilder("asphalt", tex.asphalt.texture, tex.asphalt.tile_m)
+    paving = MeshBuilder("paving", tex.paving.texture, tex.paving.tile_m)
+    kerbs = MeshBuilder("kerbs", tex.kerb.texture, tex.kerb.tile_m)
+    for area in junctions:
+        outline = open_outline(area.polygon)
+        if len(outline) >= 3:
+            asphalt.polygon(outline, palette.JUNCTION_Z, tex.asphalt.tint(palette.JUNCTION))
+    edges = lanes_by_edge(lanes)
     for lane in lanes:
         z = palette.LANE_Z.get(lane.kind, palette.LANE_Z["road"])
-        color = palette.LANE_COLORS.get(lane.kind, palette.ASPHALT)
-        mesh.ribbon(lane.centerline, lane.width, z, color)
-        if lane.kind == "crossing":
-            _zebra(mesh, lane, z)
-        elif lane.kind in ("road", "bike") and not lane.id.startswith(":"):
-            _edge_lines(mesh, lane, z, indices)
-    return mesh
+        if lane.kind == "walkingarea":
+            _walking_area(paving, kerbs, lane, z, tex)
+        elif lane.kind == "sidewalk":
+            _sidewalk(paving, kerbs, lane, z, _road_on_the_left(lane, edges), tex)
+        else:
+            color = palette.LANE_COLORS.get(lane.kind, palette.ASPHALT)
+            asphalt.ribbon(lane.centerline, lane.width, z, tex.asphalt.tint(color))
+    return [asphalt, paving, kerbs]
 
 
-def _lane_indices(lanes: list[MapLane]) -> set[tuple[str, int]]:
-    """Every (edge, index) pair present, to tell whether a lane has a neighbour on its left."""
-    found = set()
-    for lane in lanes:
-        split = _edge_and_index(lane.id)
-        if split is not None:
-            found.add(split)
-    return found
-
-
-def _edge_and_index(lane_id: str) -> tuple[str, int] | None:
+def edge_and_index(lane_id: str) -> tuple[str, int] | None:
+    """SUMO's `<edge>_<index>` split; None for ids of another form."""
     edge, _, index = lane_id.rpartition("_")
     # ASCII digits only: `isdigit` is true for '٣' (which `int` reads as 3) and '²' (which it
     # refuses), and a map file is outside text.
     return (edge, int(index)) if edge and is_ascii_decimal(index) else None
 
 
-def _edge_lines(mesh: MeshBuilder, lane: MapLane, z: float, indices: set[tuple[str, int]]) -> None:
-    split = _edge_and_index(lane.id)
-    edge, index = split if split is not None else (lane.id, 0)
-    half = lane.width / 2 - LINE_WIDTH_M / 2
-    z_line = z + palette.MARKING_LIFT
-    if index == 0:
-        mesh.ribbon(offset_line(lane.centerline, -half), LINE_WIDTH_M, z_line, palette.MARKING)
-    left = offset_line(lane.centerline, half)
-    if (edge, index + 1) in indices:
-        for piece in dashes(left, DASH_ON_M, DASH_OFF_M):
-            mesh.ribbon(piece, LINE_WIDTH_M, z_line, palette.MARKING)
-    else:
-        mesh.ribbon(left, LINE_WIDTH_M, z_line, palette.MARKING)
+def lanes_by_edge(lanes: Sequence[MapLane]) -> dict[str, dict[int, MapLane]]:
+    """Normal (non-junction) lanes by edge and index."""
+    edges: dict[str, dict[int, MapLane]] = {}
+    for lane in lanes:
+        split = edge_and_index(lane.id)
+        if split is not None and not lane.id.startswith(":"):
+            edges.setdefault(split[0], {})[split[1]] = lane
+    return edges
 
 
-def _zebra(mesh: MeshBuilder, lane: MapLane, z: float) -> None:
-    for bar in dashes(lane.centerline, ZEBRA_ON_M, ZEBRA_OFF_M):
-        mesh.ribbon(bar, lane.width, z + palette.MARKING_LIFT, palette.MARKING)
+def neighbour(lane: MapLane, edges: dict[str, dict[int, MapLane]], step: int) -> MapLane | None:
+    """The lane `step` places to the left (+) or right (−) on the same edge, if any."""
+    split = edge_and_index(lane.id)
+    if split is None:
+        return None
+    return edges.get(split[0], {}).get(split[1] + step)
 
 
-def stop_line(mesh: MeshBuilder, lane: MapLane) -> None:
-    """A white bar across the end of a lane that a traffic light controls."""
-    line = lane.centerline
-    (x0, y0), (x1, y1) = line[-2], line[-1]
-    length = max(1e-6, ((x1 - x0) ** 2 + (y1 - y0) ** 2) ** 0.5)
-    u = min(1.0, STOP_LINE_M / length)
-    start = (x1 - (x1 - x0) * u, y1 - (y1 - y0) * u)
-    z = palette.LANE_Z.get(lane.kind, palette.LANE_Z["road"]) + 2 * palette.MARKING_LIFT
-    mesh.ribbon([start, (x1, y1)], lane.width, z, palette.STOP_LINE)
+def _road_on_the_left(lane: MapLane, edges: dict[str, dict[int, MapLane]]) -> bool:
+    left = neighbour(lane, edges, +1)
+    return left is not None and left.kind in VEHICLE_KINDS
+
+
+def _sidewalk(paving: MeshBuilder, kerbs: MeshBuilder, lane: MapLane, z: float, kerb: bool,
+              tex: TextureSet) -> None:  # fmt: skip
+    """Paving; with a road on its left, a kerb: the stone along that edge (beside the paving,
+    not over it, so nothing is coplanar) and its face down to the road."""
+    color = tex.paving.tint(palette.SIDEWALK)
+    if not kerb or lane.width <= 2 * KERB_TOP_M:
+        paving.ribbon(lane.centerline, lane.width, z, color)
+        return
+    paving.ribbon(offset_line(lane.centerline, -KERB_TOP_M / 2), lane.width - KERB_TOP_M, z, color)
+    stone = tex.kerb.tint(palette.KERB)
+    kerbs.strip(offset_line(lane.centerline, (lane.width - KERB_TOP_M) / 2), KERB_TOP_M, z, stone)
+    edge = offset_line(lane.centerline, lane.width / 2)
+    _faces(kerbs, list(reversed(edge)), palette.GROUND_Z, z, stone)  # reversed: facing left
+
+
+def _walking_area(
+    paving: MeshBuilder, kerbs: MeshBuilder, lane: MapLane, z: float, tex: TextureSet
+) -> None:
+    """A walking area's outline filled (SUMO gives its polygon as the lane's shape)."""
+    outline = open_outline(lane.centerline)
+    color = tex.paving.tint(palette.WALKINGAREA)
+    before = paving.triangles
+    if len(outline) >= 3:
+        paving.polygon(outline, z, color)
+    if paving.triangles == before:  # not a polygon (or one the triangulator refused)
+        paving.ribbon(lane.centerline, lane.width, z, color)
+        return
+    ccw = outline if polygon_area(outline) > 0 else list(reversed(outline))
+    _faces(kerbs, [*ccw, ccw[0]], palette.GROUND_Z, z, tex.kerb.tint(palette.KERB))
+
+
+def _faces(mesh: MeshBuilder, line: Sequence[Point2], z0: float, z1: float,
+           color: tuple[float, float, float, float]) -> None:  # fmt: skip
+    """Vertical faces along a polyline, each facing right of its direction, textured from
+    the start of the line along its length."""
+    walked = 0.0
+    for a, b in itertools.pairwise(line):
+        mesh.wall(a, b, z0, z1, color, u0=walked)
+        walked += math.dist(a, b)
