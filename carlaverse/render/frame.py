@@ -11,6 +11,7 @@ NPC rows) and default to a typical size per kind.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
@@ -34,6 +35,16 @@ INDICATOR_BITS = {
 }
 
 
+# Indicators flash at 1.5 Hz, half the period lit (UN ECE R48: 90 ± 30 flashes per minute),
+# timed off the render time so that a frame is reproducible.
+BLINK_HZ = 1.5  # [Hz]
+
+
+def blink_on(t: float) -> bool:
+    """Whether a flashing indicator is lit at render time `t` [s]."""
+    return (t * BLINK_HZ) % 1.0 < 0.5
+
+
 # (roll, pitch, yaw) [rad] per joint name, from a `Skeleton` (see `figure` for the convention)
 JointAngles = Mapping[str, tuple[float, float, float]]
 
@@ -54,6 +65,21 @@ class ActorDraw:
     lights: int = 0  # LIGHT_* bits
     ego: bool = False
     skeleton: JointAngles | None = None  # a walker's joint angles, when it sends them
+    # What the pose alone does not say; None where the source does not send it (the actor
+    # layer then takes it from the actor's own motion between frames, `motion.Motion`):
+    speed: float | None = None  # [m/s] along the heading, negative in reverse
+    yaw_rate: float | None = None  # [rad/s] counter-clockwise
+    steer: float | None = None  # [rad] road-wheel (or fork) angle, left positive
+
+
+@dataclass(frozen=True, slots=True)
+class Dashboard:
+    """What the own vehicle's instruments show, read from the node loop's shared state."""
+
+    speed_mps: float  # [m/s]
+    gear: int | None = None  # -1 reverse, 0 neutral, 1.. forward; None: no gearbox (a bike)
+    left: bool = False  # the left indicator lamp is lit now
+    right: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -101,6 +127,7 @@ def frame_from_view(
             ActorDraw(
                 v.actor_id, kind, v.x, v.y, v.z, v.yaw, size.length, size.width,
                 size.height, v.pitch, v.roll, ego_lamps(states.get(v.actor_id)), True,
+                speed=along(v.vx, v.vy, v.yaw),
             )
         )  # fmt: skip
     actors.extend(_npcs(view, now, extents, npc_lights))
@@ -125,13 +152,21 @@ def _npcs(
             )
         size = size or extent_of(kind, {}, npc_id)
         lamps = npc_lights.get(npc_id, int(rows["lights"][i]))
+        yaw = float(frame.yaw[i])
         out.append(
             ActorDraw(
                 npc_id, kind, float(frame.x[i]), float(frame.y[i]), float(frame.z[i]),
-                float(frame.yaw[i]), size.length, size.width, size.height, lights=lamps,
+                yaw, size.length, size.width, size.height, lights=lamps,
+                speed=along(float(frame.vx[i]), float(frame.vy[i]), yaw),
+                yaw_rate=float(rows["yaw_rate"][i]),
             )
         )  # fmt: skip
     return out
+
+
+def along(vx: float, vy: float, yaw: float) -> float:
+    """[m/s] a world-frame velocity's part along the heading `yaw` (negative: reversing)."""
+    return vx * math.cos(yaw) + vy * math.sin(yaw)
 
 
 def with_skeletons(frame: SceneFrame, skeletons: Mapping[str, JointAngles]) -> SceneFrame:
