@@ -14,6 +14,7 @@ import sys
 from collections.abc import Sequence
 
 from carlaverse import __version__
+from carlaverse.cli.extras import install_hint
 
 # name -> (module, one-line help). The module is imported lazily.
 COMMANDS: dict[str, tuple[str, str]] = {
@@ -93,12 +94,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         parser, module = _command_parser(name)
     except ModuleNotFoundError as exc:
-        print(
-            f"carlaverse {name}: needs the missing module '{exc.name}'. "
-            "Install the extras with: pip install 'carlaverse[all]'",
-            file=sys.stderr,
-        )
-        return 3
+        return _missing_extra(name, exc)
     args = parser.parse_args(argv[first + 1 :])
     verbosity = max(top_args.verbose, args.verbose)
     level = logging.WARNING if verbosity == 0 else logging.INFO if verbosity == 1 else logging.DEBUG
@@ -109,3 +105,16 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(module.run(args) or 0)
     except KeyboardInterrupt:
         return 130
+    except ModuleNotFoundError as exc:  # an extra's package, imported when first needed
+        return _missing_extra(name, exc)
+
+
+def _missing_extra(command: str, exc: ModuleNotFoundError) -> int:
+    """Say in one line which `pip install` brings the missing package (exit 2, as for any
+    usage or install problem); a missing module no extra brings is a bug: raised on."""
+    hint = install_hint(exc.name)
+    if hint is None:
+        raise exc
+    package = (exc.name or "").partition(".")[0]
+    print(f"carlaverse {command}: needs {package}: {hint}", file=sys.stderr)
+    return 2

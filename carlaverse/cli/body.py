@@ -30,10 +30,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from carlaverse.body.errors import BodyPoseError
+    from carlaverse.body.errors import BodyPoseError, PoseRuntimeMissing
 
     try:
         return _build(args) if args.action == "build-model" else _angles(args)
+    except PoseRuntimeMissing as exc:  # an install to make, exit 2 as for every command
+        return fail("body", str(exc))
     except BodyPoseError as exc:
         return fail("body", str(exc), 3)
 

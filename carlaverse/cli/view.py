@@ -113,11 +113,7 @@ def run(args: argparse.Namespace) -> int:
         if not _load_viewer(stop):
             return 0  # stopped while Rerun was still loading: a normal end
         return _show(args, viewer_url, stop, Live(session, Keys(args.session), deadline))
-    except ModuleNotFoundError as exc:
-        return _fail(
-            f"needs the missing module '{exc.name}': pip install 'carlaverse[view,record]'", 3
-        )
-    finally:
+    finally:  # a missing rerun-sdk or mcap is said by carlaverse.cli.main, naming its extra
         notice.close()
         session.close()
 
