@@ -15,7 +15,8 @@ import re
 import subprocess
 import sys
 import tomllib
-from importlib.metadata import packages_distributions
+from functools import cache
+from importlib import metadata
 from pathlib import Path
 
 import pytest
@@ -44,6 +45,12 @@ sys.meta_path.insert(0, Uninstalled())
 """
 
 
+@cache
+def packages_distributions() -> dict[str, list[str]]:
+    """Import name -> distributions, of what is installed here (a scan: once)."""
+    return dict(metadata.packages_distributions())
+
+
 def _normal(distribution: str) -> str:
     return re.sub(r"[-_.]+", "-", distribution).lower()
 
@@ -63,6 +70,7 @@ def run_uninstalled(tmp_path: Path, packages: str, *argv: str) -> subprocess.Com
     site = tmp_path / "site"
     site.mkdir(exist_ok=True)
     (site / "sitecustomize.py").write_text(SITECUSTOMIZE)
+    (tmp_path / "x.mcap").touch()  # a recording that exists: the import comes next
     path = os.pathsep.join(filter(None, [str(site), os.environ.get("PYTHONPATH")]))
     env = dict(os.environ, CARLAVERSE_TEST_UNINSTALLED=packages, PYTHONPATH=path)
     return subprocess.run([sys.executable, "-m", "carlaverse", *argv], cwd=tmp_path, env=env,
