@@ -5,7 +5,9 @@ A body is built in a unit frame (x across −0.5..0.5, y along −0.5..0.5 with 
 box is the protocol's bounding box: whatever a kind is made of — body, glass, mirrors, wheels,
 handlebar, rider, lamps — reaches the box's faces and none goes beyond, and every vehicle rests
 on its wheels at z = 0, the road under the actor's reference point. Glass is a second mesh on
-the body's faces, drawn with a depth offset so that it wins over the face it lies on.
+the body's faces, standing `GLASS_PROUD` off them: a polygon offset did not reliably win over
+a face seen square-on. For the same reason the bodies' end faces stop at `END`, short of the
+box's ends, which the lamps (`lamps`) reach.
 
 Wheels and a cyclist's legs move, so they are not in the scaled body: an unevenly scaled frame
 would shear a turning wheel. `wheel_places` and `leg_geometry` put them in metres for the
@@ -26,7 +28,8 @@ from carlaverse.render import palette
 from carlaverse.render.meshes import Color, MeshBuilder, Point3
 from carlaverse.render.shapes import beam, facing, profile_x
 
-GLASS_DEPTH_OFFSET = 16  # glPolygonOffset units: a face seen square-on needs more than 1
+GLASS_PROUD = 0.003  # [unit frame] a pane's distance off the face it lies on
+END = 0.495  # bodies' end faces: lamps stand 0.005 proud of them (2 cm on a car) and reach 0.5
 FRAME: Color = (0.12, 0.12, 0.13, 1.0)  # bicycle parts, a rider's trousers, cargo chassis
 CARGO: Color = (0.86, 0.86, 0.84, 1.0)  # a truck's box
 JACKET: Color = (0.18, 0.22, 0.32, 1.0)  # riders
@@ -117,14 +120,17 @@ class _Sculpt:
         beam(self.body, self.metric(a), self.metric(b), thick_m / sx, thick_m / sy, color)
 
     def pane(self, corners: list[Point3], outward: Point3) -> None:
-        facing(self.glass, corners, outward, palette.GLASS)
+        """A window on a face, `GLASS_PROUD` off it along `outward` (the face's normal)."""
+        n = math.sqrt(sum(c * c for c in outward)) or 1.0
+        off = [c / n * GLASS_PROUD for c in outward]
+        lifted = [(x + off[0], y + off[1], z + off[2]) for x, y, z in corners]
+        facing(self.glass, lifted, outward, palette.GLASS)
 
     def node(self) -> NodePath:
         root = NodePath(self.body.name)
         root.attach_new_node(self.body.node())
         if not self.glass.empty:
-            glass = root.attach_new_node(self.glass.node())
-            glass.set_depth_offset(GLASS_DEPTH_OFFSET)
+            root.attach_new_node(self.glass.node())
         return root
 
 
@@ -158,8 +164,8 @@ def _mirrors(s: _Sculpt, y: float, z: float, size: tuple[float, float], body: Co
 
 def _car(s: _Sculpt, body: Color) -> None:
     w = BODY_SIDE
-    profile_x(s.body, [(-0.5, 0.14), (0.5, 0.14), (0.5, 0.40), (0.44, 0.50), (0.22, 0.56),
-                       (-0.38, 0.56), (-0.5, 0.50)], -w, w, body)  # fmt: skip
+    profile_x(s.body, [(-END, 0.14), (END, 0.14), (END, 0.40), (0.44, 0.50), (0.22, 0.56),
+                       (-0.38, 0.56), (-END, 0.50)], -w, w, body)  # fmt: skip
     front, top_f, top_r, rear = (0.25, 0.54), (0.0, 1.0), (-0.30, 1.0), (-0.44, 0.54)
     profile_x(s.body, [rear, front, top_f, top_r], -0.40, 0.40, body)
     _slope_pane(s, front, top_f, (0.08, 0.92), 0.36)
@@ -181,8 +187,8 @@ def _car(s: _Sculpt, body: Color) -> None:
 def _van(s: _Sculpt, body: Color) -> None:
     w = BODY_SIDE
     base, top = (0.44, 0.42), (0.33, 0.95)
-    profile_x(s.body, [(-0.5, 0.09), (0.5, 0.09), (0.5, 0.33), base, top, (0.30, 1.0),
-                       (-0.5, 1.0)], -w, w, body)  # fmt: skip
+    profile_x(s.body, [(-END, 0.09), (END, 0.09), (END, 0.33), base, top, (0.30, 1.0),
+                       (-END, 1.0)], -w, w, body)  # fmt: skip
     _slope_pane(s, base, top, (0.12, 0.92), 0.40)
 
     def a_line(z: float) -> float:
@@ -190,30 +196,30 @@ def _van(s: _Sculpt, body: Color) -> None:
 
     _side_panes(s, w, [[(0.12, 0.58), (a_line(0.58), 0.58), (a_line(0.9), 0.9), (0.12, 0.9)]])
     for x0, x1 in ((-0.42, -0.04), (0.04, 0.42)):  # the rear doors' windows
-        s.pane([(x0, -0.5, 0.62), (x1, -0.5, 0.62), (x1, -0.5, 0.85), (x0, -0.5, 0.85)],
+        s.pane([(x0, -END, 0.62), (x1, -END, 0.62), (x1, -END, 0.85), (x0, -END, 0.85)],
                (0.0, -1.0, 0.0))  # fmt: skip
     _mirrors(s, 0.38, 0.5, (0.04, 0.1), body)
 
 
 def _truck(s: _Sculpt, body: Color) -> None:
     w = BODY_SIDE
-    base, top = (0.5, 0.42), (0.48, 0.78)
-    profile_x(s.body, [(0.26, 0.08), (0.5, 0.08), base, top, (0.45, 0.82), (0.26, 0.82)],
+    base, top = (END, 0.42), (0.475, 0.78)
+    profile_x(s.body, [(0.26, 0.08), (END, 0.08), base, top, (0.45, 0.82), (0.26, 0.82)],
               -w, w, body)  # fmt: skip
     _slope_pane(s, base, top, (0.08, 0.92), 0.42)
     _side_panes(s, w, [[(0.30, 0.5), (0.44, 0.5), (0.44, 0.76), (0.30, 0.76)]])
     _mirrors(s, 0.46, 0.55, (0.02, 0.12), body)
     s.body.box((0.0, -0.13, 0.1), (0.7, 0.74, 0.23), FRAME)  # chassis under the box
-    s.body.box((0.0, -0.13, 0.33), (1.0, 0.74, 0.67), CARGO)
+    s.body.box((0.0, (0.24 - END) / 2, 0.33), (1.0, 0.24 + END, 0.67), CARGO)
 
 
 def _bus(s: _Sculpt, body: Color) -> None:
     w = BODY_SIDE
-    profile_x(s.body, [(-0.5, 0.08), (0.5, 0.08), (0.5, 0.95), (0.48, 1.0), (-0.48, 1.0),
-                       (-0.5, 0.95)], -w, w, body)  # fmt: skip
-    s.pane([(-0.42, 0.5, 0.35), (0.42, 0.5, 0.35), (0.42, 0.5, 0.92), (-0.42, 0.5, 0.92)],
+    profile_x(s.body, [(-END, 0.08), (END, 0.08), (END, 0.95), (0.475, 1.0), (-0.475, 1.0),
+                       (-END, 0.95)], -w, w, body)  # fmt: skip
+    s.pane([(-0.42, END, 0.35), (0.42, END, 0.35), (0.42, END, 0.92), (-0.42, END, 0.92)],
            (0.0, 1.0, 0.0))  # fmt: skip
-    s.pane([(-0.38, -0.5, 0.6), (0.38, -0.5, 0.6), (0.38, -0.5, 0.9), (-0.38, -0.5, 0.9)],
+    s.pane([(-0.38, -END, 0.6), (0.38, -END, 0.6), (0.38, -END, 0.9), (-0.38, -END, 0.9)],
            (0.0, -1.0, 0.0))  # fmt: skip
     bays = [(-0.46 + 0.15 * k, -0.46 + 0.15 * k + 0.135) for k in range(6)]
     _side_panes(s, w, [[(y0, 0.45), (y1, 0.45), (y1, 0.88), (y0, 0.88)] for y0, y1 in bays])
@@ -225,9 +231,9 @@ def _motorcycle(s: _Sculpt, body: Color) -> None:
     s.beam_m((0, -0.35, 0.5), (0, 0.4, 0.55), 0.3, FRAME)  # engine and frame
     s.beam_m((0, 0.05, 0.82), (0, 0.45, 0.85), 0.3, body)  # tank
     s.box_m((0, -0.3, 0.74), (0.28, 0.6, 0.08), FRAME)  # seat
-    s.box_m((0, -0.775, 0.66), (0.18, 0.55, 0.08), body)  # tail to the box's end
+    s.box_m((0, -0.77, 0.66), (0.18, 0.54, 0.08), body)  # tail, its lamp to the box's end
     s.beam_m((0, 0.55, 1.0), (0, 0.693, 0.3), 0.09, FRAME)  # fork
-    s.box_m((0, 0.965, 0.8), (0.28, 0.17, 0.2), body)  # nacelle to the box's front
+    s.box_m((0, 0.96, 0.8), (0.28, 0.16, 0.2), body)  # nacelle, its lamp to the box's front
     s.box_m((0, 0.52, 1.05), (0.8, 0.04, 0.04), FRAME)  # handlebar and mirrors: the width
     s.beam_m((0, -0.3, 0.85), (0, -0.05, 1.3), 0.36, JACKET)
     s.box_m((0, -0.02, 1.28), (0.26, 0.28, 0.22), FRAME)  # helmet: the top

@@ -7,9 +7,10 @@ Roles and the bits that light them (`carlaverse.messages` LIGHT_*):
 - `left`, `right`: indicators, flashing while their blinker bit is set (`frame.blink_on`);
 - `reverse`: white while reversing.
 
-Lamp boxes are in a kind's unit frame (`bodies`): flush with the box's ends, their outer faces
-at y = ±0.5 where the body's end faces are too; a lamp is drawn with a depth offset so it wins
-that tie, and unlit by the scene's lights (it glows in any weather).
+Lamp boxes are in a kind's unit frame (`bodies`): 0.02 deep, their outer faces on the box's
+ends (y = ±0.5), standing proud of the body's end faces (`bodies.END`), so no face of a lamp
+lies on a face of the body: seen square-on, a polygon offset did not reliably win that tie. A
+lamp is unlit by the scene's lights (it glows in any weather).
 """
 
 from __future__ import annotations
@@ -35,9 +36,6 @@ from carlaverse.render.meshes import Color, MeshBuilder
 # A box in a unit frame: (x, y, z) of its bottom face's centre, and its (sx, sy, sz).
 Box = tuple[tuple[float, float, float], tuple[float, float, float]]
 Role = Literal["head", "tail", "left", "right", "reverse"]
-# glPolygonOffset units: the body's face and a lamp's come from different transforms, so seen
-# square-on (no slope term) they differ by more than one unit of depth
-DEPTH_OFFSET = 16
 POSITION_BITS = LIGHT_PARKING | LIGHT_LOW_BEAM | LIGHT_HIGH_BEAM
 BEAM_BITS = LIGHT_LOW_BEAM | LIGHT_HIGH_BEAM
 
@@ -144,7 +142,6 @@ class LampSet:
         lamp.set_pos(x, y, z)
         lamp.set_scale(*size)
         lamp.set_light_off(1)
-        lamp.set_depth_offset(DEPTH_OFFSET)  # flush with the body's face: drawn over it
         prototype.instance_to(lamp)
         return lamp
 
