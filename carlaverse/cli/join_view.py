@@ -25,6 +25,8 @@ from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.fabric.session import FabricSettings
 
 DEFAULT_RIG = "rigs/rig-desktop"
+# A rider's eye is not a driver's: the default rig per kind of the node's own actor.
+KIND_RIGS = {"bicycle": "rigs/rig-bike-desktop", "pedestrian": "rigs/rig-walk-desktop"}
 
 
 def add_view_arguments(parser: argparse.ArgumentParser) -> None:
@@ -37,8 +39,10 @@ def add_view_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--view-camera", metavar="own|free|NODE_ID",
                        help="ride in the node (own, the default when it has a body), look over "
                        "the map (free), or chase NODE_ID")  # fmt: skip
-    group.add_argument("--render-config", default=DEFAULT_RIG, metavar="RIG",
-                       help="render config with the camera rig (path or shipped name)")  # fmt: skip
+    group.add_argument("--render-config", metavar="RIG",
+                       help="render config with the camera rig (path or shipped name); default "
+                       f"{KIND_RIGS['bicycle']} for a bike, {KIND_RIGS['pedestrian']} for a "
+                       f"walker, else {DEFAULT_RIG}")  # fmt: skip
 
 
 @contextlib.contextmanager
@@ -67,10 +71,11 @@ def _start(args: argparse.Namespace, node: Any, settings: NodeSettings,
     from carlaverse.render.process import FREE, OWN, ViewProcess, ViewSpec
     from carlaverse.render.rig import RenderConfig
 
-    config = load_config(args.render_config, RenderConfig)
+    own = node.own_pose_block() if hasattr(node, "own_pose_block") else None
+    rig = args.render_config or KIND_RIGS.get(own.kind if own is not None else "", DEFAULT_RIG)
+    config = load_config(rig, RenderConfig)
     if args.offscreen or args.view_out:
         config = msgspec.structs.replace(config, output="offscreen")
-    own = node.own_pose_block() if hasattr(node, "own_pose_block") else None
     camera = args.view_camera or (OWN if own is not None else FREE)
     spec = ViewSpec(settings, fabric, config, own, camera, args.view_out, args.view_every)
     return ViewProcess(spec).start()

@@ -32,8 +32,10 @@ from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.keys import KeySpaceError, parse
 from carlaverse.render.frame import (
     ActorDraw,
+    Dashboard,
     JointAngles,
     SceneFrame,
+    blink_on,
     frame_from_view,
     with_skeletons,
 )
@@ -57,7 +59,9 @@ class OwnPoseBlock:
     """Where a node exports its own pose: a seqlock block (`carlaverse.shm`) of `dtype`.
 
     The dtype needs the fields `t, x, y, yaw`; `lights` (LIGHT_* bits), `pitch` and `roll`
-    (a walker's head: the first-person camera nods and tilts with it), `eyes` with
+    (a walker's head: the first-person camera nods and tilts with it), `speed_mps`,
+    `yaw_rate` and `steer_rad` (the wheels' roll and steer; the speed, with `gear` and
+    `blink_on`, the HUD's dashboard: `frame.Dashboard`), `eyes` with
     `<left|right>_eye_<left|right|up|down>` (a headset's eye frusta [rad], which an `xr` rig
     draws with) and `running` (0 until the loop's first tick) are used when present. The node
     kind names the block and its dtype, so this library never imports a node kind.
@@ -87,6 +91,7 @@ class OwnPose:
         self._block: SharedBlock | None = None
         self.torn_reads = 0
         self.eyes: tuple[EyeFov, EyeFov] | None = None  # a headset's, from the last read
+        self.dash: Dashboard | None = None  # the instruments, from the last read
 
     def actor(self) -> ActorDraw | None:
         """The node's actor now, or None before its loop runs."""
@@ -100,10 +105,13 @@ class OwnPose:
         size = self.spec.extent
         lights = int(record["lights"]) if "lights" in names else 0
         pitch, roll = (float(record[f]) if f in names else 0.0 for f in ("pitch", "roll"))
+        speed, yaw_rate, steer = (float(record[f]) if f in names else None
+                                  for f in ("speed_mps", "yaw_rate", "steer_rad"))  # fmt: skip
+        self.dash = _dashboard(record, names, lights) if speed is not None else None
         return ActorDraw(
             self.actor_id, self.spec.kind, float(record["x"]), float(record["y"]), 0.0,
             float(record["yaw"]), size.length, size.width, size.height, pitch, roll,
-            lights=lights, ego=True,
+            lights=lights, ego=True, speed=speed, yaw_rate=yaw_rate, steer=steer,
         )  # fmt: skip
 
     def _read(self) -> np.void | None:
@@ -151,6 +159,16 @@ def joint_angles(skeleton: m.Skeleton) -> JointAngles:
     values = np.frombuffer(skeleton.angles, dtype="<f4").reshape(-1, 3)
     return {name: (float(r), float(p), float(y)) for name, (r, p, y) in zip(
         skeleton.joints, values, strict=True)}  # fmt: skip
+
+
+def _dashboard(record: np.void, names: tuple[str, ...], lights: int) -> Dashboard:
+    """The HUD's instruments: indicator arrows lit in the loop's flasher phase (`blink_on`),
+    else in the render time's."""
+    flash = bool(record["blink_on"]) if "blink_on" in names else blink_on(float(record["t"]))
+    gear = int(record["gear"]) if "gear" in names else None
+    return Dashboard(float(record["speed_mps"]), gear,
+                     flash and bool(lights & m.LIGHT_LEFT_BLINKER),
+                     flash and bool(lights & m.LIGHT_RIGHT_BLINKER))  # fmt: skip
 
 
 def _eye_fovs(record: np.void) -> tuple[EyeFov, EyeFov] | None:

@@ -173,7 +173,8 @@ def _loop(spec: ViewSpec, stop: Any, world: Any, renderer: Any, summary: ViewSum
         eyes = world.own.eyes if world.own is not None else None
         if eyes is not None:  # a walker's headset reports its eyes: draw with those
             renderer.rig.set_eye_frusta(eyes)
-        renderer.draw(frame, **aim(spec.camera, frame, world.node_id))
+        dash = world.own.dash if world.own is not None else None  # for the HUD, riding
+        renderer.draw(frame, **aim(spec.camera, frame, world.node_id), dash=dash)
         if renderer.graphics.closed():
             break  # the user closed the window: the view ends, the node goes on
         summary.frames += 1

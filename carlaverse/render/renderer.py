@@ -17,8 +17,9 @@ from panda3d.core import NodePath
 from carlaverse.messages import MapReply
 from carlaverse.render.actors import ActorLayer
 from carlaverse.render.cameras import CameraRig, Eye, overview_eye
-from carlaverse.render.frame import ActorDraw, SceneFrame
+from carlaverse.render.frame import ActorDraw, Dashboard, SceneFrame
 from carlaverse.render.graphics import Graphics
+from carlaverse.render.own_vehicle import OwnVehicle, riding_eye
 from carlaverse.render.rig import RenderConfig, RigLayout, layout
 from carlaverse.render.scene_static import build_static
 from carlaverse.render.traffic_lights import TrafficLightLayer
@@ -48,6 +49,7 @@ class Renderer:
         self.weather = WeatherLayer(self.world, road)
         self.rig = CameraRig(self.world, self.graphics, self.layout, config.draw_distance_m)
         self.rig.set_sky(self.weather.sky)
+        self.own = OwnVehicle(self.world, self.rig, self.graphics, config.own)
         self.frames = 0
 
     def _build_map(self, road_map: MapReply | None) -> NodePath:
@@ -66,9 +68,12 @@ class Renderer:
     def gl_renderer(self) -> str:
         return self.graphics.gl_renderer()
 
-    def draw(self, frame: SceneFrame, follow: str | None = None, eye: Eye | None = None) -> None:
-        """Draw `frame` from the rig, anchored at actor `follow` or at `eye` (else overview)."""
+    def draw(self, frame: SceneFrame, follow: str | None = None, eye: Eye | None = None,
+             dash: Dashboard | None = None) -> None:  # fmt: skip
+        """Draw `frame` from the rig, anchored at actor `follow` or at `eye` (else overview);
+        `dash` is the followed vehicle's own dashboard, for a HUD (`own_vehicle`)."""
         self.rig.place(self._eye(frame, follow, eye))
+        self.own.show(frame.actor(follow) if follow is not None else None, dash)
         if self.weather.update(frame.weather):
             self.rig.set_sky(self.weather.sky)
         self.lights.update(frame.lights, frame.t)
@@ -82,7 +87,7 @@ class Renderer:
             if actor is None:
                 known = ", ".join(sorted(a.actor_id for a in frame.actors if a.ego)) or "none"
                 raise FollowError(f"no actor {follow!r} at t = {frame.t:.3f} s (egos: {known})")
-            return actor_eye(actor)
+            return riding_eye(actor, self.config.own)
         return eye or overview_eye(self.bounds)
 
     def images(self) -> list[np.ndarray]:
@@ -102,6 +107,7 @@ class Renderer:
         return crops
 
     def close(self) -> None:
+        self.own.close()
         self.graphics.close()
         self.world.remove_node()
 

@@ -30,6 +30,7 @@ import msgspec
 
 from carlaverse.config import StrictStruct
 from carlaverse.hal.xr.fov import EyeAngles, EyeFov
+from carlaverse.render.own_config import OwnView
 
 Degrees = Annotated[float, msgspec.Meta(gt=0.0, lt=180.0)]
 Pixels = Annotated[int, msgspec.Meta(ge=8, le=16384)]
@@ -55,6 +56,8 @@ class SimpleRig(StrictStruct, tag="simple", tag_field="mode"):
     fov_deg: Degrees = 90.0  # horizontal, over the whole screen
     views: Annotated[int, msgspec.Meta(ge=1, le=16)] = 1
     head: HeadPosition = HeadPosition()
+    # the screen's middle above the eye's horizontal (negative: below, as a cyclist's gaze)
+    pitch_deg: Annotated[float, msgspec.Meta(ge=-60.0, le=60.0)] = 0.0
 
 
 class PhysicalRig(StrictStruct, tag="physical", tag_field="mode"):
@@ -111,6 +114,7 @@ class RenderConfig(StrictStruct):
     camera: Rig = SimpleRig()
     max_fps: Annotated[float, msgspec.Meta(gt=0.0)] = 60.0
     draw_distance_m: Metres = 400.0
+    own: OwnView = OwnView()  # cockpit, handlebar, mirrors, HUD, a two-wheeler's lean
 
 
 @dataclass(frozen=True, slots=True)
@@ -187,6 +191,7 @@ def _simple(rig: SimpleRig) -> RigLayout:
     w, h, n = rig.resolution.width, rig.resolution.height, rig.views
     fov_total = math.radians(rig.fov_deg)
     slice_fov = fov_total / n  # equal angular slices across the one screen
+    pitch = math.radians(rig.pitch_deg)
     cams = []
     for j in range(n):
         yaw = fov_total / 2 - slice_fov * (j + 0.5)
@@ -194,7 +199,7 @@ def _simple(rig: SimpleRig) -> RigLayout:
         viewport = (j / n, (j + 1) / n, 0.0, 1.0)
         fov_v = vertical_fov(slice_fov, width_px, h)
         cams.append(
-            CameraView(f"view{j}", 0, viewport, yaw, 0.0, 0.0, slice_fov, fov_v, width_px, h)
+            CameraView(f"view{j}", 0, viewport, yaw, pitch, 0.0, slice_fov, fov_v, width_px, h)
         )
     return RigLayout(tuple(cams), ((w, h),), rig.head)
 

@@ -35,11 +35,17 @@ def _png(path: Path) -> np.ndarray:
 
 
 def _empty_scene() -> np.ndarray:
-    """Riding at the origin with nobody else there (no map: a session without a scenario)."""
-    config = RenderConfig(
-        output="offscreen",
-        camera=SimpleRig(resolution=Resolution(width=WIDTH, height=HEIGHT), fov_deg=90),
-    )
+    """Riding at the origin with nobody else there (no map: a session without a scenario),
+    through the default rig at the still's size, as `carlaverse render` draws it: its own
+    car (bonnet, dashboard, mirrors) is in both pictures."""
+    import msgspec
+
+    from carlaverse.cli.render import DEFAULT_RIG
+    from carlaverse.config import load_config
+
+    rig = load_config(DEFAULT_RIG, RenderConfig)
+    camera = msgspec.structs.replace(rig.camera, resolution=Resolution(width=WIDTH, height=HEIGHT))
+    config = msgspec.structs.replace(rig, output="offscreen", camera=camera)
     with Renderer(config, None) as r:
         r.draw(SceneFrame(0.0, (car("rider", 0.0, 0.0, ego=True),)), follow="rider")
         return r.images()[0]

@@ -116,7 +116,9 @@ def test_config_from_yaml_is_strict(tmp_path) -> None:
         convert({"camera": {"mode": "fisheye"}}, RenderConfig, "rig.yaml")
 
 
-@pytest.mark.parametrize("name", ["rig-desktop", "rig-three-displays", "rig-cave"])
+@pytest.mark.parametrize(
+    "name", ["rig-desktop", "rig-three-displays", "rig-cave", "rig-bike-desktop"]
+)
 def test_shipped_rigs_load(name: str) -> None:
     cfg = load_config(f"rigs/{name}", RenderConfig)
     assert layout(cfg.camera).cameras
