@@ -20,6 +20,7 @@ from typing import NamedTuple
 from carlaverse.render.cameras import Eye
 from carlaverse.render.frame import ActorDraw
 from carlaverse.render.rig import HeadPosition
+from carlaverse.support.angles import wrap_angle
 
 BACK_M = 6.0  # [m] eye behind the actor, along the trailed heading
 UP_M = 2.5  # [m] eye above the road under the actor
@@ -63,10 +64,6 @@ def anchor_for(pose: ChasePose, head: HeadPosition) -> Eye:
     return Eye(pose.x - ox, pose.y - oy, pose.z - oz, pose.yaw, pose.pitch)
 
 
-def _wrap(angle: float) -> float:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
-
-
 class ChaseCamera:
     """The anchor of a chase camera frame by frame, its heading lagging the actor's yaw."""
 
@@ -83,6 +80,6 @@ class ChaseCamera:
             self.heading = actor.yaw
         else:
             follow = 1.0 - math.exp(-dt / self.lag_s)
-            self.heading = _wrap(self.heading + follow * _wrap(actor.yaw - self.heading))
+            self.heading = wrap_angle(self.heading + follow * wrap_angle(actor.yaw - self.heading))
         self.t = t
         return anchor_for(chase_pose(actor.x, actor.y, actor.z, self.heading), self.head)
