@@ -29,6 +29,7 @@ EXPECTED = {
     "configs/bike-trainer-table.yaml": "trainer-table",
     "configs/hmi/drive.yaml": "hmi",
     "configs/hmi/bike.yaml": "hmi",
+    "configs/rigs/rig-bike-desktop.yaml": "rig",
     "configs/rigs/rig-cave.yaml": "rig",
     "configs/rigs/rig-desktop.yaml": "rig",
     "configs/rigs/rig-three-displays.yaml": "rig",
