@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from panda3d.core import (
     Geom,
@@ -151,16 +151,21 @@ class MeshBuilder:
             walked += step
 
     def grid(self, bounds: tuple[float, float, float, float], z: float, color: Color,
-             cells: int) -> None:  # fmt: skip
-        """A flat rectangle cut into cells × cells quads, facing up."""
+             cells: int, shade: Callable[[float, float], float] | None = None) -> None:  # fmt: skip
+        """A flat rectangle cut into cells × cells quads, facing up; `shade(x, y)` scales the
+        colour at each corner (smoothly, as neighbouring quads share their corners' values)."""
         xmin, ymin, xmax, ymax = bounds
         dx, dy = (xmax - xmin) / cells, (ymax - ymin) / cells
         for i in range(cells):
             for j in range(cells):
                 x0, y0 = xmin + i * dx, ymin + j * dy
-                self.quad(
-                    (x0, y0, z), (x0 + dx, y0, z), (x0 + dx, y0 + dy, z), (x0, y0 + dy, z), color
-                )
+                corners = [(x0, y0, z), (x0 + dx, y0, z), (x0 + dx, y0 + dy, z), (x0, y0 + dy, z)]
+                if shade is None:
+                    self.quad(*corners, color)
+                    continue
+                k = [self._add(p, UP, _shade(color, shade(p[0], p[1]))) for p in corners]
+                self._tris.add_vertices(k[0], k[1], k[2])
+                self._tris.add_vertices(k[0], k[2], k[3])
 
     def polygon(self, outline: Sequence[Point2], z: float, color: Color) -> None:
         """A flat filled polygon (any simple outline, either winding), facing up."""

@@ -7,6 +7,7 @@ vertices near the eye; it and the parks share one grass texture (parks tinted gr
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 
 from carlaverse.messages import MapArea
@@ -16,6 +17,7 @@ from carlaverse.render.textures import TextureSet
 
 GROUND_MARGIN_M = 200.0  # [m] the ground plane reaches this far beyond the map
 GROUND_CELLS = 80  # per side: fog is per vertex, so the ground needs vertices near the eye
+MEADOW_SHADE = 0.12  # ± share of brightness the ground's large patches vary by
 
 
 def build_land(bounds: tuple[float, float, float, float], areas: Iterable[MapArea],
@@ -25,7 +27,7 @@ def build_land(bounds: tuple[float, float, float, float], areas: Iterable[MapAre
     m = GROUND_MARGIN_M
     grass = MeshBuilder("grass", tex.grass.texture, tex.grass.tile_m)
     grass.grid((xmin - m, ymin - m, xmax + m, ymax + m), palette.GROUND_Z,
-               tex.grass.tint(palette.GROUND), GROUND_CELLS)  # fmt: skip
+               tex.grass.tint(palette.GROUND), GROUND_CELLS, meadow)  # fmt: skip
     water = MeshBuilder("water")
     for area in areas:
         outline = open_outline(area.polygon)
@@ -36,3 +38,11 @@ def build_land(bounds: tuple[float, float, float, float], areas: Iterable[MapAre
         elif area.kind == "vegetation":
             grass.polygon(outline, palette.JUNCTION_Z, tex.grass.tint(palette.VEGETATION))
     return [grass, water]
+
+
+def meadow(x: float, y: float) -> float:
+    """Brightness of the ground at (x, y): broad, irregular patches (incommensurate waves,
+    tens of metres across) that hide the grass texture's repeat at a distance."""
+    wave = (math.sin(x / 23.0 + 1.3) * math.sin(y / 31.0 + 0.4)
+            + 0.6 * math.sin((x + 0.7 * y) / 13.7) * math.cos((y - 0.4 * x) / 17.3))  # fmt: skip
+    return 1.0 + MEADOW_SHADE * wave / 1.6

@@ -15,7 +15,7 @@ from panda3d.core import TransparencyAttrib
 
 from carlaverse.render import palette
 from carlaverse.render.meshes import MeshBuilder, Point2
-from carlaverse.render.sign_faces import back_name, build_atlas, face_name
+from carlaverse.render.sign_faces import SHAPE_SHARE, back_name, build_atlas, face_name
 from carlaverse.render.signs import Sign
 from carlaverse.render.textures import texture
 
@@ -23,6 +23,7 @@ FACE_M = {"speed": 0.60, "stop": 0.60, "yield": 0.90}  # [m] the face's width
 MOUNT_M = 2.0  # [m] from the ground to a face's lower edge
 POLE_RADIUS_M = 0.038  # [m] a 76 mm pole
 FACE_OFFSET_M = 0.05  # [m] the face in front of the pole's axis
+POLE_TOP = 0.5  # of the face's half height above its middle: hidden behind any shape
 WHITE = (1.0, 1.0, 1.0, 1.0)
 
 
@@ -33,24 +34,22 @@ def build_signs(signs: Sequence[Sign]) -> MeshBuilder:
     mesh.add_attrib(TransparencyAttrib.make(TransparencyAttrib.M_binary))
     white = _centre(atlas.uv("white"))
     for sign in signs:
-        size = FACE_M[sign.kind]
-        top = MOUNT_M + size  # the quad is square; its cell holds the shape touching its sides
-        _pole(mesh, (sign.x, sign.y), top, white)
-        fx, fy = math.cos(sign.facing), math.sin(sign.facing)
-        centre = (sign.x + fx * FACE_OFFSET_M, sign.y + fy * FACE_OFFSET_M, top - size / 2)
-        _face(mesh, centre, sign.facing, size, atlas.uv(face_name(sign.kind, sign.kmh)))
-        back = (sign.x + fx * (FACE_OFFSET_M - 0.01), sign.y + fy * (FACE_OFFSET_M - 0.01),
-                centre[2])  # fmt: skip
-        _face(mesh, back, sign.facing + math.pi, size, _mirrored(atlas.uv(back_name(sign.kind))))
+        # the square quad is larger than the shape by the cell's transparent margin; both are
+        # centred on the same point, the shape's lower edge MOUNT_M up
+        quad = FACE_M[sign.kind] / SHAPE_SHARE
+        cx, cy, cz = face_centre(sign)
+        _pole(mesh, (sign.x, sign.y), cz + POLE_TOP * FACE_M[sign.kind] / 2, white)
+        _face(mesh, (cx, cy, cz), sign.facing, quad, atlas.uv(face_name(sign.kind, sign.kmh)))
+        fx, fy = math.cos(sign.facing) * 0.01, math.sin(sign.facing) * 0.01  # 1 cm behind
+        back = atlas.uv(back_name(sign.kind))
+        _face(mesh, (cx - fx, cy - fy, cz), sign.facing + math.pi, quad, _mirrored(back))
     return mesh
 
 
 def face_centre(sign: Sign) -> tuple[float, float, float]:
-    """Where the middle of a sign's face is [m] (for whoever looks for it)."""
-    size = FACE_M[sign.kind]
-    top = MOUNT_M + size
-    return (sign.x + math.cos(sign.facing) * FACE_OFFSET_M,
-            sign.y + math.sin(sign.facing) * FACE_OFFSET_M, top - size / 2)  # fmt: skip
+    """The middle of a sign's face [m]: of a round or octagonal face, its centre."""
+    fx, fy = math.cos(sign.facing) * FACE_OFFSET_M, math.sin(sign.facing) * FACE_OFFSET_M
+    return (sign.x + fx, sign.y + fy, MOUNT_M + FACE_M[sign.kind] / 2)
 
 
 def _pole(mesh: MeshBuilder, at: Point2, top: float, uv: Point2) -> None:

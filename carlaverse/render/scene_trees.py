@@ -38,7 +38,7 @@ from carlaverse.render.meshes import (
 )
 from carlaverse.render.scene_roads import VEHICLE_KINDS, lanes_by_edge, neighbour
 
-PARK_SPACING_M = 8.0  # [m] least distance between park trees
+PARK_SPACING_M = 9.0  # [m] least distance between park trees
 PARK_LIMIT = 300  # trees per park: a forest is suggested, not planted tree by tree
 STREET_SPACING_M = 14.0  # [m] between street trees
 STREET_SETBACK_M = 1.6  # [m] from the sidewalk's outer edge to the trunk
@@ -51,7 +51,7 @@ FOOTWAY_MARGIN_M = 0.4  # [m] kept between a trunk and a sidewalk's edge
 # Crowns seen from near a street are subdivided icosahedra (80 triangles), those deeper in a
 # park, seen from NEAR_STREET_M away or more, plain ones (20): a town's trees then cost about
 # a third of the triangles, where a software rasteriser feels every vertex.
-NEAR_STREET_M = 15.0  # [m]
+NEAR_STREET_M = 12.0  # [m]
 CROWN_DETAIL = (0, 1)  # icosphere subdivisions: far from a street, near one
 TILE_M = 100.0  # [m] side of the squares the trees are grouped in
 
@@ -193,10 +193,12 @@ def _tree(mesh: MeshBuilder, tree: Tree, rng: random.Random) -> None:
     base = tree.height_m - 1.8 * r  # where the canopy starts
     trunk = [(tree.x + TRUNK_RADIUS_M * math.cos(a), tree.y + TRUNK_RADIUS_M * math.sin(a))
              for a in (k * math.pi / 3 for k in range(6))]  # fmt: skip
-    mesh.prism(trunk, palette.GROUND_Z, base + 0.5 * r, palette.TREE_TRUNK)
+    for a, b in zip(trunk, trunk[1:] + trunk[:1], strict=True):  # no cap: it is in the crown
+        mesh.wall(a, b, palette.GROUND_Z, base + 0.5 * r, palette.TREE_TRUNK)
     color = palette.TREE_CROWNS[rng.randrange(len(palette.TREE_CROWNS))]
     crowns = [(0.0, 0.0, base + 0.9 * r, r)]
-    for _ in range(rng.choice((0, 0, 0, 1, 2))):  # some trees have side crowns
+    sides = rng.choice((0, 0, 0, 1, 2)) if tree.subdivisions else 0  # only near ones show them
+    for _ in range(sides):  # some trees have side crowns
         side = r * rng.uniform(0.5, 0.7)
         a, off = rng.uniform(0, math.tau), r - side  # the side crown ends where the main one does
         crowns.append(

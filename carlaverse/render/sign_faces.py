@@ -24,6 +24,7 @@ BLACK = (20, 20, 20, 255)
 GREY = (150, 152, 156, 255)
 RING = 1 / 8  # of the diameter: the red ring of a round sign
 MARGIN_PX = 3  # transparent border: mipmaps do not bleed one face into the next
+SHAPE_SHARE = (CELL_PX - 2 * MARGIN_PX) / CELL_PX  # of a cell's side the shape spans
 
 
 @dataclass(frozen=True, slots=True)

@@ -168,10 +168,10 @@ def kerb_image(rng: np.random.Generator, width: int = 128, height: int = 32) -> 
 
 def grass_image(rng: np.random.Generator, size: int = 256) -> np.ndarray:
     """Lawn: green with drier and darker patches and blade-scale speckle."""
-    patches = _octaves(rng, size, (3, 12))
+    patches = _octaves(rng, size, (4, 16))
     blades = rng.random((size, size))
-    g = 0.55 + 0.25 * (patches - 0.5) + 0.18 * (blades - 0.5)
-    r = 0.5 * g + 0.18 * (patches - 0.5) + 0.05
+    g = 0.55 + 0.14 * (patches - 0.5) + 0.18 * (blades - 0.5)
+    r = 0.5 * g + 0.10 * (patches - 0.5) + 0.05
     b = 0.30 * g
     return np.stack([_u8(r), _u8(g), _u8(b)], axis=2)
 
