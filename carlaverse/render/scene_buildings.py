@@ -9,9 +9,8 @@ walls carry windows down to the ground. A building's colour and the offset of it
 pattern come from the same hash, so neighbours differ.
 
 Lit windows: the facades carry a second texture on the stage `WINDOWS_STAGE` (mode
-M_emission, which fixed-function drawing ignores and shaders read as emission): black, with
-the windows lit at night in a warm colour. `set_windows_lit` switches it to adding its colour
-on the fixed-function path, for a night without shaders.
+M_emission, which fixed-function drawing ignores and a shader reads as `p3d_TextureEmission`):
+black, with the windows lit at night in a warm colour.
 """
 
 from __future__ import annotations
@@ -21,7 +20,7 @@ import zlib
 from collections.abc import Iterable, Sequence
 
 import numpy as np
-from panda3d.core import NodePath, TextureStage
+from panda3d.core import TextureStage
 
 from carlaverse.messages import MapArea, MapLane
 from carlaverse.render import palette
@@ -62,13 +61,6 @@ def windows_stage() -> TextureStage:
     stage.set_mode(TextureStage.M_emission)
     stage.set_sort(10)  # after the facade's colour
     return stage
-
-
-def set_windows_lit(scene: NodePath, lit: bool) -> None:
-    """Let the lit windows glow (add their colour) or not, on the fixed-function path."""
-    for stage in scene.find_all_texture_stages():
-        if stage.get_name() == WINDOWS_STAGE:
-            stage.set_mode(TextureStage.M_add if lit else TextureStage.M_emission)
 
 
 def storeys(area_id: str) -> int:

@@ -16,14 +16,15 @@ import random
 
 import numpy as np
 import pytest
-from panda3d.core import GeomVertexReader
+from panda3d.core import GeomVertexReader, TextureAttrib, TextureStage
 
 from carlaverse import messages as m
 from carlaverse.render.cameras import Eye
 from carlaverse.render.frame import SceneFrame
 from carlaverse.render.renderer import Renderer
-from carlaverse.render.scene_buildings import storeys
+from carlaverse.render.scene_buildings import build_buildings, storeys
 from carlaverse.render.scene_trees import build_trees, plant
+from carlaverse.render.textures import texture_set
 from tests.render.views import NOON, Pinhole, brightness, config, runs
 
 pytestmark = pytest.mark.usefixtures("offscreen_gl")
@@ -73,6 +74,29 @@ def test_facade_has_a_row_of_windows_every_3_m(save_shot) -> None:
     assert np.allclose(steps, FLOOR_M, atol=0.05), steps
     heights = [(b - a) / px_per_m for a, b in glass]
     assert np.allclose(heights, GLASS_M[1] - GLASS_M[0], atol=0.1), heights
+
+
+def _pixels(texture) -> np.ndarray:
+    """A texture's RGB, rows bottom first as Panda3D keeps them."""
+    data = np.frombuffer(bytes(texture.get_ram_image_as("RGB")), dtype=np.uint8)
+    return data.reshape(texture.get_y_size(), texture.get_x_size(), 3).astype(int)
+
+
+def test_lit_windows_are_a_texture_stage_of_their_own() -> None:
+    """The contract with night lighting: facades carry the stage 'windows_emission' (mode
+    M_emission) on the facade's coordinates, black but for some windows, lit only where the
+    facade shows glass (dark, bluish)."""
+    facades = build_buildings([m.MapArea(HOUSE, "building", BLOCK)], [], texture_set())[0]
+    attrib = facades.node().get_geom_state(0).get_attrib(TextureAttrib)
+    stages = {attrib.get_on_stage(k).get_name(): attrib.get_on_stage(k)
+              for k in range(attrib.get_num_on_stages())}  # fmt: skip
+    stage = stages["windows_emission"]
+    assert stage.get_mode() == TextureStage.M_emission
+    lit = _pixels(attrib.get_on_texture(stage)).max(axis=2) > 0
+    colour = _pixels(attrib.get_on_texture(TextureStage.get_default()))
+    glass = (colour.mean(axis=2) < 110) & (colour[..., 2] >= colour[..., 0])
+    assert 0.03 < lit.mean() < 0.3  # some windows of a wall, not the wall
+    assert glass[lit].mean() > 0.99
 
 
 def door(img: np.ndarray) -> np.ndarray:
