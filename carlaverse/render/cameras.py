@@ -11,7 +11,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from panda3d.core import Camera, DisplayRegion, NodePath, PerspectiveLens
+from panda3d.core import BitMask32, Camera, DisplayRegion, NodePath, PerspectiveLens
 
 from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.render.frame import ActorDraw
@@ -59,7 +59,8 @@ def chase_eye(actor: ActorDraw) -> Eye:
 class CameraRig:
     """The anchor, head and cameras of one layout, drawing into `graphics`."""
 
-    def __init__(self, world: NodePath, graphics: Graphics, rig: RigLayout, far_m: float) -> None:
+    def __init__(self, world: NodePath, graphics: Graphics, rig: RigLayout, far_m: float,
+                 mask: BitMask32 | None = None) -> None:  # fmt: skip
         self.layout = rig
         self.anchor = world.attach_new_node("rig_anchor")
         head = rig.head
@@ -68,6 +69,7 @@ class CameraRig:
         self.regions: list[DisplayRegion] = []
         self.eye_lenses: list[PerspectiveLens] = []  # an xr rig's, left then right
         self.far_m = far_m
+        self.mask = mask  # the cameras' mask: what hides from it (shadow casters only) is unseen
         for view in rig.cameras:
             self.regions.append(self._camera(world, graphics, view, far_m))
 
@@ -83,6 +85,8 @@ class CameraRig:
             lens.set_near_far(NEAR_M, far_m)
         cam = Camera(view.name, lens)
         cam.set_scene(world)
+        if self.mask is not None:
+            cam.set_camera_mask(self.mask)
         node = self.head.attach_new_node(cam)
         node.set_pos(-view.offset_left_m, 0.0, 0.0)  # head frame: +x right
         node.set_hpr(math.degrees(view.yaw), math.degrees(view.pitch), math.degrees(view.roll))

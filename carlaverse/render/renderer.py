@@ -6,7 +6,8 @@
 
 The scene is in rooms: `scene_static` builds the static map meshes (roads, paint, land,
 buildings, trees, signs), `traffic_lights` the signal heads, `actors` the moving layer,
-`weather` light and fog, `cameras` the rig, `graphics` the engine and its outputs.
+`lighting` the sky, sun, shadows, night lights and rain (per quality preset, `quality`),
+`cameras` the rig, `graphics` the engine and its outputs.
 """
 
 from __future__ import annotations
@@ -19,11 +20,12 @@ from carlaverse.render.actors import ActorLayer
 from carlaverse.render.cameras import CameraRig, Eye, overview_eye
 from carlaverse.render.frame import ActorDraw, Dashboard, SceneFrame
 from carlaverse.render.graphics import Graphics
+from carlaverse.render.lighting import SceneLighting
 from carlaverse.render.own_vehicle import OwnVehicle, riding_eye
 from carlaverse.render.rig import RenderConfig, RigLayout, layout
 from carlaverse.render.scene_static import build_static
+from carlaverse.render.shadows import VIEW_MASK
 from carlaverse.render.traffic_lights import TrafficLightLayer
-from carlaverse.render.weather import WeatherLayer
 
 EMPTY_BOUNDS = (-100.0, -100.0, 100.0, 100.0)
 
@@ -38,7 +40,9 @@ class Renderer:
     ) -> None:
         self.config = config
         self.layout: RigLayout = layout(config.camera)
-        self.graphics = Graphics(self.layout.outputs, config.output == "offscreen", title)
+        self.graphics = Graphics(
+            self.layout.outputs, config.output == "offscreen", title, config.quality
+        )
         self.world = NodePath("world")
         self.bounds = road_map.bounds if road_map else EMPTY_BOUNDS
         road = self._build_map(road_map)
@@ -46,9 +50,12 @@ class Renderer:
             self.world, road_map.lights if road_map else [], road_map.lanes if road_map else []
         )
         self.actors = ActorLayer(self.world)
-        self.weather = WeatherLayer(self.world, road)
-        self.rig = CameraRig(self.world, self.graphics, self.layout, config.draw_distance_m)
-        self.rig.set_sky(self.weather.sky)
+        self.lighting = SceneLighting(self.world, self.graphics, road, road_map, self.bounds,
+                                      config.draw_distance_m)  # fmt: skip
+        self.lighting.vehicles(self.actors.root)
+        self.rig = CameraRig(self.world, self.graphics, self.layout, config.draw_distance_m,
+                             VIEW_MASK)  # fmt: skip
+        self.rig.set_sky(self.lighting.weather.sky)
         self.own = OwnVehicle(self.world, self.rig, self.graphics, config.own)
         self.frames = 0
 
@@ -74,8 +81,8 @@ class Renderer:
         `dash` is the followed vehicle's own dashboard, for a HUD (`own_vehicle`)."""
         self.rig.place(self._eye(frame, follow, eye))
         self.own.show(frame.actor(follow) if follow is not None else None, dash)
-        if self.weather.update(frame.weather):
-            self.rig.set_sky(self.weather.sky)
+        if self.lighting.update(frame, self.rig.head, follow):
+            self.rig.set_sky(self.lighting.weather.sky)
         self.lights.update(frame.lights, frame.t)
         self.actors.update(frame.actors, frame.t, hide=follow)
         self.graphics.render()
@@ -108,6 +115,7 @@ class Renderer:
 
     def close(self) -> None:
         self.own.close()
+        self.lighting.close()
         self.graphics.close()
         self.world.remove_node()
 

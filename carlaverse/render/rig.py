@@ -114,6 +114,8 @@ class RenderConfig(StrictStruct):
     camera: Rig = SimpleRig()
     max_fps: Annotated[float, msgspec.Meta(gt=0.0)] = 60.0
     draw_distance_m: Metres = 400.0
+    # auto | full | cpu | flat: what the renderer draws and may cost (render/quality.py)
+    quality: Literal["auto", "full", "cpu", "flat"] = "auto"
     own: OwnView = OwnView()  # cockpit, handlebar, mirrors, HUD, a two-wheeler's lean
 
 

@@ -1,14 +1,20 @@
-"""Benchmark: the renderer's frame time with 200 NPCs and 16 egos, offscreen.
+"""Benchmark: the renderer's frame time with 200 NPCs and 16 egos, offscreen, per quality.
 
-    python tools/bench/bench_render.py [--frames 40] [--write]
+    python tools/bench/bench_render.py [--frames 40] [--quality auto] [--baseline flat] [--write]
     python tools/bench/bench_render.py --drive-timing [--duration 20] [--write]
 
 For each rig — one 1920×1080 display (simple) and three 1920×1080 displays (physical, one
-span buffer of 5760×1080) — the synthetic crossing map is built once, then every frame moves
-all 216 actors (brake lamps and blinkers on some) and draws them from an ego's head. A frame
-is timed from the scene update to the pixels in RAM (`Renderer.draw` + reading every output
-back), as `carlaverse render` and a pixel test need them; a window would skip the read-back.
-The GL renderer string is the one the driver reports at run time.
+span buffer of 5760×1080) — and each weather (a day with light fog; a rainy night with every
+vehicle's low beams on), the synthetic crossing map is built once per quality, then every
+frame moves all 216 actors (brake lamps and blinkers on some) and draws them from an ego's
+head. A frame is timed from the scene update to the pixels in RAM (`Renderer.draw` + reading
+every output back), as `carlaverse render` and a pixel test need them; a window would skip the
+read-back. The GL renderer string is the one the driver reports at run time.
+
+`--baseline` names a second quality drawn in the same run, frame for frame interleaved with
+the first, so both see the same machine and load: `flat` is the renderer before shading,
+shadows and night lights (issue 42), and the ratio column is the cost of the quality asked
+for against it. The `cpu` preset's budget is 1.5× `flat` at both sizes.
 
 `--drive-timing` measures what the view costs the drive node: `carlaverse join drive
 --backend sim` in the town scenario, once alone and once with `--view --offscreen` (the render
@@ -32,6 +38,7 @@ from benchdoc import RunInfo, command_line, write_section
 from carlaverse import messages as m
 from carlaverse.recording.synthetic import light_state, synthetic_map
 from carlaverse.render.frame import KIND_EXTENTS, ActorDraw, SceneFrame
+from carlaverse.render.quality import PRESETS
 from carlaverse.render.renderer import Renderer
 from carlaverse.render.rig import PhysicalRig, RenderConfig, Resolution, SimpleRig
 
@@ -45,9 +52,15 @@ RIGS = {
     ),
 }
 KINDS = ("car", "car", "car", "van", "truck", "bus", "motorcycle", "bicycle", "pedestrian")
+WEATHERS = {
+    "day, light fog": m.Weather(0, 0.0, sun_altitude_deg=35, cloudiness=0.3, fog_density=0.1),
+    "night, rain": m.Weather(0, 0.0, sun_altitude_deg=-20, cloudiness=0.9, precipitation=0.8,
+                             wetness=0.9, fog_density=0.1),
+}  # fmt: skip
+BUDGET = 1.5  # the cpu preset's frame time against flat's
 
 
-def actors_at(t: float) -> tuple[ActorDraw, ...]:
+def actors_at(t: float, beams: bool = False) -> tuple[ActorDraw, ...]:
     """NPCs driving both roads of the crossing and egos circling it, at time t [s]."""
     out = []
     for i in range(NPCS):
@@ -57,6 +70,7 @@ def actors_at(t: float) -> tuple[ActorDraw, ...]:
         lane = -1.75 if i % 2 else 1.75
         x, y, yaw = (s, lane, 0.0) if i % 4 < 2 else (lane, s, math.pi / 2)
         bits = m.LIGHT_BRAKE if i % 3 == 0 else (m.LIGHT_LEFT_BLINKER if i % 5 == 0 else 0)
+        bits |= m.LIGHT_LOW_BEAM if beams else 0
         out.append(ActorDraw(f"npc-{i}", kind, x, y, 0.0, yaw, e.length, e.width, e.height,
                              lights=bits))  # fmt: skip
     for i in range(EGOS):
@@ -67,24 +81,33 @@ def actors_at(t: float) -> tuple[ActorDraw, ...]:
     return tuple(out)
 
 
-def bench(name: str, rig, frames: int) -> dict:
-    config = RenderConfig(output="offscreen", camera=rig)
-    weather = m.Weather(0, 0.0, sun_altitude_deg=35, cloudiness=0.3, fog_density=0.1)
-    with Renderer(config, synthetic_map()) as renderer:
-        times = []
+def bench(rig, weather: m.Weather, qualities: list[str], frames: int) -> list[dict]:
+    """Frame times per quality, the qualities' frames interleaved in one run."""
+    renderers = [Renderer(RenderConfig(output="offscreen", camera=rig, quality=q),
+                          synthetic_map()) for q in qualities]  # fmt: skip
+    times: list[list[float]] = [[] for _ in qualities]
+    beams = weather.sun_altitude_deg < 0
+    try:
         for k in range(frames + 3):  # the first frames compile shaders and upload meshes
             t = k / 60
-            frame = SceneFrame(t, actors_at(t), light_state(k, t), weather)
-            start = time.perf_counter()
-            renderer.draw(frame, follow="ego-0")
-            renderer.images()
-            if k >= 3:
-                times.append(time.perf_counter() - start)
-        gl = renderer.gl_renderer
-        size = "+".join(f"{w}×{h}" for w, h in renderer.layout.outputs)
-    ms = np.array(times) * 1e3
-    return {"name": name, "size": size, "p50": float(np.percentile(ms, 50)),
-            "p99": float(np.percentile(ms, 99)), "gl": gl, "frames": len(times)}  # fmt: skip
+            frame = SceneFrame(t, actors_at(t, beams), light_state(k, t), weather)
+            for renderer, timed in zip(renderers, times, strict=True):
+                start = time.perf_counter()
+                renderer.draw(frame, follow="ego-0")
+                renderer.images()
+                if k >= 3:
+                    timed.append(time.perf_counter() - start)
+        out = []
+        for renderer, timed in zip(renderers, times, strict=True):
+            ms = np.array(timed) * 1e3
+            size = "+".join(f"{w}×{h}" for w, h in renderer.layout.outputs)
+            out.append({"quality": renderer.graphics.preset.name, "size": size,
+                        "p50": float(np.percentile(ms, 50)), "p99": float(np.percentile(ms, 99)),
+                        "gl": renderer.gl_renderer, "frames": len(timed)})  # fmt: skip
+        return out
+    finally:
+        for renderer in renderers:
+            renderer.close()
 
 
 VIEW_RIG = """output: offscreen
@@ -127,6 +150,11 @@ def _timing_row(label: str, r: dict) -> str:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=40, help="timed frames per rig")
+    parser.add_argument("--quality", default="auto", choices=["auto", *PRESETS],
+                        help="the render quality measured")  # fmt: skip
+    parser.add_argument("--baseline", default="flat", choices=["", *PRESETS],
+                        help="a quality drawn in the same run to compare with ('' for none)",
+                        )  # fmt: skip
     parser.add_argument("--drive-timing", action="store_true",
                         help="the drive loop's period error with and without its view")  # fmt: skip
     parser.add_argument("--duration", type=float, default=20.0, help="[s] per drive run")
@@ -140,30 +168,46 @@ def main(argv: list[str] | None = None) -> int:
                 "Drive loop timing with its view", "\n".join(lines), command_line(argv), run
             )
         return 0
-    lines = ["| rig | output | frames | frame p50 [ms] | frame p99 [ms] | fps at p50 |",
-             "|---|---|---|---|---|---|"]  # fmt: skip
-    gl = ""
-    for name, rig in RIGS.items():
-        r = bench(name, rig, args.frames)
-        gl = r["gl"]
-        lines.append(f"| {name} | {r['size']} | {r['frames']} | {r['p50']:.1f} | "
-                     f"{r['p99']:.1f} | {1e3 / r['p50']:.1f} |")  # fmt: skip
-        print(lines[-1], flush=True)
+    qualities = [args.quality] + ([args.baseline] if args.baseline else [])
+    lines, gl = render_rows(qualities, args.frames)
     lines += ["", f"GL renderer (as the driver reports it): `{gl}`. {NPCS} NPCs and {EGOS} "
-              "egos, synthetic crossing map, light fog.", "", notes(gl)]  # fmt: skip
+              "egos, synthetic crossing map; by night every vehicle's low beams are on.", "",
+              notes(gl, args.baseline)]  # fmt: skip
     if args.write:
         write_section("Renderer", "\n".join(lines), command_line(argv), run)
     return 0
 
 
-def notes(gl_renderer: str) -> str:
+def render_rows(qualities: list[str], frames: int) -> tuple[list[str], str]:
+    """The table's rows (one per rig, weather and quality) and the GL renderer."""
+    lines = ["| rig | weather | quality | output | frames | frame p50 [ms] | frame p99 [ms] | "
+             "fps at p50 | p50 / baseline |", "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+    gl = ""
+    for name, rig in RIGS.items():
+        for weather_name, weather in WEATHERS.items():
+            rows = bench(rig, weather, qualities, frames)
+            base = rows[-1]["p50"] if len(rows) > 1 else float("nan")
+            for r in rows:
+                gl = r["gl"]
+                ratio = f"{r['p50'] / base:.2f}" if len(rows) > 1 else "–"
+                lines.append(f"| {name} | {weather_name} | {r['quality']} | {r['size']} | "
+                             f"{r['frames']} | {r['p50']:.1f} | {r['p99']:.1f} | "
+                             f"{1e3 / r['p50']:.1f} | {ratio} |")  # fmt: skip
+                print(lines[-1], flush=True)
+    return lines, gl
+
+
+def notes(gl_renderer: str, baseline: str) -> str:
     """What the frame times mean on the GL renderer this run had."""
     text = "A frame is the scene update, the draw and reading every output's pixels back to RAM. "
+    if baseline:
+        text += (f"Each quality's frames alternate with the baseline's ({baseline}) in one run; "
+                 f"the `cpu` preset's budget is {BUDGET}× `flat`'s p50. ")  # fmt: skip
     if "llvmpipe" in gl_renderer or "softpipe" in gl_renderer:
         return text + (
             "This GL renderer rasterises on the CPU, so these figures are the CPU's and the "
-            f"machine's load; the {TARGET_FPS} fps target is for a GPU and is still to be "
-            "measured on one."
+            f"machine's load; the {TARGET_FPS} fps target is for a GPU (quality `full`) and is "
+            "still to be measured on one."
         )
     return text + f"Target: {TARGET_FPS} fps on this GPU."
 

@@ -1,0 +1,495 @@
+"""The renderer's GLSL, as text: the surfaces, the sky dome, rain streaks and lamp glare.
+
+Every program starts with the preset's `#define`s and `COMMON`: colour space, tone mapping,
+the sky's radiance in a direction, fog, and `light()` — what a surface point sends to the
+eye, split into the part the sun adds (which a shadow removes) and the rest (sky, street
+lights, headlights, reflections). The sky seen directly, the sky mirrored in a wet road and
+the fog that swallows a distant house are one function.
+
+Two ways to run `light()`, by preset (`quality.Preset.per_pixel`):
+
+- per pixel (`full`, for a GPU): the fragment shader lights every pixel, then fogs and tone
+  maps it;
+- per vertex (`cpu`, for llvmpipe, whose fragment work is the frame): the vertex shader lights,
+  fogs and tone maps each vertex twice — in shadow and in sun — and the fragment shader only
+  mixes the two by the shadow map and multiplies the texture, as fixed-function drawing
+  modulates a texture. Smooth terms come out the same; a headlight's pool or a highlight is
+  as coarse as the mesh (lanes are cut every 5 m).
+
+Programs come in a day and a night variant (`NIGHT`): street lights, headlights and lit
+windows cost nothing by day.
+
+Conventions: world frame (x east, y north, z up) [m]; colours linear RGB in the units of
+`sky.py` (1.0 = a clear zenith sun on a surface facing it); vertex colours and textures are
+sRGB, linearised with γ = 2.2.
+A node whose lights are all off (`set_light_off`: lamps, signal heads) is emissive: Panda3D
+hands such a node an ambient of (1, 1, 1, 1), while the scene's own ambient light has alpha 0.
+"""
+
+from __future__ import annotations
+
+from carlaverse.render.quality import Preset
+
+FOG_LAYER_M = 60.0  # [m] thickness of the fog layer the sky is seen through
+FAR_SKY_M = 400.0  # [m] the longest path through fog towards the horizon
+SUN_DISC_RAD = 0.0093  # [rad] the sun's disc radius drawn (about twice the true 0.27°)
+SUN_DISC_GAIN = 60.0  # disc radiance per unit of sun irradiance: it tone-maps to white
+WET_DARKENING = 0.5  # diffuse albedo lost on a fully wet surface (Lekner & Dorf 1988: ~½)
+WATER_F0 = 0.02  # normal-incidence reflectance of water
+HEAD_RGB = (1.0, 0.93, 0.82)  # halogen-ish headlamp colour
+STREET_RGB = (1.0, 0.82, 0.6)  # warm-white LED street lamps
+# An emission texture (a texture stage in mode M_emission: a facade's lit windows, black
+# elsewhere) glows at night with this radiance per unit of its linear colour; the sky's
+# radiance at night is ~0.002. It must not be pure white: Panda3D stands in white for a
+# missing stage, which the shader takes as "no emission".
+WINDOW_RADIANCE = 0.12
+
+COMMON = """
+uniform vec3 sun_dir;         // towards the sun
+uniform vec3 sun_color;       // irradiance facing the sun
+uniform vec3 sun_glow;
+uniform vec3 sky_zenith;
+uniform vec3 sky_horizon;
+uniform vec3 sky_ambient;
+uniform vec3 ground_ambient;
+uniform vec4 fog;             // rgb colour, a = extinction [1/m]
+uniform float exposure;
+uniform float night;
+uniform float wetness;
+uniform vec4 surface;         // x wet response, y roughness, z fine mesh, w gloss
+
+vec3 to_linear(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }
+vec3 to_display(vec3 c) { return pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)); }
+
+// Narkowicz's fit of the ACES filmic curve: a soft toe, a shoulder that keeps highlights
+vec3 tone_map(vec3 x) {
+    x *= exposure;
+    return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+}
+
+float pow4(float x) { x *= x; return x * x; }
+
+// radiance of the clear sky seen along unit direction d (no sun disc, no clouds)
+vec3 sky_radiance(vec3 d) {
+    float up = max(d.z, 0.0);
+    vec3 c = mix(sky_horizon, sky_zenith, pow(up, 0.25));  // pale only near the horizon
+    float mu = max(dot(d, sun_dir), 0.0);
+    float mu16 = pow4(pow4(mu));
+    c += sun_glow * (0.45 * pow4(mu) + 1.6 * mu16 * mu16 * mu16);
+    return c * mix(1.0, 0.45, smoothstep(0.0, -0.25, d.z));  // below the horizon: ground haze
+}
+
+vec3 fogged(vec3 c, float dist) { return mix(fog.rgb, c, exp(-fog.a * dist)); }
+
+// GGX normal distribution times Schlick's Fresnel, with a rough visibility term of 1/4
+float specular(vec3 N, vec3 L, vec3 V, float rough, float fresnel) {
+    vec3 h = normalize(L + V);
+    float a2 = pow4(rough);
+    float nh = max(dot(N, h), 0.0);
+    float dd = nh * nh * (a2 - 1.0) + 1.0;
+    return a2 / (3.14159 * dd * dd) * fresnel * 0.25;
+}
+
+#if NIGHT && HEADLIGHTS > 0
+uniform vec4 lamp_pos[HEADLIGHTS];  // xyz [m], w intensity (0: none)
+uniform vec4 lamp_dir[HEADLIGHTS];  // xyz beam axis (unit, horizontal), w cut-off (tan, up +)
+vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float fresnel) {
+    vec3 sum = vec3(0.0);
+    for (int i = 0; i < HEADLIGHTS; ++i) {
+        vec4 p = lamp_pos[i];
+        vec3 L = p.xyz - pos;
+        float d2 = max(dot(L, L), 0.25);
+        vec3 l = L * inversesqrt(d2);
+        vec3 axis = lamp_dir[i].xyz;
+        float along = max(-dot(l, axis), 1e-3);
+        float across = abs(dot(l, vec3(axis.y, -axis.x, 0.0))) / along;  // tan, sideways
+        float rise = -l.z / along;                                       // tan, upwards
+        float beam = step(0.05, along) * smoothstep(0.85, 0.3, across)
+                   * smoothstep(lamp_dir[i].w + 0.008, lamp_dir[i].w - 0.008, rise)
+                   * (0.3 + 0.7 * smoothstep(-0.14, -0.03, rise));  // dimmer near the car
+#if !PER_PIXEL
+        // lit per vertex, a wall or a pole (one quad, metres tall) would glow all over from
+        // its foot: only the ground and fine meshes (vehicles) take spotlights
+        beam *= max(step(0.5, N.z), surface.z);
+#endif
+        vec3 e = HEAD_RGB * (p.w * beam * max(dot(N, l), 0.0) / d2);
+        sum += e * (albedo + specular(N, l, V, rough, fresnel));
+    }
+    return sum;
+}
+#endif
+
+#if NIGHT && STREET_LIGHTS
+uniform sampler2D street_map;  // irradiance on the ground from every street light
+uniform vec4 street_rect;      // x0, y0 [m], 1/width, 1/height [1/m]
+vec3 street_light(vec3 pos, vec3 N) {
+    vec2 uv = (pos.xy - street_rect.xy) * street_rect.zw;
+    float e = textureLod(street_map, uv, 0.0).r * max(N.z, 0.0) * smoothstep(3.0, 0.0, pos.z);
+    return STREET_RGB * (e * night);
+}
+#endif
+
+// What a point sends towards the eye: `sunlit` is what the sun adds (a shadow takes it away),
+// `rest` everything else. base: sRGB colour; V: unit vector to the eye.
+void light(vec3 pos, vec3 N, vec3 V, vec3 base, out vec3 rest, out vec3 sunlit) {
+    vec3 albedo = to_linear(base);
+    // water stands on level ground (roads, roofs), not on a tree's crown or a wall
+    float wet = wetness * surface.x * smoothstep(0.9, 0.98, N.z);
+    albedo *= 1.0 - WET_DARKENING * wet;
+    float rough = mix(surface.y, 0.05, wet);
+    float f0 = mix(0.04, WATER_F0, wet);
+    float nv = max(dot(N, V), 1e-3);
+    float fresnel = f0 + (1.0 - f0) * pow4(1.0 - nv) * (1.0 - nv);
+    float ndl = max(dot(N, sun_dir), 0.0);
+#if PER_PIXEL
+    float gloss = max(wet, surface.w);
+#else
+    // per vertex, a highlight or a reflection on a big face (a van's back is two triangles)
+    // smears into a diagonal streak: only a wet surface, finely cut, mirrors the sky
+    float gloss = wet;
+#endif
+    sunlit = sun_color * ndl * (albedo + gloss * specular(N, sun_dir, V, rough, fresnel));
+    rest = albedo * mix(ground_ambient, sky_ambient, 0.5 + 0.5 * N.z);
+    rest += sky_radiance(reflect(-V, N)) * (fresnel * gloss * (1.0 - rough));
+#if NIGHT && HEADLIGHTS > 0
+    rest += headlights(pos, N, V, albedo, rough, fresnel);
+#endif
+#if NIGHT && STREET_LIGHTS
+    rest += albedo * street_light(pos, N);
+#endif
+}
+"""
+
+# Shared by both surface programs: the view, the material's start and the shadow map.
+SURFACE_HEAD = """
+uniform struct p3d_LightModelParameters { vec4 ambient; } p3d_LightModel;
+uniform mat4 p3d_ViewMatrixInverse;
+uniform vec4 p3d_ColorScale;
+#if SHADOW_TAPS > 0
+uniform mat4 shadow_mat;
+uniform float shadow_texel;  // [m] one shadow-map texel on the ground
+uniform sampler2DShadow shadow_map;
+uniform float shadow_on;
+#endif
+bool emissive() { return p3d_LightModel.ambient.a > 0.5; }  // lights off: a lamp
+vec3 eye_position() { return p3d_ViewMatrixInverse[3].xyz; }
+"""
+
+VERTEX_IN = """
+uniform mat4 p3d_ModelViewProjectionMatrix;
+uniform mat4 p3d_ModelMatrix;
+uniform mat3 p3d_NormalMatrix;
+in vec4 p3d_Vertex;
+in vec3 p3d_Normal;
+in vec4 p3d_Color;
+in vec2 p3d_MultiTexCoord0;
+out vec2 v_uv;
+out vec4 v_shadow;
+// the inverse-transpose in view space, back to world: right for scaled actors too
+vec3 world_normal() {
+    return normalize(mat3(p3d_ViewMatrixInverse) * (p3d_NormalMatrix * p3d_Normal));
+}
+vec4 shadow_coord(vec3 world, vec3 N) {
+#if SHADOW_TAPS > 0
+    // normal offset: look the depth up a texel and a half off the surface, no acne
+    return shadow_mat * vec4(world + N * 1.5 * shadow_texel, 1.0);
+#else
+    return vec4(0.0);
+#endif
+}
+"""
+
+SHADOW_LOOKUP = """
+in vec4 v_shadow;
+float sun_visible() {
+#if SHADOW_TAPS > 0
+    vec3 p = v_shadow.xyz / v_shadow.w;
+#if SHADOW_TAPS > 1
+    vec2 t = vec2(0.6 / SHADOW_PX);
+    float s = 0.25 * (texture(shadow_map, p + vec3(-t.x, -t.y, 0.0))
+                    + texture(shadow_map, p + vec3(t.x, -t.y, 0.0))
+                    + texture(shadow_map, p + vec3(-t.x, t.y, 0.0))
+                    + texture(shadow_map, p + vec3(t.x, t.y, 0.0)));
+#else
+    float s = texture(shadow_map, p);
+#endif
+    vec2 edge = min(p.xy, 1.0 - p.xy);  // fade out at the film's border
+    return mix(1.0, s, shadow_on * smoothstep(0.0, 0.05, min(edge.x, edge.y)));
+#else
+    return 1.0;
+#endif
+}
+"""
+
+EMISSION = """
+uniform sampler2D p3d_TextureEmission;  // lit windows: black but for the lit ones
+// Panda3D hands a node without an emission stage a white texture: pure white means none
+vec3 emission(vec2 uv) {
+#if NIGHT
+    vec3 e = texture(p3d_TextureEmission, uv).rgb;
+    return min(e.r, min(e.g, e.b)) > 0.99 ? vec3(0.0) : to_linear(e) * (WINDOW_RADIANCE * night);
+#else
+    return vec3(0.0);
+#endif
+}
+"""
+
+PIXEL_VS = """
+out vec3 v_pos;
+out vec3 v_normal;
+out vec4 v_color;
+void main() {
+    vec4 world = p3d_ModelMatrix * p3d_Vertex;
+    gl_Position = p3d_ModelViewProjectionMatrix * p3d_Vertex;
+    v_normal = world_normal();
+    v_pos = world.xyz;
+    v_color = p3d_Color * p3d_ColorScale;
+    v_uv = p3d_MultiTexCoord0;
+    v_shadow = shadow_coord(world.xyz, v_normal);
+}
+"""
+
+PIXEL_FS = """
+uniform sampler2D p3d_TextureModulate;
+in vec3 v_pos;
+in vec3 v_normal;
+in vec4 v_color;
+in vec2 v_uv;
+out vec4 frag;
+void main() {
+    vec4 base = v_color * texture(p3d_TextureModulate, v_uv);
+    float dist = length(eye_position() - v_pos);
+    if (emissive()) {
+        frag = vec4(mix(to_display(tone_map(fog.rgb)), base.rgb, exp(-fog.a * dist)), base.a);
+        return;
+    }
+    vec3 rest, sunlit;
+    light(v_pos, normalize(v_normal), (eye_position() - v_pos) / max(dist, 1e-4), base.rgb,
+          rest, sunlit);
+    vec3 c = rest + sunlit * sun_visible() + emission(v_uv);
+    frag = vec4(to_display(tone_map(fogged(c, dist))), base.a);
+}
+"""
+
+VERTEX_LIT_VS = """
+out vec3 v_shade;   // display colour in shadow
+out vec3 v_sun;     // display colour in sun
+out float v_alpha;
+void main() {
+    vec4 world = p3d_ModelMatrix * p3d_Vertex;
+    gl_Position = p3d_ModelViewProjectionMatrix * p3d_Vertex;
+    vec4 base = p3d_Color * p3d_ColorScale;
+    v_uv = p3d_MultiTexCoord0;
+    v_alpha = base.a;
+    vec3 to_eye = eye_position() - world.xyz;
+    float dist = length(to_eye);
+    vec3 N = world_normal();
+    v_shadow = shadow_coord(world.xyz, N);
+    if (emissive()) {
+        v_shade = v_sun = mix(to_display(tone_map(fog.rgb)), base.rgb, exp(-fog.a * dist));
+        return;
+    }
+    vec3 rest, sunlit;
+    light(world.xyz, N, to_eye / max(dist, 1e-4), base.rgb, rest, sunlit);
+    v_shade = to_display(tone_map(fogged(rest, dist)));
+    v_sun = to_display(tone_map(fogged(rest + sunlit, dist)));
+}
+"""
+
+VERTEX_LIT_FS = """
+uniform sampler2D p3d_TextureModulate;
+in vec3 v_shade;
+in vec3 v_sun;
+in float v_alpha;
+in vec2 v_uv;
+out vec4 frag;
+void main() {
+    vec4 tex = texture(p3d_TextureModulate, v_uv);
+    vec3 c = mix(v_shade, v_sun, sun_visible()) * tex.rgb;
+#if NIGHT
+    c += sqrt(tone_map(emission(v_uv)));  // γ 2 here: a pixel's pow is dear on llvmpipe
+#endif
+    frag = vec4(c, v_alpha * tex.a);
+}
+"""
+
+# The sky: the clear sky through the fog layer, clouds, and the sun's disc in front unless a
+# cloud hides it. `sky_at` gives the clear sky and the lit cloud colour for a direction; the
+# per-pixel sky calls it per pixel, the vertex-lit one per dome vertex (colours interpolated,
+# the cloud pattern and the disc still per pixel).
+SKY_COMMON = """
+uniform sampler2D cloud_map;
+uniform vec4 clouds;  // x cover 0..1, y unused, zw drift of the pattern
+float fog_through(vec3 d) { return exp(-fog.a * min(FOG_LAYER_M / max(d.z, 1e-3), FAR_SKY_M)); }
+vec2 cloud_uv(vec3 d) { return d.xy / (max(d.z, 0.0) + 0.12) * 0.35 + clouds.zw; }
+void sky_at(vec3 d, out vec3 clear, out vec3 cloud) {
+    float through = fog_through(d);
+    float glow = pow4(pow4(max(dot(d, sun_dir), 0.0)));
+    clear = mix(fog.rgb, sky_radiance(d), through);
+    cloud = sky_horizon * 1.1 + sun_color * (0.2 + 0.4 * glow) * (1.0 - 0.8 * clouds.x);
+    cloud = mix(fog.rgb, cloud * (1.0 - 0.3 * clouds.x), through);
+}
+float cloud_density(float pattern, vec3 d) {
+    float cover = clouds.x;
+    return smoothstep(1.0 - cover, 1.3 - cover, pattern) * smoothstep(0.0, 0.1, d.z)
+         * step(0.001, cover);
+}
+float sun_disc(vec3 d) {
+    return smoothstep(cos(SUN_DISC_RAD * 1.3), cos(SUN_DISC_RAD), dot(d, sun_dir));
+}
+"""
+
+SKY_VS = """
+uniform mat4 p3d_ModelViewProjectionMatrix;
+in vec4 p3d_Vertex;
+out vec3 v_dir;
+out vec3 v_clear;   // display colours (vertex-lit presets)
+out vec3 v_cloud;
+out vec3 v_disc;
+out vec2 v_cloud_uv;
+void main() {
+    // on the far plane: drawn after the scene, it only fills pixels nothing else covered
+    gl_Position = (p3d_ModelViewProjectionMatrix * p3d_Vertex).xyww;
+    v_dir = p3d_Vertex.xyz;  // the dome is centred on the eye and never rotated
+#if !PER_PIXEL
+    vec3 d = normalize(v_dir), clear, cloud;
+    sky_at(d, clear, cloud);
+    v_clear = to_display(tone_map(clear));
+    v_cloud = to_display(tone_map(cloud));
+    v_disc = to_display(tone_map(sun_color * (SUN_DISC_GAIN * fog_through(d)))) - v_clear;
+    v_cloud_uv = cloud_uv(d);
+#endif
+}
+"""
+
+SKY_FS = """
+in vec3 v_dir;
+in vec3 v_clear;
+in vec3 v_cloud;
+in vec3 v_disc;
+in vec2 v_cloud_uv;
+out vec4 frag;
+void main() {
+    vec3 d = normalize(v_dir);
+#if PER_PIXEL
+    vec3 clear, cloud;
+    sky_at(d, clear, cloud);
+    vec3 c = clear + sun_color * (SUN_DISC_GAIN * fog_through(d) * sun_disc(d));
+#if CLOUDS
+    c = mix(c, cloud, cloud_density(texture(cloud_map, cloud_uv(d)).r, d));
+#endif
+    frag = vec4(to_display(tone_map(c)), 1.0);
+#else
+    vec3 c = v_clear + v_disc * sun_disc(d);
+#if CLOUDS
+    c = mix(c, v_cloud, cloud_density(texture(cloud_map, v_cloud_uv).r, d));
+#endif
+    frag = vec4(c, 1.0);
+#endif
+}
+"""
+
+RAIN_VS = """
+uniform mat4 p3d_ViewProjectionMatrix;
+uniform mat4 p3d_ViewMatrixInverse;
+uniform vec3 rain_box;    // [m] the streaks fill this box around the eye
+uniform vec4 rain_fall;   // xyz travelled by a drop since t = 0 [m], w share of drops shown
+uniform vec3 rain_step;   // [m] a streak's length and direction (the drop's motion blur)
+in vec4 p3d_Vertex;       // a drop's place in the unit box
+in vec4 p3d_Color;        // r: the drop's rank (shown when < rain_fall.w), g: 0 head, 1 tail
+out float v_alpha;
+
+void main() {
+    vec3 eye = p3d_ViewMatrixInverse[3].xyz;
+    vec3 p = p3d_Vertex.xyz * rain_box + rain_fall.xyz;
+    p = eye + (fract((p - eye) / rain_box + 0.5) - 0.5) * rain_box;  // wrap around the eye
+    p += rain_step * p3d_Color.g;
+    v_alpha = step(p3d_Color.r, rain_fall.w) * (1.0 - 0.7 * p3d_Color.g);
+    gl_Position = p3d_ViewProjectionMatrix * vec4(p, 1.0);
+}
+"""
+
+RAIN_FS = """
+in float v_alpha;
+out vec4 frag;
+void main() {
+    // a drop shows the world around it squeezed (bright sky, dark ground): about its mean
+    vec3 c = sky_horizon * 0.55 + sky_ambient * 0.25;
+    frag = vec4(to_display(tone_map(c)), RAIN_ALPHA * v_alpha);
+}
+"""
+
+GLARE_VS = """
+uniform mat4 p3d_ModelViewProjectionMatrix;
+uniform mat4 p3d_ModelMatrix;
+in vec4 p3d_Vertex;
+in vec4 p3d_Color;
+in vec2 p3d_MultiTexCoord0;
+out vec2 v_uv;
+out vec3 v_pos;
+out float v_level;
+void main() {
+    gl_Position = p3d_ModelViewProjectionMatrix * p3d_Vertex;
+    v_pos = (p3d_ModelMatrix * p3d_Vertex).xyz;
+    v_uv = p3d_MultiTexCoord0;
+    v_level = p3d_Color.r;
+}
+"""
+
+GLARE_FS = """
+uniform mat4 p3d_ViewMatrixInverse;
+in vec2 v_uv;
+in vec3 v_pos;
+in float v_level;
+out vec4 frag;
+void main() {
+    float r2 = dot(v_uv - 0.5, v_uv - 0.5) * 4.0;
+    float glow = exp(-r2 * 9.0) + 0.25 * exp(-r2 * 2.5);
+    float through = exp(-fog.a * length(p3d_ViewMatrixInverse[3].xyz - v_pos));
+    frag = vec4(HEAD_RGB * (glow * v_level * through), 1.0);  // added to what lies behind
+}
+"""
+
+
+def shader_defines(preset: Preset, night: bool, sun_up: bool = True) -> str:
+    """The `#define`s that switch a program's features for one preset: by day or night, and
+    with shadows only while the sun is up."""
+    values = {
+        "PER_PIXEL": int(preset.per_pixel),
+        "NIGHT": int(night),
+        "SHADOW_TAPS": preset.shadow_taps if preset.shadow_map_px and sun_up else 0,
+        "SHADOW_PX": f"{max(preset.shadow_map_px, 1)}.0",
+        "HEADLIGHTS": preset.headlights,
+        "STREET_LIGHTS": int(preset.street_lights),
+        "CLOUDS": int(preset.clouds),
+        "FOG_LAYER_M": f"{FOG_LAYER_M}",
+        "FAR_SKY_M": f"{FAR_SKY_M}",
+        "SUN_DISC_RAD": f"{SUN_DISC_RAD}",
+        "SUN_DISC_GAIN": f"{SUN_DISC_GAIN}",
+        "WET_DARKENING": f"{WET_DARKENING}",
+        "WATER_F0": f"{WATER_F0}",
+        "HEAD_RGB": "vec3({}, {}, {})".format(*HEAD_RGB),
+        "STREET_RGB": "vec3({}, {}, {})".format(*STREET_RGB),
+        "WINDOW_RADIANCE": f"{WINDOW_RADIANCE}",
+        "RAIN_ALPHA": "0.55",
+    }
+    return "\n".join(f"#define {name} {value}" for name, value in values.items())
+
+
+def program(preset: Preset, *stages: str, night: bool = False, sun_up: bool = True) -> str:
+    """One stage's full source: version, the preset's switches, the common part, the stage."""
+    defines = shader_defines(preset, night, sun_up)
+    return "\n".join(("#version 330", defines, COMMON, *stages))
+
+
+def surface_sources(preset: Preset, night: bool, sun_up: bool) -> tuple[str, str]:
+    """Vertex and fragment source of the surface shader for this preset and time of day."""
+    vs_body, fs_body = (PIXEL_VS, PIXEL_FS) if preset.per_pixel else (VERTEX_LIT_VS, VERTEX_LIT_FS)
+    key = {"night": night, "sun_up": sun_up}
+    vs = program(preset, SURFACE_HEAD, VERTEX_IN, vs_body, **key)
+    fs = program(preset, SURFACE_HEAD, SHADOW_LOOKUP, EMISSION, fs_body, **key)
+    return vs, fs
+
+
+def sky_sources(preset: Preset) -> tuple[str, str]:
+    return program(preset, SKY_COMMON, SKY_VS), program(preset, SKY_COMMON, SKY_FS)
