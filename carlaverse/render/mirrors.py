@@ -57,8 +57,17 @@ def mirror_fov(mirror: Mirror, head: HeadPosition) -> tuple[float, float]:
 
 
 def texture_size(mirror: Mirror) -> tuple[int, int]:
+    """[px] powers of two near `texture_px` across and its share of the glass's height up.
+
+    Panda3D pads a render target of any other size up to powers of two and the glass would
+    show the padding; the image's pixels need not be square, the lens fixes the proportions.
+    """
     w, h = mirror.size
-    return mirror.texture_px, max(8, round(mirror.texture_px * h / w))
+
+    def power_of_two(px: float) -> int:
+        return 2 ** max(3, round(math.log2(px)))
+
+    return power_of_two(mirror.texture_px), power_of_two(mirror.texture_px * h / w)
 
 
 class MirrorView:

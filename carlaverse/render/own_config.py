@@ -67,7 +67,8 @@ class Mirror(StrictStruct):
     pitch_deg: float = 0.0  # up positive
     # horizontal field of view; None: a flat mirror's, the angle the glass subtends at the eye
     fov_deg: Annotated[float, msgspec.Meta(gt=0.0, lt=180.0)] | None = None
-    texture_px: Annotated[int, msgspec.Meta(ge=16, le=2048)] = 256  # its image's width [px]
+    # its image's width [px], rounded to a power of two (the height: its share of it)
+    texture_px: Annotated[int, msgspec.Meta(ge=16, le=2048)] = 256
 
 
 class Hud(StrictStruct):

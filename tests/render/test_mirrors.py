@@ -108,6 +108,21 @@ def test_a_car_in_the_left_lane_behind_shows_in_the_left_door_mirror(behind) -> 
     assert changed(behind["lane_right"], behind["nobody"])[rows, cols].sum() == 0
 
 
+def test_the_whole_glass_shows_the_view_behind() -> None:
+    """A truck's back, 3.4 m tall and 2.5 m wide, 8 m behind, fills the rear-view mirror's
+    field (±10.6° across, ±3.1° up and down: ±0.47 m about the mirror's height there): every
+    part of the glass changes, its top third as well as its bottom third."""
+    e = m.KIND_EXTENTS["truck"]
+    truck = ActorDraw("truck", "truck", -8.0 - e.length / 2, 0.05, 0.0, 0.0, e.length, e.width,
+                      e.height)  # fmt: skip
+    rows, cols = glass_box(REAR)
+    seen = changed(riding(truck), riding())[rows, cols]
+    seen = seen[:, seen.shape[1] // 4 : 3 * seen.shape[1] // 4]  # the glass's middle: seen at
+    third = seen.shape[0] // 3  # 30° to the right it leans, and the box holds its housing too
+    for name, part in (("top", seen[:third]), ("bottom", seen[-third:])):
+        assert part.mean() > 0.6, (name, part.mean())
+
+
 def test_mirrors_are_the_same_picture_for_the_same_frame() -> None:
     own = OwnView(cockpit=Cockpit(), mirrors=(REAR, LEFT), hud=Hud())
     config = RenderConfig(output="offscreen", camera=CONFIG.camera, own=own)
