@@ -101,6 +101,19 @@ class MeshBuilder:
         self._tris.add_vertices(i[0], i[1], i[2])
         self._tris.add_vertices(i[0], i[2], i[3])
 
+    def flat_quad(self, corners: Sequence[Point2], z: float, color: Color,
+                  uvs: Sequence[Point2] | None = None) -> None:  # fmt: skip
+        """A horizontal quad facing up, whatever its corners' order: a strip round a bend
+        tighter than its half width folds over itself, and each of its two triangles is then
+        turned to face up on its own (as a tilted normal it would be shaded dark, as a culled
+        back face it would leave a hole)."""
+        uv: Sequence[Point2 | None] = uvs if uvs is not None else (None, None, None, None)
+        k = [self._add((x, y, z), UP, color, t) for (x, y), t in zip(corners, uv, strict=True)]
+        for a, b, c in ((0, 1, 2), (0, 2, 3)):
+            if _area2(corners[a], corners[b], corners[c]) < 0:
+                b, c = c, b
+            self._tris.add_vertices(k[a], k[b], k[c])
+
     def wall(self, a: Point2, b: Point2, z0: float, z1: float, color: Color,
              u0: float = 0.0) -> None:  # fmt: skip
         """A vertical quad from a to b (facing right of a→b), z0..z1; texture coordinates
@@ -132,7 +145,7 @@ class MeshBuilder:
         left = offset_line(line, width / 2)
         right = offset_line(line, -width / 2)
         for k in range(len(line) - 1):
-            self.quad((*right[k], z), (*right[k + 1], z), (*left[k + 1], z), (*left[k], z), color)
+            self.flat_quad((right[k], right[k + 1], left[k + 1], left[k]), z, color)
 
     def strip(self, line: Sequence[Point2], width: float, z: float, color: Color) -> None:
         """A ribbon whose texture runs along it: u is the distance along the line, v across
@@ -146,8 +159,7 @@ class MeshBuilder:
             step = math.dist(line[k], line[k + 1])
             u0, u1, v1 = walked / tu, (walked + step) / tu, width / tv
             uvs = [(u0, 0.0), (u1, 0.0), (u1, v1), (u0, v1)]
-            self.quad((*right[k], z), (*right[k + 1], z), (*left[k + 1], z), (*left[k], z), color,
-                      uvs)  # fmt: skip
+            self.flat_quad((right[k], right[k + 1], left[k + 1], left[k]), z, color, uvs)
             walked += step
 
     def grid(self, bounds: tuple[float, float, float, float], z: float, color: Color,

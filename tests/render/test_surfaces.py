@@ -191,3 +191,20 @@ def test_same_map_same_pixels(save_shot) -> None:
     first = render(road_map(lanes), ABOVE, save_shot, "same_a")
     second = render(road_map(lanes), ABOVE, save_shot, "same_b")
     assert np.array_equal(first, second)
+
+
+def test_a_lane_round_a_tight_bend_faces_up_everywhere(save_shot) -> None:
+    """A right turn through a junction as SUMO shapes it (town's :B1_6_0, 3.2 m wide, its
+    last segment 0.23 m long at a sharp angle): its inner edge folds over itself. A flat road
+    under one sun is lit the same everywhere: no part of it may come out dark (a fold turned
+    upside down is shaded as if facing the ground) or show the grass beneath (culled)."""
+    shape = [(1.6, -7.2), (1.95, -4.75), (3.0, -3.0), (3.2, -2.88)]
+    turn = m.MapLane(":J_6_0", "road", 3.2, shape)
+    eye = Pinhole(2.5, -4.5, 9.0, math.pi / 2, math.pi / 2, 640, 640, math.radians(50))
+    grass = render(road_map([]), eye, save_shot, "bend_without")
+    img = render(road_map([turn]), eye, save_shot, "bend")
+    road = np.abs(img.astype(int) - grass.astype(int)).max(axis=2) > 12
+    level = brightness(img)
+    assert road.sum() > 5000
+    dark = road & (level < 0.6 * np.median(level[road]))  # grain varies by ±25 % at most
+    assert dark.sum() < 10, dark.sum()
