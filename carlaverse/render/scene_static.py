@@ -1,8 +1,8 @@
 """The static scene of a map, built once: road surfaces and paint, land, buildings, trees, signs.
 
 `Renderer._build_map` attaches `road` under the node wetness darkens and `land` beside it.
-Each entry is one mesh with one texture state, so the map costs a draw call per entry (about a
-dozen) however large it is. Everything random is seeded by the map's name, so every node that
+Each entry is one mesh with one texture state, so the map costs a draw call per entry: about
+a dozen, and one per 100 m square that has trees (squares out of view are culled). Everything random is seeded by the map's name, so every node that
 draws the same map draws the same trees and facades.
 """
 
