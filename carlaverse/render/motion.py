@@ -24,6 +24,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from carlaverse.support.angles import wrap_angle
+
 MAX_STEP_S = 0.5  # [s] a longer gap between two frames is a jump, not a motion
 MAX_SPEED_MPS = 70.0  # [m/s] a step faster than this is a teleport
 MIN_STEER_SPEED_MPS = 0.5  # [m/s] below this the steer holds its last angle
@@ -36,11 +38,6 @@ def kinematic_steer(wheelbase_m: float, yaw_rate: float, speed: float) -> float:
         return 0.0
     delta = math.atan(wheelbase_m * yaw_rate / speed)
     return max(-MAX_ROAD_WHEEL_RAD, min(MAX_ROAD_WHEEL_RAD, delta))
-
-
-def wrap(angle: float) -> float:
-    """The angle in (−π, π] [rad]."""
-    return math.atan2(math.sin(angle), math.cos(angle))
 
 
 @dataclass(slots=True)
@@ -63,12 +60,12 @@ class Motion:
         dx, dy = x - self.x, y - self.y
         moved = math.hypot(dx, dy)
         if 0.0 < dt <= MAX_STEP_S and moved <= MAX_SPEED_MPS * dt:
-            mean_yaw = self.yaw + wrap(yaw - self.yaw) / 2
+            mean_yaw = self.yaw + wrap_angle(yaw - self.yaw) / 2
             along = dx * math.cos(mean_yaw) + dy * math.sin(mean_yaw)
             self.rolled_m += along
             self.walked_m += moved
             self.speed_mps = along / dt
-            self.yaw_rate = wrap(yaw - self.yaw) / dt
+            self.yaw_rate = wrap_angle(yaw - self.yaw) / dt
         elif dt != 0.0:  # a jump: the estimates of the last step no longer hold
             self.speed_mps = self.yaw_rate = 0.0
         self.t, self.x, self.y, self.yaw = t, x, y, yaw
