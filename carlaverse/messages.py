@@ -129,13 +129,6 @@ def decode_pose(buf: bytes | bytearray | memoryview) -> Pose:
     return Pose(v[3], *v[4:], flags=v[1])
 
 
-def check_pose(buf: bytes) -> bytes:
-    """`buf` itself if `decode_pose` would accept it (MessageError if not), without building
-    the `Pose`: a receiver that applies many poses at once turns the bytes into columns."""
-    _checked_pose_fields(buf)
-    return buf
-
-
 _POSE_STAMP = struct.Struct("<4xId")  # seq u32 at byte 4, t f64 at byte 8 (POSE_LAYOUT)
 
 
@@ -201,9 +194,17 @@ def pose_stamps(rows: bytes | bytearray | memoryview) -> tuple[np.ndarray, np.nd
     return table["seq"], table["t"]
 
 
+# Up to this many rows are decoded one `struct` unpack each: numpy's setup for a pass over the
+# rows costs more than that (measured warm: 1 row 10 µs through numpy against 1.4 µs unpacked,
+# 8 rows 12 against 9, 16 rows 15 against 19). A node's loop applies a few poses per update.
+FEW_ROWS = 8
+
+
 def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
     """Consecutive 64-byte poses, each decoded as `decode_pose` would; None where it would
     refuse. A relay's batch costs a fraction of a `decode_pose` call per pose."""
+    if len(rows) <= FEW_ROWS * POSE_SIZE and not len(rows) % POSE_SIZE:
+        return [_pose_or_none(rows[k : k + POSE_SIZE]) for k in range(0, len(rows), POSE_SIZE)]
     columns, good = pose_columns(rows)
     if good.all():  # nearly always
         return columns.poses()
@@ -213,6 +214,13 @@ def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
     for k, pose in zip(keep.tolist(), poses, strict=True):
         out[k] = pose
     return out
+
+
+def _pose_or_none(row: bytes | bytearray | memoryview) -> Pose | None:
+    try:
+        return decode_pose(row)
+    except MessageError:
+        return None
 
 
 # Poses relayed many to a message (`PoseDigest`): at most this many in one.

@@ -2,8 +2,10 @@
 
 Zenoh callbacks only push into `inbox` (a deque append is atomic under the GIL, so they never
 wait); the owner of the view drains it in `update(now)` on its own thread. That keeps every
-`RemoteActor` single-threaded and the callbacks cheap. The poses drained in one update are
-applied together, as arrays (`ego_streams`); an actor takes its samples when it is read.
+`RemoteActor` single-threaded and the callbacks cheap. Poses come in as they travel, 64 bytes
+each: the callback that received one does not look inside it. The poses an update drains are
+checked and decoded once, together (`messages.decode_pose_rows`), and the decoded `Pose`s are
+what the senders' streams keep (`ego_streams`); an actor takes its samples when it is read.
 
 One render time per view: every actor of a view, egos and NPCs, is drawn at the same session
 time, so that their relative positions are true (two actors drawn at different times are
@@ -30,24 +32,14 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
-from carlaverse.fabric.ego_streams import (
-    Batch,
-    EgoActors,
-    EgoStreams,
-    StreamStatsTable,
-    batch_of_digests,
-    batch_of_poses,
-    batch_of_wire,
-    join_batches,
-)
+from carlaverse.fabric.ego_streams import Applied, EgoActors, EgoStreams, StreamStatsTable
 from carlaverse.fabric.guard import Tally
 from carlaverse.fabric.interest_npcs import WHOLE_WORLD, NpcTiles
 from carlaverse.fabric.npc_table import NpcFrame
 from carlaverse.fabric.remote_actor import ActorView, DelaySlew, InterpolationSettings, Phase
 from carlaverse.keys import AUTHORITY_ID, tile_of, tile_token
 from carlaverse.messages import (
+    POSE_SIZE,
     EgoInfo,
     EgoState,
     LightsState,
@@ -57,6 +49,8 @@ from carlaverse.messages import (
     Skeleton,
     Snapshot,
     Weather,
+    decode_pose_rows,
+    encode_pose,
 )
 
 log = logging.getLogger(__name__)
@@ -68,6 +62,9 @@ NOTICE_LIMIT = 32  # scenario messages waiting for the node's loop; older ones a
 # Despawns kept for the summary; with interest areas every ego that drives out of a node's
 # tiles is one (`far`), so over a long session the oldest go.
 DESPAWN_LIMIT = 10_000
+# Inbox tags of poses (compared by identity in `update`, nearly every item is one of them):
+_POSE = "pose"  # one node's pose: (tag, node id, 64 bytes, arrival)
+_ROWS = "rows"  # poses relayed together: (tag, node ids, their rows, arrival)
 
 
 @dataclass(frozen=True, slots=True)
@@ -107,8 +104,6 @@ class WorldView:
         self.rejected: Counter[str] = Counter()
         self._delay = DelaySlew(settings)
         self._render: tuple[float, float] | None = None  # (now, render time) last computed
-        # inbox tag of poses -> what makes a batch of a run of them (gathered, then applied)
-        self._runs = {"wire": batch_of_wire, "pose": batch_of_poses, "digest": self._digests}
         # inbox tag -> what applies it (poses, most of the items, are gathered instead)
         self._handlers = {
             "skeleton": self._on_skeleton, "npc": self._on_npc, "interest": self._on_interest,
@@ -128,22 +123,23 @@ class WorldView:
     # ------------------------------------------------------------ called from callbacks
 
     def push_pose(self, node_id: str, pose: Pose, rx_t: float) -> None:
-        """A pose from a local source (a recording, a test); the fabric hands bytes instead."""
-        if node_id != self.own_id:
-            self.inbox.append(("pose", node_id, pose, rx_t))
+        """A pose from a local source (a recording, a test), as it would have travelled."""
+        self.push_wire(node_id, encode_pose(pose), rx_t)
 
     def push_wire(self, node_id: str, payload: bytes, rx_t: float) -> None:
-        """A received pose in its 64-byte wire form, checked (`messages.check_pose`): no `Pose`
-        is built for it; the update reads every such pose as columns at once."""
-        if node_id != self.own_id:
-            self.inbox.append(("wire", node_id, payload, rx_t))
+        """A received pose in its 64-byte wire form, unchecked: the update checks and decodes
+        every pose it drains at once, counting a bad one in `dropped` under `pose`. The
+        callback that received it then costs next to nothing, which matters most when it runs
+        cold, as it does at 50 Hz."""
+        if len(payload) != POSE_SIZE:  # it would shift every row joined after it
+            self.dropped.add("pose")
+        elif node_id != self.own_id:
+            self.inbox.append((_POSE, node_id, payload, rx_t))
 
     def push_digest(self, ids: list[str], rows: bytes, rx_t: float) -> None:
-        """Many nodes' poses received together (a `PoseDigest`'s ids and rows), unchecked: the
-        update checks the rows of every digest it drains at once, counting a bad row in
-        `dropped` under `pose`. The callback that received it then costs next to nothing,
-        which matters most when it runs cold, every 2 ms."""
-        self.inbox.append(("digest", ids, rows, rx_t))
+        """Many nodes' poses received together (a `PoseDigest`'s ids and rows, as many rows as
+        ids), unchecked like `push_wire`'s."""
+        self.inbox.append((_ROWS, ids, rows, rx_t))
 
     def push_skeleton(self, node_id: str, skeleton: Skeleton) -> None:
         if node_id != self.own_id:
@@ -171,70 +167,59 @@ class WorldView:
 
         Poses are gathered and applied together; anything else applies the poses before it
         first, so that order holds (a pose in flight after its node left is refused)."""
-        inbox, handlers, runs = self.inbox, self._handlers, self._runs
-        run = ""  # the kind of poses being gathered: a key of `_runs` ("" for none)
-        ids: list[str] = []
-        data: list[Any] = []
+        inbox, handlers = self.inbox, self._handlers
+        ids: list[str] = []  # the poses gathered: who sent each, its bytes, when it came
+        rows: list[bytes] = []
         rx: list[float] = []
-        batches: list[Batch] = []
         while inbox:
             item = inbox.popleft()
             tag = item[0]
             # identity, not equality: the tags are interned literals (an equal tag that is not
             # identical still takes the path below, only slower)
-            if tag is run:  # nearly every item, unless the poses come as digests
+            if tag is _POSE:  # nearly every item
                 ids.append(item[1])
-                data.append(item[2])
+                rows.append(item[2])
                 rx.append(item[3])
                 continue
-            if data:  # a run ends: kept in arrival order with what follows
-                batches.append(runs[run](ids, data, rx))
-                ids, data, rx = [], [], []
-            run = ""
-            if tag in runs:
-                run = tag
-                ids.append(item[1])
-                data.append(item[2])
-                rx.append(item[3])
+            if tag is _ROWS:
+                ids += item[1]
+                rows.append(item[2])
+                rx += [item[3]] * len(item[1])
                 continue
-            if batches:
-                self._apply(join_batches(batches))
-                batches = []
+            if ids:  # the poses before this item apply first: kept in arrival order
+                self._apply_rows(ids, rows, rx)
+                ids, rows, rx = [], [], []
             handlers[tag](*item[1:])
-        if data:
-            batches.append(runs[run](ids, data, rx))
-        if batches:
-            self._apply(join_batches(batches))
+        if ids:
+            self._apply_rows(ids, rows, rx)
         self._expire(now)
         self.npcs.drop_expired(now)
         self._forget_tombstones(now)
 
-    def _digests(self, ids: list[list[str]], rows: list[bytes], rx_t: list[float]) -> Batch:
-        batch, malformed = batch_of_digests(ids, rows, rx_t)
-        if malformed:
-            self.dropped.add("pose", malformed)
-        return batch
+    def _apply_rows(self, ids: list[str], rows: list[bytes], rx: list[float]) -> None:
+        """Check and decode the gathered poses (once, together), then apply them."""
+        poses = decode_pose_rows(rows[0] if len(rows) == 1 else b"".join(rows))
+        if None in poses:  # a bad row: dropped and counted, the rest kept in order
+            keep = [k for k, pose in enumerate(poses) if pose is not None]
+            self.dropped.add("pose", len(poses) - len(keep))
+            ids, rx = [ids[k] for k in keep], [rx[k] for k in keep]
+            poses = [poses[k] for k in keep]
+        self._apply(self.streams.apply(ids, poses, rx))  # type: ignore[arg-type]
 
-    def _apply(self, batch: Batch) -> None:
-        applied = self.streams.apply(batch)
+    def _apply(self, applied: Applied) -> None:
         if applied.absent:
             self.rejected["pose_from_absent_node"] += applied.absent
         if applied.implausible:
             self.rejected["pose_time_implausible"] += applied.implausible
-        ids, active = self.streams.ids, self.streams.active
-        for slot in applied.fresh[~active[applied.fresh]].tolist():  # senders new to the view
-            self.egos.open(ids[slot])
-            self.seen.add(ids[slot])
+        for node_id in applied.opened:  # senders new to the view
+            self.egos.open(node_id)
+            self.seen.add(node_id)
 
     def _expire(self, now: float) -> None:
         """Remove the actors silent for the despawn timeout (every actor is looked at on every
-        update: one array comparison, no actor brought up to date unless it expired)."""
-        streams = self.streams
-        n = len(streams.ids)
-        silent = streams.active[:n] & (now - streams.last_rx[:n] > self.settings.despawn_timeout_s)
-        for slot in np.flatnonzero(silent).tolist():
-            node_id = streams.ids[slot]
-            reason = "timeout" if self.hears(self.egos[node_id].newest) else "far"
+        update, no actor brought up to date unless it expired)."""
+        for node_id in self.streams.silent(now, self.settings.despawn_timeout_s):
+            reason = "timeout" if self.hears(self.streams[node_id].newest) else "far"
             self._remove(node_id, reason, now)
 
     def _on_notice(self, notice: Notice) -> None:
@@ -253,9 +238,10 @@ class WorldView:
     def _on_interest(self, tiles: frozenset[str]) -> None:
         self.interest = tiles
         self.npcs.keep_only(tiles)
-        for actor_id, actor in list(self.egos.items()):
-            if not self.hears(actor.newest):
-                self._remove(actor_id, "far", actor.last_rx_t)
+        for actor_id in list(self.egos):
+            stream = self.streams[actor_id]
+            if not self.hears(stream.newest):
+                self._remove(actor_id, "far", stream.last_rx)
         # The snapshot came before we knew where we are: its egos near us count now.
         pending, self._snapshot_egos = self._snapshot_egos, []
         for ego, rx_t in pending:
@@ -283,7 +269,7 @@ class WorldView:
     def _snapshot_pose(self, ego: EgoInfo, rx_t: float) -> None:
         pose = ego.pose
         if pose is not None and self.hears(pose):
-            self._apply(batch_of_poses([ego.node_id], [pose], [rx_t]))
+            self._apply(self.streams.apply([ego.node_id], [pose], [rx_t]))
             if ego.node_id in self.egos:
                 self.egos[ego.node_id].kind = ego.actor_kind
 
@@ -336,9 +322,9 @@ class WorldView:
         if self.egos.close(node_id) is not None:
             self.despawns.append(Despawn(node_id, reason, t))
             log.info("despawned %s (%s)", node_id, reason)
-        slot = self.streams.index.get(node_id)
-        if reason == "far" and slot is not None:  # alive, only out of earshot: a gap is no loss
-            self.streams.reset_statistics(slot)
+        stream = self.streams.get(node_id)
+        if reason == "far" and stream is not None:  # alive, only out of earshot: no loss
+            stream.reset_statistics()
         self.ego_states.pop(node_id, None)
         self.skeletons.pop(node_id, None)
 

@@ -118,7 +118,7 @@ def test_py_spy_stacks_are_staged_by_their_method_names(monkeypatch: pytest.Monk
     })  # fmt: skip
     shares = dict(stage_shares(stacks))
     assert shares["NodeClient.publish_pose (encode, put)"] == pytest.approx(0.75)
-    assert shares["Zenoh pose callback (key parse, decode, checks, hand-over)"] == 0.25
+    assert shares["Zenoh pose callback (key parse, hand-over)"] == 0.25
     assert hottest(stacks)[0] == ("NodeClient.publish_pose (node_client.py)", 0.75)
 
 
@@ -136,7 +136,7 @@ def test_the_callback_steps_are_timed_warm_and_after_idle(monkeypatch: pytest.Mo
     monkeypatch.setattr(steps, "SPACING_S", 0.001)
     line = steps.steps_line()
     pairs = re.findall(r"\) (\d+\.\d) / (\d+\.\d) µs", line)
-    assert len(pairs) == 4, line
+    assert len(pairs) == 3, line
     warm, spaced = re.search(r"together (\d+\.\d) / (\d+\.\d) µs", line).groups()  # type: ignore[union-attr]
     assert float(warm) == pytest.approx(sum(float(w) for w, _ in pairs), abs=0.3)
     assert float(spaced) == pytest.approx(sum(float(s) for _, s in pairs), abs=0.3)

@@ -58,6 +58,7 @@ def test_direct_pose_callbacks_deliver_and_drop_bad_poses(cluster: Cluster) -> N
     def blast() -> bool:  # repeated: a fresh session's puts go nowhere until routes exist
         for payload in bad:
             outsider.put(key, payload)
+        obs.update()  # a pose's bytes are checked when the world view drains them
         return obs.dropped["pose"] >= len(bad)
 
     wait_until(blast, 10, "the bad poses to be counted", poll=0.2)

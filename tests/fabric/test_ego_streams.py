@@ -1,5 +1,5 @@
-"""The world view's egos as columns (`fabric/ego_streams.py`): poses applied a batch at a time,
-actors fed only when read, statistics per sender without an object per pose."""
+"""The world view's egos (`fabric/ego_streams.py`): poses decoded once and applied a batch at a
+time, actors fed only when read, statistics per sender."""
 
 from __future__ import annotations
 
@@ -50,7 +50,7 @@ def test_wire_poses_and_local_poses_of_one_sender_apply_in_arrival_order() -> No
     for k, t in enumerate(ts):
         pose = m.Pose(k + 1, t, float(k), 0.0)
         if k in (1, 2, 4):
-            world.push_wire("a", m.check_pose(m.encode_pose(pose)), t)
+            world.push_wire("a", m.encode_pose(pose), t)
         else:
             world.push_pose("a", pose, t)
     world.update(1.10)
@@ -58,7 +58,7 @@ def test_wire_poses_and_local_poses_of_one_sender_apply_in_arrival_order() -> No
     assert world.stats["a"].count == 6 and actor.samples_received == 6  # none taken as late
     assert actor.newest is not None and (actor.newest.seq, actor.newest.x) == (6, 5.0)
     assert world.rejected == {}
-    # a wire pose's columns are what `decode_pose` makes of the bytes, field for field
+    # a wire pose is what `decode_pose` makes of the bytes, field for field
     wired = m.Pose(7, 1.12, 1.5, -2.25, 0.5, 0.1, 0.2, 0.3, 14.0, 0.5, 0.0, 0.0, 0.0, 0.25, 1.0)
     world.push_wire("a", m.encode_pose(wired), 1.12)
     world.update(1.12)
@@ -84,6 +84,27 @@ def test_digests_drained_together_drop_only_their_bad_rows_and_count_them() -> N
     assert (summary.latency_p50_ms, summary.latency_p99_ms) == pytest.approx((10.0, 10.0))
 
 
+def test_poses_the_decoder_refuses_are_counted_and_dropped_and_the_rest_kept_in_order() -> None:
+    """A pose comes in as its bytes (the callback does not look inside): whatever
+    `decode_pose` refuses — empty, a byte short, an unknown layout, a NaN, a time out of
+    range — is counted under `pose` by the update that drains it; the poses around it apply."""
+    world = joined("a")
+    good = m.encode_pose(m.Pose(1, 1.0, 0.0, 0.0))
+    nan = bytearray(good)
+    nan[16:20] = b"\x00\x00\xc0\x7f"  # x = NaN
+    bad = [b"", good[:-1], b"\x09" + good[1:], bytes(nan), m.encode_pose(m.Pose(1, 2e12, 0, 0))]
+    for k, payload in enumerate(bad):
+        with pytest.raises(m.MessageError):
+            m.decode_pose(payload)
+        world.push_wire("a", payload, 1.0)
+        world.push_wire("a", m.encode_pose(m.Pose(k + 1, 1.0 + k / 50, float(k), 0.0)), 1.0)
+    world.update(1.1)
+    assert world.dropped["pose"] == len(bad) and world.rejected == {}
+    assert world.stats["a"].count == len(bad)
+    newest = world.egos["a"].newest
+    assert newest is not None and (newest.seq, newest.x) == (5, 4.0)
+
+
 def test_lazy_actors_draw_exactly_what_eagerly_fed_actors_draw() -> None:
     """The same samples, given to a world view a batch per update and to a `RemoteActor` one by
     one: every frame drawn is the same, in both render modes."""
@@ -93,7 +114,7 @@ def test_lazy_actors_draw_exactly_what_eagerly_fed_actors_draw() -> None:
         eager = RemoteActor("a", settings)
         for k in range(1, 120):
             t = 10.0 + 0.02 * k
-            pose = CIRCLE.pose_at(t)
+            pose = m.decode_pose(m.encode_pose(CIRCLE.pose_at(t)))  # as it travels
             rx = t + 0.004 + 0.003 * math.sin(k)  # jittered latency
             world.push_pose("a", pose, rx)
             eager.add(pose, rx)
@@ -122,14 +143,14 @@ def test_a_view_that_is_not_read_keeps_a_bounded_ring_per_sender() -> None:
 
 def test_our_own_row_in_a_digest_is_skipped_and_an_intruder_grows_nothing() -> None:
     world = joined("a")
-    slots = len(world.streams.ids)
+    slots = len(world.streams)
     pose = m.Pose(1, 1.0, 0.0, 0.0)
     senders = ["me", "a", "mallory", "authority"]
     world.push_digest(*rows([(sender, pose) for sender in senders]), 1.0)
     world.update(1.0)
     assert set(world.egos) == {"a"} and set(world.stats) == {"a"}
     assert world.rejected == {"pose_from_absent_node": 2}  # not our own row
-    assert len(world.streams.ids) == slots  # no place kept for who never joined
+    assert len(world.streams) == slots  # no place kept for who never joined
 
 
 def test_statistics_match_their_definitions() -> None:
@@ -170,6 +191,6 @@ def test_a_departed_senders_place_is_reused_beyond_the_limit(
     world.push_present("last")
     world.push_pose("last", m.Pose(7, 0.0, 0.0, 0.0), 0.0)
     world.update(0.0)
-    assert len(world.streams.ids) <= 8 and "last" in world.egos
+    assert len(world.streams) <= 8 and "last" in world.egos
     assert world.stats["last"].summary(0.0).samples == 1  # nothing of the slot's former owner
     assert world.egos["last"].newest == m.Pose(7, 0.0, 0.0, 0.0)

@@ -10,7 +10,8 @@ architecture of the drive node: the fabric's Python work is kept off that busy l
 
 All three paths are stamped with the host's shared CLOCK_MONOTONIC (the library's pose
 carries it as `t`), and the receiver stamps each one after decoding it (the library's pose
-when it reaches the world view, parsed and validated), so the ratios compare the same work.
+when the fabric hands it to the world view, its key parsed, decoded and validated there with
+the library's decoder), so the ratios compare the same work.
 The last column is the session-clock sync bound (half the best RTT to the authority): what
 `carlaverse stats` adds as uncertainty when it measures latency from session time stamps.
 Not a test.
@@ -116,18 +117,20 @@ def receiver(connect: str, mode: str, udp_port: int, samples: int, out: Any, rea
 
 
 def stamp_after_decode(client: Any, into: list[float]) -> None:
-    """Record each pose's one-way latency when the library hands it, decoded, to the world.
+    """Record each pose's one-way latency when the library hands it to the world view,
+    decoded and validated here as the bare payloads are unpacked.
 
-    The library's own arrival stamp is taken at callback entry, before the key is parsed and
-    the payload decoded and validated; stamping here charges the library for that work too.
+    The library's own arrival stamp is taken at callback entry, before the key is parsed;
+    stamping here charges the library for that work too. (The view itself checks and decodes
+    the bytes in its update, on the node's loop, off this path.)
     """
-    from carlaverse.messages import pose_stamp
+    from carlaverse.messages import decode_pose
 
     push_wire = client.world.push_wire
 
     def stamped(node_id: str, payload: bytes, rx_t: float) -> None:
         # the sender stamped t with time.monotonic()
-        into.append(time.monotonic() - pose_stamp(payload)[1])
+        into.append(time.monotonic() - decode_pose(payload).t)
         push_wire(node_id, payload, rx_t)
 
     client.world.push_wire = stamped

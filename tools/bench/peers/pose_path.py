@@ -1,10 +1,12 @@
 """This project's pose path: `NodeClient.publish_pose` in the publisher, and in each receiver a
-`NodeClient` whose Zenoh callback parses the key, decodes and checks the pose
-(`fabric.inbound`) and hands it to the world view, which the receiver's main loop applies to
-its `RemoteActor`s every 20 ms (`client.update()`), as a node's loop does.
+`NodeClient` whose Zenoh callback parses the key and hands the pose's bytes to the world view
+(`fabric.inbound`), which the receiver's main loop checks, decodes and applies every 20 ms
+(`client.update()`), as a node's loop does.
 
-The arrival is stamped where the fabric hands the decoded pose to the world view (after the
-key parse, decode and checks; the same point `tools/bench/bench_fabric.py` uses). Admission
+The arrival is stamped where the fabric hands the pose to the world view, after the key parse,
+once the harness has decoded the bytes as it does for every transport (the same point
+`tools/bench/bench_fabric.py` uses); the world view's own decode, in the update, is in the
+receiver's CPU time, not in the delay. Admission
 needs an authority: it runs in its own process (`EmptyDomain`, 50 Hz ticks) and, like every
 node, receives each pose: it is this path's extra receiver. Its clock is CLOCK_MONOTONIC, so
 session time is the host's monotonic time and a pose stamped with it is plausible to the
@@ -96,8 +98,8 @@ class PoseReceiver:
 
         def stamped(node_id: str, payload: bytes, rx_t: float) -> None:
             # The fabric's part ends where the harness takes over (and stamps the arrival).
-            # The fabric checked the bytes and hands them on; the harness decodes them with
-            # the project's decoder, as it does for every other transport.
+            # The fabric hands the bytes on as they came; the harness decodes them with the
+            # project's decoder, as it does for every other transport.
             if self._entered:
                 self.in_callback_s.append(time.monotonic() - self._entered)
             deliver.payload(payload)
@@ -108,7 +110,7 @@ class PoseReceiver:
     def _stamp_callback_entry(self) -> None:
         """Note when the fabric's pose callback starts (`Inbound._on_pose`, wrapped in this
         receiver's process before its subscribers exist), so the time from there to the
-        hand-over is what the project's callback costs (clock, key parse, decode, checks)."""
+        hand-over is what the project's callback costs (clock, key parse)."""
         from carlaverse.fabric.inbound import Inbound
 
         on_pose = Inbound._on_pose

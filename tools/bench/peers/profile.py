@@ -4,9 +4,9 @@ One extra run of the pose path with py-spy (`record --format raw`: one line per 
 with its sample count) attached to the publisher (`tx`) and the first receiver (`rx0`) for
 the measured window. py-spy samples Python threads while they run (idle ones are left out),
 so the counts say which Python code of the path uses the CPU: the Zenoh callback (key parse,
-decode, checks, hand-over), the node loop's `update()`, the control thread, the publisher's
-send. With `--native`, frames of the Zenoh binding's Rust code under a Python frame are
-named too.
+hand-over), the node loop's `update()` (checks, decodes and applies), the control thread,
+the publisher's send. With `--native`, frames of the Zenoh binding's Rust code under a Python
+frame are named too.
 """
 
 from __future__ import annotations
@@ -25,9 +25,9 @@ ROLES = ("tx", "rx0")
 # Stages of the pose path by the function a stack passes through, in the order they are
 # looked for (the first that matches names the stack).
 STAGES = (
-    ("_on_pose", "Zenoh pose callback (key parse, decode, checks, hand-over)"),
+    ("_on_pose", "Zenoh pose callback (key parse, hand-over)"),
     ("publish_pose", "NodeClient.publish_pose (encode, put)"),
-    ("update", "node loop: world view update (RemoteActor)"),
+    ("update", "node loop: world view update (decode, checks, streams)"),
     ("_control_loop", "control thread (clock sync, joins)"),
     ("_send_measured", "bench pacing of the publisher"),
 )

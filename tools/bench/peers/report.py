@@ -172,7 +172,7 @@ def split(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]:
         f"- Split of the pose path's p50: bare Zenoh (same binding and layout, no project code) "
         f"{zenoh:.3f} ms, the project's part {pose - zenoh:+.3f} ms, of which "
         f"{percentile(inside, 0.5) * 1e3:.3f} ms (p50; p99 {percentile(inside, 0.99) * 1e3:.3f}) "
-        "inside the fabric's pose callback (key parse, decode, checks, hand-over)"
+        "inside the fabric's pose callback (key parse, hand-over)"
     )
     if "dds" in by_name:
         line += f"; bare Zenoh p50 / CycloneDDS p50 = {zenoh / by_name['dds'].p(0.5):.2f}"

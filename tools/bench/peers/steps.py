@@ -1,7 +1,8 @@
 """The steps of the fabric's pose callback, each timed alone in this process.
 
 `Inbound._on_pose` reads the session clock, takes the sender's id from the key (a cached
-parse), decodes and checks the 64-byte pose, and appends it to the world view's inbox.
+parse), and appends the pose's 64 bytes to the world view's inbox (the view checks and
+decodes them in its update, on the node's loop).
 Timed here one by one with the fabric's own functions, to say which of them the callback's
 time is made of, twice: in a warm loop (the median of repeated batches, so a descheduled
 batch does not count), the best case; and one call after each 20 ms of sleep, as the callback
@@ -60,7 +61,6 @@ def callback_steps() -> list[tuple[str, float, float]]:
     steps: list[tuple[str, Callable[[], object]]] = [
         ("session clock (`SessionClock.now`)", clock.now),
         ("sender from the key (`keys.parse_cached`)", lambda: parse_cached(key).node_id),
-        ("check (`check_pose`)", lambda: m.check_pose(payload)),
         ("hand-over (`WorldView.push_wire`)", lambda: world.push_wire("tx", payload, 0.0)),
     ]
     timed = []
