@@ -11,7 +11,8 @@ The actor layer draws bodies; this layer reads the same `ActorDraw`s for their l
 
 The beam (ECE R112-like, simplified): a low beam's light stops at a cut-off a little below the
 horizontal (tan −0.01, 0.57°), the high beam's above it; sideways it fades out by ±40°; its
-near field is dimmer than its hot spot (a low beam is aimed to light 20–60 m, not the bonnet).
+intensity falls by e every 3.4° below the cut-off (a low beam is aimed to light the road
+20–60 m ahead, not the bonnet: with the road's 1/d³ this gives an even pool from 3 to 10 m).
 Intensities are in the units of `sky.py` per steradian, set so that a low beam lights the
 road 15 m ahead about as much as a street light lights the road under it (`street_lights`).
 """
@@ -43,8 +44,8 @@ from carlaverse.render.shaders import GLARE_FS, GLARE_VS, program
 from carlaverse.render.shadows import SHADOW_MASK
 
 LAMP_KINDS = {"car", "van", "truck", "bus", "motorcycle"}
-LOW_BEAM_I = 330.0  # intensity per unit solid angle, relative units (see the docstring)
-HIGH_BEAM_I = 700.0
+LOW_BEAM_I = 150.0  # intensity per unit solid angle, relative units (see the docstring)
+HIGH_BEAM_I = 320.0
 LOW_CUTOFF, HIGH_CUTOFF = -0.01, 0.035  # [tan] beam's upper edge, above horizontal positive
 LAMP_HEIGHT_M = {"truck": 1.0, "bus": 1.0}  # [m] above the road, default below
 DEFAULT_LAMP_HEIGHT_M = 0.65

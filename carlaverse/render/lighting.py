@@ -9,7 +9,7 @@
 
 The surface shader (`shaders.SURFACE_*`) goes on the world node, so everything under it —
 map, actors, signal heads — is lit the same way; a node tunes its material with the
-`surface` input (wet response, roughness, fine mesh, gloss).
+`surface` input (wet response, roughness, unused, gloss).
 """
 
 from __future__ import annotations
@@ -37,15 +37,14 @@ class Material:
     wet_response: float  # 0..1: how much of the weather's wetness it holds
     roughness: float  # 0 mirror .. 1 matte
     gloss: float  # 0..1: sky reflected even when dry (paint, glass)
-    fine: bool = False  # vertices a metre or two apart: spotlights may light it per vertex
 
     def input(self) -> Vec4:
-        return Vec4(self.wet_response, self.roughness, float(self.fine), self.gloss)
+        return Vec4(self.wet_response, self.roughness, 0.0, self.gloss)
 
 
 DEFAULT_MATERIAL = Material(0.6, 0.85, 0.0)  # ground, walls, roofs: matte, partly puddled
 ROAD_MATERIAL = Material(1.0, 0.7, 0.0)  # asphalt: wets all over
-VEHICLE_MATERIAL = Material(0.2, 0.35, 0.12, fine=True)  # paint and glass
+VEHICLE_MATERIAL = Material(0.2, 0.35, 0.12)  # paint and glass
 
 
 class SceneLighting:

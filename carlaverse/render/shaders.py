@@ -13,8 +13,9 @@ Two ways to run `light()`, by preset (`quality.Preset.per_pixel`):
 - per vertex (`cpu`, for llvmpipe, whose fragment work is the frame): the vertex shader lights,
   fogs and tone maps each vertex twice — in shadow and in sun — and the fragment shader only
   mixes the two by the shadow map and multiplies the texture, as fixed-function drawing
-  modulates a texture. Smooth terms come out the same; a headlight's pool or a highlight is
-  as coarse as the mesh (lanes are cut every 5 m).
+  modulates a texture. Smooth terms come out the same; highlights are left to wet ground.
+  By night the vertex hands over linear light instead and the fragment adds the headlights
+  (a beam's pool on a road cut every 5 m needs pixels) and tone-maps.
 
 Programs come in a day and a night variant (`NIGHT`): street lights, headlights and lit
 windows cost nothing by day.
@@ -56,7 +57,8 @@ uniform vec4 fog;             // rgb colour, a = extinction [1/m]
 uniform float exposure;
 uniform float night;
 uniform float wetness;
-uniform vec4 surface;         // x wet response, y roughness, z fine mesh, w gloss
+uniform vec4 surface;         // x wet response, y roughness, z unused, w gloss
+uniform vec4 clouds;          // x cover 0..1, y unused, zw drift of the pattern (sky)
 
 vec3 to_linear(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }
 vec3 to_display(vec3 c) { return pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)); }
@@ -72,7 +74,9 @@ float pow4(float x) { x *= x; return x * x; }
 // radiance of the clear sky seen along unit direction d (no sun disc, no clouds)
 vec3 sky_radiance(vec3 d) {
     float up = max(d.z, 0.0);
-    vec3 c = mix(sky_horizon, sky_zenith, pow(up, 0.25));  // pale only near the horizon
+    // a band of horizon colour some 10° deep (white haze by day, red at dusk), then zenith
+    float t = smoothstep(0.02, 0.45, up);
+    vec3 c = mix(sky_horizon, sky_zenith, pow(t, 0.7));
     float mu = max(dot(d, sun_dir), 0.0);
     float mu16 = pow4(pow4(mu));
     c += sun_glow * (0.45 * pow4(mu) + 1.6 * mu16 * mu16 * mu16);
@@ -81,19 +85,27 @@ vec3 sky_radiance(vec3 d) {
 
 vec3 fogged(vec3 c, float dist) { return mix(fog.rgb, c, exp(-fog.a * dist)); }
 
-// GGX normal distribution times Schlick's Fresnel, with a rough visibility term of 1/4
-float specular(vec3 N, vec3 L, vec3 V, float rough, float fresnel) {
+// Cook-Torrance per unit of irradiance: GGX distribution, Schlick's Fresnel at the half
+// vector (a lamp beside the eye meets the road near normal incidence there: F ≈ f0, however
+// grazing the view), Smith-Schlick shadowing. Times π, as the diffuse term here is albedo × E.
+float specular(vec3 N, vec3 L, vec3 V, float rough, float f0) {
     vec3 h = normalize(L + V);
     float a2 = pow4(rough);
     float nh = max(dot(N, h), 0.0);
+    float nl = max(dot(N, L), 1e-3);
+    float nv = max(dot(N, V), 1e-3);
     float dd = nh * nh * (a2 - 1.0) + 1.0;
-    return a2 / (3.14159 * dd * dd) * fresnel * 0.25;
+    float vh = 1.0 - max(dot(V, h), 0.0);
+    float fresnel = f0 + (1.0 - f0) * pow4(vh) * vh;
+    float k = (rough + 1.0) * (rough + 1.0) / 8.0;
+    float g = nl / (nl * (1.0 - k) + k) * nv / (nv * (1.0 - k) + k);
+    return a2 / (dd * dd) * fresnel * g / (4.0 * nl * nv);
 }
 
 #if NIGHT && HEADLIGHTS > 0
 uniform vec4 lamp_pos[HEADLIGHTS];  // xyz [m], w intensity (0: none)
 uniform vec4 lamp_dir[HEADLIGHTS];  // xyz beam axis (unit, horizontal), w cut-off (tan, up +)
-vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float fresnel) {
+vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float f0) {
     vec3 sum = vec3(0.0);
     for (int i = 0; i < HEADLIGHTS; ++i) {
         vec4 p = lamp_pos[i];
@@ -106,14 +118,11 @@ vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float fresne
         float rise = -l.z / along;                                       // tan, upwards
         float beam = step(0.05, along) * smoothstep(0.85, 0.3, across)
                    * smoothstep(lamp_dir[i].w + 0.008, lamp_dir[i].w - 0.008, rise)
-                   * (0.3 + 0.7 * smoothstep(-0.14, -0.03, rise));  // dimmer near the car
-#if !PER_PIXEL
-        // lit per vertex, a wall or a pole (one quad, metres tall) would glow all over from
-        // its foot: only the ground and fine meshes (vehicles) take spotlights
-        beam *= max(step(0.5, N.z), surface.z);
-#endif
+                   // brightest just under the cut-off, falling by e every 3.4° below it:
+                   // aimed at the road 20–60 m ahead, not at the bonnet
+                   * exp(min(rise - lamp_dir[i].w, 0.0) / 0.06);
         vec3 e = HEAD_RGB * (p.w * beam * max(dot(N, l), 0.0) / d2);
-        sum += e * (albedo + specular(N, l, V, rough, fresnel));
+        sum += e * (albedo + specular(N, l, V, rough, f0));
     }
     return sum;
 }
@@ -129,33 +138,43 @@ vec3 street_light(vec3 pos, vec3 N) {
 }
 #endif
 
-// What a point sends towards the eye: `sunlit` is what the sun adds (a shadow takes it away),
-// `rest` everything else. base: sRGB colour; V: unit vector to the eye.
-void light(vec3 pos, vec3 N, vec3 V, vec3 base, out vec3 rest, out vec3 sunlit) {
-    vec3 albedo = to_linear(base);
+// How a point answers light: its albedo (wet surfaces darken), roughness, Fresnel towards V
+struct Surface { vec3 albedo; float wet; float rough; float f0; float fresnel; };
+Surface surface_at(vec3 N, vec3 V, vec3 albedo) {
+    Surface s;
     // water stands on level ground (roads, roofs), not on a tree's crown or a wall
-    float wet = wetness * surface.x * smoothstep(0.9, 0.98, N.z);
-    albedo *= 1.0 - WET_DARKENING * wet;
-    float rough = mix(surface.y, 0.05, wet);
-    float f0 = mix(0.04, WATER_F0, wet);
-    float nv = max(dot(N, V), 1e-3);
-    float fresnel = f0 + (1.0 - f0) * pow4(1.0 - nv) * (1.0 - nv);
+    s.wet = wetness * surface.x * smoothstep(0.9, 0.98, N.z);
+    s.albedo = albedo * (1.0 - WET_DARKENING * s.wet);
+    s.rough = mix(surface.y, 0.05, s.wet);
+    s.f0 = mix(0.04, WATER_F0, s.wet);
+    float nv = 1.0 - max(dot(N, V), 1e-3);
+    s.fresnel = s.f0 + (1.0 - s.f0) * pow4(nv) * nv;  // a mirror's, towards V
+    return s;
+}
+
+// What a point sends towards the eye: `sunlit` is what the sun adds (a shadow takes it away),
+// `rest` everything else. base: sRGB colour; V: unit vector to the eye. Lit per vertex, the
+// headlights are left to the fragment shader (a pool on a road cut every 5 m needs pixels).
+void light(vec3 pos, vec3 N, vec3 V, vec3 base, out vec3 rest, out vec3 sunlit) {
+    Surface s = surface_at(N, V, to_linear(base));
     float ndl = max(dot(N, sun_dir), 0.0);
 #if PER_PIXEL
-    float gloss = max(wet, surface.w);
+    float gloss = max(s.wet, surface.w);
 #else
     // per vertex, a highlight or a reflection on a big face (a van's back is two triangles)
     // smears into a diagonal streak: only a wet surface, finely cut, mirrors the sky
-    float gloss = wet;
+    float gloss = s.wet;
 #endif
-    sunlit = sun_color * ndl * (albedo + gloss * specular(N, sun_dir, V, rough, fresnel));
-    rest = albedo * mix(ground_ambient, sky_ambient, 0.5 + 0.5 * N.z);
-    rest += sky_radiance(reflect(-V, N)) * (fresnel * gloss * (1.0 - rough));
-#if NIGHT && HEADLIGHTS > 0
-    rest += headlights(pos, N, V, albedo, rough, fresnel);
+    // a sun behind clouds leaves no sharp highlight
+    float spec = gloss * (1.0 - clouds.x) * specular(N, sun_dir, V, s.rough, s.f0);
+    sunlit = sun_color * ndl * (s.albedo + spec);
+    rest = s.albedo * mix(ground_ambient, sky_ambient, 0.5 + 0.5 * N.z);
+    rest += sky_radiance(reflect(-V, N)) * (s.fresnel * gloss * (1.0 - s.rough));
+#if NIGHT && HEADLIGHTS > 0 && PER_PIXEL
+    rest += headlights(pos, N, V, s.albedo, s.rough, s.f0);
 #endif
 #if NIGHT && STREET_LIGHTS
-    rest += albedo * street_light(pos, N);
+    rest += s.albedo * street_light(pos, N);
 #endif
 }
 """
@@ -227,7 +246,12 @@ uniform sampler2D p3d_TextureEmission;  // lit windows: black but for the lit on
 vec3 emission(vec2 uv) {
 #if NIGHT
     vec3 e = texture(p3d_TextureEmission, uv).rgb;
-    return min(e.r, min(e.g, e.b)) > 0.99 ? vec3(0.0) : to_linear(e) * (WINDOW_RADIANCE * night);
+#if PER_PIXEL
+    vec3 lin = to_linear(e);
+#else
+    vec3 lin = e * e;  // γ 2: a pixel's pow is dear on llvmpipe
+#endif
+    return min(e.r, min(e.g, e.b)) > 0.99 ? vec3(0.0) : lin * (WINDOW_RADIANCE * night);
 #else
     return vec3(0.0);
 #endif
@@ -272,9 +296,16 @@ void main() {
 """
 
 VERTEX_LIT_VS = """
-out vec3 v_shade;   // display colour in shadow
-out vec3 v_sun;     // display colour in sun
+out vec3 v_shade;   // by day the display colour in shadow, by night linear radiance (× fog)
+out vec3 v_sun;     // the same in sun
 out float v_alpha;
+#if NIGHT
+out vec3 v_fog_in;  // the fog's own light between the eye and the point
+out vec4 v_albedo;  // what headlights meet: linear albedo, a = fog transmittance
+out vec3 v_pos;
+out vec3 v_normal;
+out float v_emissive;
+#endif
 void main() {
     vec4 world = p3d_ModelMatrix * p3d_Vertex;
     gl_Position = p3d_ModelViewProjectionMatrix * p3d_Vertex;
@@ -284,15 +315,29 @@ void main() {
     vec3 to_eye = eye_position() - world.xyz;
     float dist = length(to_eye);
     vec3 N = world_normal();
+    vec3 V = to_eye / max(dist, 1e-4);
     v_shadow = shadow_coord(world.xyz, N);
+    float through = exp(-fog.a * dist);
+#if NIGHT
+    v_pos = world.xyz;
+    v_normal = N;
+    v_emissive = emissive() ? 1.0 : 0.0;
+    v_fog_in = fog.rgb * (1.0 - through);
+    v_albedo = vec4(surface_at(N, V, to_linear(base.rgb)).albedo, through);
+#endif
     if (emissive()) {
-        v_shade = v_sun = mix(to_display(tone_map(fog.rgb)), base.rgb, exp(-fog.a * dist));
+        v_shade = v_sun = mix(to_display(tone_map(fog.rgb)), base.rgb, through);
         return;
     }
     vec3 rest, sunlit;
-    light(world.xyz, N, to_eye / max(dist, 1e-4), base.rgb, rest, sunlit);
-    v_shade = to_display(tone_map(fogged(rest, dist)));
-    v_sun = to_display(tone_map(fogged(rest + sunlit, dist)));
+    light(world.xyz, N, V, base.rgb, rest, sunlit);
+#if NIGHT
+    v_shade = rest * through;
+    v_sun = (rest + sunlit) * through;
+#else
+    v_shade = to_display(tone_map(mix(fog.rgb, rest, through)));
+    v_sun = to_display(tone_map(mix(fog.rgb, rest + sunlit, through)));
+#endif
 }
 """
 
@@ -302,14 +347,35 @@ in vec3 v_shade;
 in vec3 v_sun;
 in float v_alpha;
 in vec2 v_uv;
+#if NIGHT
+in vec3 v_fog_in;
+in vec4 v_albedo;
+in vec3 v_pos;
+in vec3 v_normal;
+in float v_emissive;
+#endif
 out vec4 frag;
 void main() {
     vec4 tex = texture(p3d_TextureModulate, v_uv);
-    vec3 c = mix(v_shade, v_sun, sun_visible()) * tex.rgb;
 #if NIGHT
-    c += sqrt(tone_map(emission(v_uv)));  // γ 2 here: a pixel's pow is dear on llvmpipe
+    // by night the pixel tone-maps (γ 2): the headlights' pools are drawn per pixel
+    if (v_emissive > 0.5) {
+        frag = vec4(v_shade * tex.rgb, v_alpha * tex.a);
+        return;
+    }
+    vec3 t = tex.rgb * tex.rgb;
+    vec3 c = mix(v_shade, v_sun, sun_visible()) * t + v_fog_in + emission(v_uv);
+#if HEADLIGHTS > 0
+    vec3 N = normalize(v_normal);
+    vec3 V = normalize(eye_position() - v_pos);
+    Surface s = surface_at(N, V, v_albedo.rgb * t);
+    c += headlights(v_pos, N, V, v_albedo.rgb * t, s.rough, s.f0) * v_albedo.a;
 #endif
+    frag = vec4(sqrt(tone_map(c)), v_alpha * tex.a);
+#else
+    vec3 c = mix(v_shade, v_sun, sun_visible()) * tex.rgb;
     frag = vec4(c, v_alpha * tex.a);
+#endif
 }
 """
 
@@ -319,7 +385,6 @@ void main() {
 # the cloud pattern and the disc still per pixel).
 SKY_COMMON = """
 uniform sampler2D cloud_map;
-uniform vec4 clouds;  // x cover 0..1, y unused, zw drift of the pattern
 float fog_through(vec3 d) { return exp(-fog.a * min(FOG_LAYER_M / max(d.z, 1e-3), FAR_SKY_M)); }
 vec2 cloud_uv(vec3 d) { return d.xy / (max(d.z, 0.0) + 0.12) * 0.35 + clouds.zw; }
 void sky_at(vec3 d, out vec3 clear, out vec3 cloud) {
