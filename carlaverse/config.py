@@ -29,12 +29,21 @@ AT_PATH = re.compile(r"^(?P<message>.*) - at `\$\.?(?P<path>[^`]*)`$", re.DOTALL
 
 
 class ConfigError(ValueError):
-    """A configuration file is missing, unreadable or does not match its schema."""
+    """A configuration file is missing, unreadable or does not match its schema.
 
-    def __init__(self, source: str, message: str) -> None:
-        super().__init__(f"{source}: {message}")
+    Said as `SOURCE: message`, or `SOURCE:LINE:COLUMN: message` (1-based, as compilers and
+    editors write it, so a terminal or an editor jumps there) when the place is known.
+    """
+
+    def __init__(
+        self, source: str, message: str, line: int | None = None, column: int | None = None
+    ) -> None:
+        where = source if line is None else f"{source}:{line}:{column or 1}"
+        super().__init__(f"{where}: {message}")
         self.source = source
         self.detail = message
+        self.line = line
+        self.column = column
 
 
 def invalid_at(message: str) -> tuple[str, str]:
@@ -78,13 +87,28 @@ def resolve_path(name: str | Path, relative_to: Path | None = None) -> Path:
 
 
 def parse_yaml(text: str, source: str) -> Any:
-    """Parse YAML text, naming the source and line on a syntax error."""
+    """Parse YAML text; a syntax error is one line, `SOURCE:LINE:COLUMN: invalid YAML: ...`
+    (PyYAML's own message spreads the problem and its context over six lines)."""
     try:
         return yaml.safe_load(text) or {}
+    except yaml.MarkedYAMLError as exc:
+        mark = exc.problem_mark or exc.context_mark
+        line, column = (mark.line + 1, mark.column + 1) if mark else (None, None)
+        raise ConfigError(source, f"invalid YAML: {_yaml_problem(exc)}", line, column) from exc
     except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark else ""
-        raise ConfigError(source, f"invalid YAML{where}: {exc}") from exc
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ConfigError(source, f"invalid YAML: {first}") from exc
+
+
+def _yaml_problem(exc: yaml.MarkedYAMLError) -> str:
+    """`problem, context at LINE:COLUMN`: what is wrong, then what the parser was inside."""
+    problem = exc.problem or exc.context or "syntax error"
+    if exc.problem and exc.context:
+        mark, there = exc.context_mark, exc.problem_mark
+        elsewhere = mark is not None and (there is None or mark.index != there.index)
+        at = f" at {mark.line + 1}:{mark.column + 1}" if mark is not None and elsewhere else ""
+        problem += f", {exc.context}{at}"
+    return " ".join(problem.split())  # PyYAML wraps some messages over lines
 
 
 def convert(data: Any, type_: type[T], source: str) -> T:

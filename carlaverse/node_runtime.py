@@ -113,6 +113,12 @@ class RunLimits(msgspec.Struct, frozen=True):
     end: float | None  # --duration: the whole run, waiting included
     join_by: float | None  # --join-timeout: admitted by then or JoinTimeout
 
+    @property
+    def wait_ends(self) -> float | None:
+        """When waiting to be admitted ends, opening the session (a client's router) included."""
+        ends = [t for t in (self.end, self.join_by) if t is not None]
+        return min(ends) if ends else None
+
     @classmethod
     def from_now(cls, duration_s: float | None, join_timeout_s: float | None) -> RunLimits:
         now = time.monotonic()
@@ -145,7 +151,7 @@ def run_node(
     say = on_wait or log.warning
     close_node = _once(node.close)
     try:
-        session = open_session(fabric, stop, limits.end, say)
+        session = open_session(fabric, stop, limits.wait_ends, say)
         try:
             client = NodeClient(
                 session, node_settings, MonotonicClock(), config_yaml=redact_yaml(to_yaml(config))
@@ -193,7 +199,9 @@ def _wait_admitted(
 ) -> str:
     """Block until admitted (""), or return what is missing when stopped or out of time."""
     while not client.wait_joined(POLL_S):  # raises JoinRefused
-        missing = notice.poll() or f"waiting for the authority of session {client.keys.session!r}"
+        missing = notice.poll(client.unanswered or None) or (
+            f"waiting for the authority of session {client.keys.session!r}"
+        )
         now = time.monotonic()
         if stop.is_set() or (limits.end is not None and now >= limits.end):
             return missing

@@ -10,10 +10,12 @@ from __future__ import annotations
 import argparse
 import importlib
 import logging
+import os
 import sys
 from collections.abc import Sequence
 
 from carlaverse import __version__
+from carlaverse.cli.exit_codes import CliParser, Exit, summary
 from carlaverse.cli.extras import install_hint
 
 # name -> (module, one-line help). The module is imported lazily.
@@ -47,9 +49,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = CliParser(
         prog="carlaverse",
         description="CARLAverse: share one live traffic world across labs over Zenoh.",
+        epilog=summary(),
     )
     parser.add_argument("--version", action="version", version=f"carlaverse {__version__}")
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv)")
@@ -62,7 +65,7 @@ def build_parser() -> argparse.ArgumentParser:
 def _command_parser(name: str) -> tuple[argparse.ArgumentParser, object]:
     module_name, help_text = COMMANDS[name]
     module = importlib.import_module(module_name)
-    parser = argparse.ArgumentParser(prog=f"carlaverse {name}", description=help_text)
+    parser = CliParser(prog=f"carlaverse {name}", description=help_text)
     parser.add_argument("-v", "--verbose", action="count", default=0, help="more logging (-vv)")
     module.add_arguments(parser)
     return parser, module
@@ -85,11 +88,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     if first is None:
         top.parse_args(argv)
         top.print_help()
-        return 2
+        return Exit.USAGE
     name = argv[first]
     if name not in COMMANDS:
         top.parse_args(argv)  # argparse reports the unknown command with choices
-        return 2
+        return Exit.USAGE
     top_args = top.parse_args(argv[:first])
     try:
         parser, module = _command_parser(name)
@@ -101,10 +104,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     logging.basicConfig(level=level, format="%(asctime)s %(levelname)s %(name)s: %(message)s")
     if verbosity >= 2:
         _zenoh_logs()
+    # pygame greets on stdout when imported (a drive node's keyboard, a wheel): stdout is
+    # the command's, and with --json its one JSON document.
+    os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
     try:
         return int(module.run(args) or 0)
     except KeyboardInterrupt:
-        return 130
+        return Exit.SIGINT
     except ModuleNotFoundError as exc:  # an extra's package, imported when first needed
         return _missing_extra(name, exc)
 

@@ -20,8 +20,10 @@ import json
 import sys
 import time
 from pathlib import Path
+from typing import TextIO
 
-from carlaverse.cli.common import fail
+from carlaverse.cli.common import fail, json_stdout
+from carlaverse.cli.exit_codes import Exit
 
 NAME = "analyze"
 
@@ -45,6 +47,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    with json_stdout(True) as out:  # its stdout is the summary's JSON and nothing else
+        return _run(args, out)
+
+
+def _run(args: argparse.Namespace, out: TextIO) -> int:
     from carlaverse.analysis.run import AnalysisError, analyze
     from carlaverse.analysis.surrogate import Thresholds
 
@@ -58,11 +65,12 @@ def run(args: argparse.Namespace) -> int:
     try:
         result = analyze(args.recording, args.out, args.rate, th, progress=_progress)
     except AnalysisError as exc:
-        return fail(NAME, str(exc), 1)
-    print(json.dumps(result, indent=2), flush=True)
+        return fail(NAME, str(exc), Exit.FAILED)
+    out.write(json.dumps(result, indent=2) + "\n")
+    out.flush()
     print(f"analysed {args.recording} in {time.monotonic() - started:.1f} s; "
           f"open {args.out / 'report.html'}", file=sys.stderr)  # fmt: skip
-    return 0
+    return Exit.OK
 
 
 def _progress(message: str) -> None:

@@ -14,11 +14,11 @@ import sys
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 import msgspec
 
-from carlaverse.cli.common import Companion, fail, print_json
+from carlaverse.cli.common import Companion, fail, json_stdout, print_json
 
 PROGRESS_EVERY_S = 2.0  # [s] of wall time between progress lines on long renders
 
@@ -38,6 +38,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    with json_stdout(args.json) as out:
+        return _run(args, out)
+
+
+def _run(args: argparse.Namespace, out: TextIO) -> int:
     from carlaverse.audio.config import AudioConfig
     from carlaverse.audio.hrtf import HrtfError
     from carlaverse.audio.offline import NothingToRender, render_recording
@@ -59,7 +64,7 @@ def run(args: argparse.Namespace) -> int:
     except (ConfigError, NothingToRender, HrtfError, RecordingError, OSError) as exc:
         return fail("audio", str(exc))
     if args.json:
-        print_json(summary)
+        print_json(summary, out)
     else:
         print(f"{summary.out}: {summary.seconds:.1f} s, {summary.channels} channels "
               f"({summary.layout}) for {summary.listener} from {summary.scenes} scenes",

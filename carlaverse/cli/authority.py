@@ -8,7 +8,7 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TextIO
 
 from carlaverse.authority.domain import EmptyDomain, GlobalDomain
 from carlaverse.authority.pose_digest import DIGEST_PERIOD_S
@@ -18,10 +18,12 @@ from carlaverse.cli.common import (
     add_output_args,
     fabric_from_args,
     fail,
+    json_stdout,
     print_json,
     say,
     stop_on_signals,
 )
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
 from carlaverse.fabric.clock import WallAlignedClock
 from carlaverse.fabric.session import (
@@ -130,6 +132,11 @@ def traffic_report(domain: GlobalDomain) -> dict[str, Any] | None:
 
 
 def run(args: argparse.Namespace) -> int:
+    with json_stdout(args.json) as out:  # what SUMO or a library prints must not reach it
+        return _run(args, out)
+
+
+def _run(args: argparse.Namespace, out: TextIO) -> int:
     session_name = args.session or "default"
     try:
         check_token(session_name, "session name")
@@ -143,9 +150,9 @@ def run(args: argparse.Namespace) -> int:
     try:
         session = open_session(fabric, stop, deadline, say("authority"))
     except FabricUnreachable as exc:
-        return fail("authority", str(exc), stop.exit_code() if stop.is_set() else 5)
+        return fail("authority", str(exc), stop.exit_code() if stop.is_set() else Exit.NOT_ADMITTED)
     except FabricError as exc:
-        return fail("authority", str(exc), 3)
+        return fail("authority", str(exc), Exit.FABRIC)
     # Its first tick puts the lights and the weather, reliable: only peers it already has a
     # link to hear them (a router does not relay between peers).
     await_mesh(session, stop, MESH_TIMEOUT_S)
@@ -175,7 +182,7 @@ def run(args: argparse.Namespace) -> int:
         authority.close()
         session.close()
     if broke:
-        return fail("authority", f"traffic stopped: {broke}", 1)
+        return fail("authority", f"traffic stopped: {broke}", Exit.FAILED)
     summary = authority.summary()
     if args.json:
         print_json(
@@ -186,7 +193,8 @@ def run(args: argparse.Namespace) -> int:
                 "dropped": authority.dropped,
                 "sent": authority.outbox.sent,
                 "traffic": traffic_report(domain),
-            }
+            },
+            out,
         )
     else:
         print(
@@ -194,4 +202,4 @@ def run(args: argparse.Namespace) -> int:
             f"p99 {summary.tick_p99_ms} ms, {summary.overruns} overruns",
             file=sys.stderr,
         )
-    return 0
+    return Exit.OK

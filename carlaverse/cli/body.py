@@ -14,8 +14,10 @@ import argparse
 import json
 import math
 from pathlib import Path
+from typing import TextIO
 
-from carlaverse.cli.common import fail
+from carlaverse.cli.common import fail, json_stdout
+from carlaverse.cli.exit_codes import Exit
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -30,14 +32,17 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from carlaverse.body.errors import BodyPoseError, PoseRuntimeMissing
+    from carlaverse.body.errors import BodyPoseError, PoseModelError, PoseRuntimeMissing
 
     try:
-        return _build(args) if args.action == "build-model" else _angles(args)
-    except PoseRuntimeMissing as exc:  # an install to make, exit 2 as for every command
+        if args.action == "build-model":
+            return _build(args)
+        with json_stdout(args.json) as out:  # nor what mediapipe or TFLite prints
+            return _angles(args, out)
+    except (PoseRuntimeMissing, PoseModelError) as exc:  # an install, a missing model file
         return fail("body", str(exc))
     except BodyPoseError as exc:
-        return fail("body", str(exc), 3)
+        return fail("body", str(exc), Exit.FAILED)
 
 
 def _build(args: argparse.Namespace) -> int:
@@ -48,24 +53,26 @@ def _build(args: argparse.Namespace) -> int:
     return 0
 
 
-def _angles(args: argparse.Namespace) -> int:
+def _angles(args: argparse.Namespace, out: TextIO) -> int:
     import cv2
 
     from carlaverse.body.kinematics import joint_angles
     from carlaverse.body.landmarker import PoseLandmarker
 
+    if not args.photo.is_file():  # said before OpenCV says it in its own words on stderr
+        return fail("body", f"{args.photo}: no such file")
     bgr = cv2.imread(str(args.photo))
     if bgr is None:
-        return fail("body", f"{args.photo} is not a readable image", 2)
+        return fail("body", f"{args.photo} is not a readable image")
     with PoseLandmarker(args.model) as landmarker:
         found = landmarker.detect(cv2.cvtColor(bgr, cv2.COLOR_BGR2RGB), 0.0)
     if found is None:
-        return fail("body", f"no person found in {args.photo}", 1)
+        return fail("body", f"no person found in {args.photo}", Exit.FAILED)
     degrees = {joint: [round(math.degrees(a), 1) for a in rpy]
                for joint, rpy in joint_angles(found.world).items()}  # fmt: skip
     visibility = [round(float(v), 2) for v in found.visibility]
     if args.json:
-        print(json.dumps({"joints_deg": degrees, "visibility": visibility}))
+        out.write(json.dumps({"joints_deg": degrees, "visibility": visibility}) + "\n")
     else:
         for joint, (roll, pitch, yaw) in degrees.items():
             print(f"{joint:15s} roll {roll:7.1f}  pitch {pitch:7.1f}  yaw {yaw:7.1f}  [deg]")

@@ -3,17 +3,21 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
+import io
 import json
 import math
+import os
 import signal
 import sys
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, TextIO
 
 import msgspec
 
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.fabric.session import FabricSettings, open_session, reachable
 from carlaverse.fabric.waiting import SessionWait, WaitNotice
 from carlaverse.keys import Keys
@@ -100,8 +104,8 @@ class StopSignal(threading.Event):
 
     signum: int = 0
 
-    def exit_code(self) -> int:
-        return 128 + (self.signum or signal.SIGINT)
+    def exit_code(self) -> Exit:
+        return Exit.stopped_by(self.signum or signal.SIGINT)
 
 
 def stop_on_signals() -> StopSignal:
@@ -134,9 +138,53 @@ def say(command: str) -> Callable[[str], None]:
     return notice
 
 
-def print_json(value: Any) -> None:
-    sys.stdout.write(to_json(value) + "\n")
-    sys.stdout.flush()
+def print_json(value: Any, out: TextIO | None = None) -> None:
+    """The command's one JSON document, on `out` (from `json_stdout`) or stdout."""
+    stream = sys.stdout if out is None else out
+    stream.write(to_json(value) + "\n")
+    stream.flush()
+
+
+@contextlib.contextmanager
+def json_stdout(enabled: bool) -> Iterator[TextIO]:
+    """While a `--json` command runs, whatever else would reach stdout goes to stderr; yields
+    the stream for its one JSON document (stdout as it was). Without `enabled`, stdout as is.
+
+    Why at the file-descriptor level: a library greeting on import (pygame's banner), a C
+    library's printf and a child process (a node's control loop) all write to fd 1 without
+    passing through `sys.stdout`. So fd 1 is pointed at stderr for the whole run and the
+    document goes to a duplicate of the original fd 1; `sys.stdout` follows fd 1 to stderr.
+    """
+    if not enabled:
+        yield sys.stdout
+        return
+    python_stdout = sys.stdout
+    python_stdout.flush()
+    saved = os.dup(1)
+    # sys.stdout on fd 1 is about to lead to stderr: the document goes to the duplicate
+    # (a pytest capture or a StringIO in sys.stdout is not fd 1 and keeps the document).
+    own = None
+    if _is_fd_1(python_stdout):
+        own = open(saved, "w", encoding="utf-8", closefd=False)  # noqa: SIM115 (closed below)
+    try:
+        os.dup2(2, 1)
+        sys.stdout = sys.stderr
+        yield python_stdout if own is None else own
+    finally:
+        sys.stdout = python_stdout
+        with contextlib.suppress(ValueError, OSError):
+            sys.stderr.flush()
+        if own is not None:
+            own.close()  # flushes; the duplicate fd stays open until restored below
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def _is_fd_1(stream: TextIO) -> bool:
+    try:
+        return stream.fileno() == 1
+    except (OSError, ValueError, io.UnsupportedOperation):  # a pytest capture, a StringIO
+        return False
 
 
 def to_json(value: Any) -> str:
@@ -156,8 +204,9 @@ def _finite(value: Any) -> Any:
     return value
 
 
-def fail(command: str, message: str, code: int = 2) -> int:
-    print(f"carlaverse {command}: {message}", file=sys.stderr)
+def fail(command: str, message: str, code: int = Exit.USAGE) -> int:
+    """Say what went wrong in one line, `carlaverse COMMAND: ...`; the code to exit with."""
+    tell(f"carlaverse {command}: {message}")
     return code
 
 
@@ -182,6 +231,16 @@ def attend(
         session.close()
         raise
     return session, notice
+
+
+def reached_nothing(notice: WaitNotice, fabric: FabricSettings) -> str | None:
+    """For a recorder or observer at its end (session still open): the line saying that no
+    router or peer was reached for its whole run, so it saw nothing because of the network;
+    None when one was."""
+    if notice.wait.reached.is_set() or notice.wait.reaches_anyone():
+        return None
+    where = ", ".join(fabric.connect) or "any endpoint (none given with --connect)"
+    return f"reached no router or peer at {where}"
 
 
 @dataclass

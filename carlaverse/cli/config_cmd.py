@@ -4,11 +4,12 @@ configs before a study, each with the decoder that will read it for real."""
 from __future__ import annotations
 
 import argparse
-import sys
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from carlaverse.cli.common import tell
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError, convert, parse_yaml, read_text, resolve_path
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 
@@ -27,7 +28,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "config by `layouts:`, an audio config by `layout:`, a zenohd config by its .json5 suffix."
     )
     sub = parser.add_subparsers(dest="action", required=True)
-    validate = sub.add_parser("validate", help="validate files; exit 1 if any is invalid")
+    validate = sub.add_parser(
+        "validate", help="validate files; exit 2 (a config error) if any is invalid"
+    )
     validate.add_argument("files", nargs="+", help="files, or names of shipped ones (town)")
     validate.add_argument(
         "--kind",
@@ -187,5 +190,5 @@ def run(args: argparse.Namespace) -> int:
             print(validate_file(name, args.kind))
         except ConfigError as exc:
             failures += 1
-            print(f"error: {exc}", file=sys.stderr)
-    return 1 if failures else 0
+            tell(f"carlaverse config: {exc}")  # one line per file, as every command says it
+    return Exit.USAGE if failures else Exit.OK  # as `join` with the same file

@@ -16,6 +16,7 @@ import os
 import sys
 import time
 
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
 from carlaverse.hal import open_ffb, open_input, open_motion
 from carlaverse.hal.diagnostics import SweepAmplitudes, ffb_test_sequence, motion_sweep, paced
@@ -50,8 +51,8 @@ def run(args: argparse.Namespace) -> int:
             list_joysticks(args)
     except (ConfigError, HalError, ValueError) as exc:
         print(f"carlaverse doctor: {exc}", file=sys.stderr)
-        return 2
-    return 0
+        return Exit.USAGE
+    return Exit.OK
 
 
 def host_port(text: str) -> dict[str, object]:

@@ -12,6 +12,7 @@ from typing import Any
 
 import yaml
 
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
 from carlaverse.hal.device import DeviceConfig, open_device
 from carlaverse.hal.registry import Registry
@@ -103,4 +104,4 @@ def serve(command: str, server: Any, backend: str, args: argparse.Namespace,
 
 def fail(command: str, exc: object) -> int:
     print(f"carlaverse {command}: {exc}", file=sys.stderr)
-    return 2
+    return Exit.USAGE  # a backend, an option or a port the user chose

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TextIO
 
 import msgspec
 
@@ -17,10 +17,12 @@ from carlaverse.cli.common import (
     add_output_args,
     fabric_from_args,
     fail,
+    json_stdout,
     print_json,
     say,
     stop_on_signals,
 )
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.cli.join_hmi import add_hmi_arguments, node_hmi
 from carlaverse.cli.join_view import add_view_arguments, node_view
 from carlaverse.config import ConfigError, load_config
@@ -37,11 +39,6 @@ from carlaverse.node_runtime import (
     run_node,
 )
 
-# Exit codes beyond 0/2: 3 the fabric cannot be opened (bad endpoint or setting), 4 the
-# authority refused the node, 5 it was never admitted (no router or authority in time),
-# 128+N stopped by signal N before it was admitted.
-EXIT_FABRIC, EXIT_REFUSED, EXIT_NOT_ADMITTED = 3, 4, 5
-
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = (
@@ -49,10 +46,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         f"installed: {', '.join(sorted(node_kinds()))}."
     )
     parser.epilog = (
-        "Until the authority admits it the node says what it waits for and keeps trying. "
-        "Exit codes: 2 usage or config error, 3 fabric error, 4 refused by the authority, "
-        "5 not admitted in time (--join-timeout or --duration), 130/143 stopped by "
-        "SIGINT/SIGTERM before it was admitted."
+        "Until the authority admits it the node says what it waits for and keeps trying, "
+        "opening the session included: --join-timeout bounds the whole wait. Exit codes "
+        "(docs/protocol.md): 2 usage or config error, 3 fabric error, 4 refused by the "
+        "authority, 5 not admitted in time (--join-timeout or --duration; an authority that "
+        "does not answer is waited for, not a refusal), 130/143 stopped by SIGINT/SIGTERM "
+        "before it was admitted. With --json, stdout holds the one summary and nothing else."
     )
     parser.add_argument("kind", help="node kind, e.g. observer, scripted, drive")
     parser.add_argument(
@@ -115,6 +114,11 @@ def _show_notice(hmi: Companion, say_line: Callable[[str], None]) -> Callable[[N
 
 
 def run(args: argparse.Namespace) -> int:
+    with json_stdout(args.json) as out:  # a device library's banner must not reach it
+        return _run(args, out)
+
+
+def _run(args: argparse.Namespace, out: TextIO) -> int:
     try:
         kind_cls, config, node_settings, fabric = _prepare(args)
     except (UnknownNodeKind, ConfigError, KeySpaceError, FabricError) as exc:
@@ -136,16 +140,16 @@ def run(args: argparse.Namespace) -> int:
             )  # fmt: skip
         summary.extra.update(view.extra | hmi.extra | audio.extra)
     except JoinRefused as exc:
-        return fail("join", f"the authority refused {node_id!r}: {exc}", EXIT_REFUSED)
+        return fail("join", f"the authority refused {node_id!r}: {exc}", Exit.REFUSED)
     except (FabricUnreachable, JoinTimeout) as exc:
         if stop.is_set():
             return fail("join", f"stopped before it was admitted ({exc})", stop.exit_code())
-        return fail("join", f"{node_id} gave up: {_stopped_waiting(exc)}", EXIT_NOT_ADMITTED)
+        return fail("join", f"{node_id} gave up: {_stopped_waiting(exc)}", Exit.NOT_ADMITTED)
     except FabricError as exc:
-        return fail("join", str(exc), EXIT_FABRIC)
+        return fail("join", str(exc), Exit.FABRIC)
     except (ValueError, ConfigError) as exc:
         return fail("join", f"{args.kind}: {exc}")
-    return _report(args, summary, stop)
+    return _report(args, summary, stop, out)
 
 
 def _stopped_waiting(exc: Exception) -> str:
@@ -166,20 +170,20 @@ def _still(summary: NodeSummary) -> str:
     return f"still {summary.waiting_for}"
 
 
-def _report(args: argparse.Namespace, summary: NodeSummary, stop: StopSignal) -> int:
+def _report(args: argparse.Namespace, summary: NodeSummary, stop: StopSignal, out: TextIO) -> int:
     if summary.refused:
         return fail(
-            "join", f"the authority refused {summary.node_id!r}: {summary.refused}", EXIT_REFUSED
+            "join", f"the authority refused {summary.node_id!r}: {summary.refused}", Exit.REFUSED
         )
     if args.json:
-        print_json(summary)
+        print_json(summary, out)
     if not summary.joined:
         if stop.is_set():
             return fail("join", f"stopped before it was admitted, {_still(summary)}",
                         stop.exit_code())  # fmt: skip
         return fail(
             "join", f"not admitted in {summary.duration_s:.0f} s, {_still(summary)}",
-            EXIT_NOT_ADMITTED,
+            Exit.NOT_ADMITTED,
         )  # fmt: skip
     if not args.json:
         print(
@@ -188,4 +192,4 @@ def _report(args: argparse.Namespace, summary: NodeSummary, stop: StopSignal) ->
             + _counted(summary),
             file=sys.stderr,
         )
-    return 0
+    return Exit.OK

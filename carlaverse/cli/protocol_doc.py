@@ -20,6 +20,7 @@ import msgspec
 from carlaverse import messages as m
 from carlaverse.authority.service import TickSummary
 from carlaverse.cli import wire_catalog as wc
+from carlaverse.cli.exit_codes import MEANING, Exit
 from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.node_runtime import NodeSummary
 
@@ -100,6 +101,12 @@ def outputs_region() -> str:
     return "\n".join(summary_table(cls) for cls in summaries)
 
 
+def exit_codes_region() -> str:
+    """The one exit-code table of every command (carlaverse.cli.exit_codes)."""
+    rows = [[int(code), f"`{code.name}`", MEANING[code]] for code in Exit]
+    return _table(["code", "name", "meaning"], rows)
+
+
 def keys_region() -> str:
     rows = [
         [f"`{k.key}`", k.writer, k.request and f"`{k.request}`", _names(k.payload), k.delivery]
@@ -162,6 +169,7 @@ REGIONS: dict[str, Callable[[], str]] = {
     "audio-drive": audio_region,
     "messages": messages_region,
     "outputs": outputs_region,
+    "exit-codes": exit_codes_region,
 }
 
 

@@ -3,13 +3,21 @@
 from __future__ import annotations
 
 import argparse
-import signal
-import sys
 import threading
 import time
 from pathlib import Path
 
-from carlaverse.cli.common import add_fabric_args, attend, fabric_from_args, tell
+from carlaverse.cli.common import (
+    add_fabric_args,
+    attend,
+    fabric_from_args,
+    fail,
+    reached_nothing,
+    stop_on_signals,
+    tell,
+)
+from carlaverse.cli.exit_codes import Exit
+from carlaverse.config import ConfigError
 from carlaverse.fabric.session import FabricError, FabricUnreachable
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.recorder import (
@@ -70,6 +78,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="identity in a --roster session (default recorder)",
     )
     add_fabric_args(parser, session=False)
+    parser.epilog = (
+        "Exit 3 when no router or peer was reached for the whole run (nothing recorded "
+        "because of the network), 1 when the file could not be written."
+    )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -77,40 +89,40 @@ def run(args: argparse.Namespace) -> int:
         if args.recover:
             return _recover(args)
         if not args.session:
-            print(
-                "carlaverse record: --session NAME is required (or --recover IN.mcap)",
-                file=sys.stderr,
-            )
-            return 2
+            return fail("record", "--session NAME is required (or --recover IN.mcap)")
         return _record(args)
-    except (RecordingError, FabricError, KeySpaceError) as exc:
-        tell(f"carlaverse record: {exc}")
-        return 1
+    except (KeySpaceError, ConfigError) as exc:  # ConfigError: a --roster problem
+        return fail("record", str(exc))
+    except FabricError as exc:
+        return fail("record", str(exc), Exit.FABRIC)
+    except RecordingError as exc:
+        return fail("record", str(exc), Exit.FAILED)
 
 
 def _recover(args: argparse.Namespace) -> int:
+    if not args.recover.is_file():
+        return fail("record", f"--recover {args.recover}: no such recording")
     report = recover(args.recover, args.output, args.compression)
     state = "was complete" if report.complete else f"was cut short ({report.stopped_by})"
-    print(
+    tell(
         f"recovered {report.messages} messages on {report.channels} channels, "
         f"{report.attachments} attachments, {report.metadata} metadata records from "
-        f"{args.recover} ({state}) into {args.output}",
-        file=sys.stderr,
+        f"{args.recover} ({state}) into {args.output}"
     )
-    return 0
+    return Exit.OK
 
 
 def _record(args: argparse.Namespace) -> int:
     keys = Keys(args.session)
-    stop = _stop_event()
+    stop = stop_on_signals()  # the file is always finished with its indexes
     deadline = None if args.duration is None else time.monotonic() + args.duration
+    fabric = fabric_from_args(args)
     try:
         # Like nodes and the viewer: one line naming what it waits for (router, authority),
         # retrying until then, and SIGINT/SIGTERM or --duration end the wait.
-        session, notice = attend("record", fabric_from_args(args), keys, stop, deadline)
+        session, notice = attend("record", fabric, keys, stop, deadline)
     except FabricUnreachable as exc:
-        tell(f"carlaverse record: {exc}")
-        return 0 if stop.is_set() else 5
+        return fail("record", str(exc), stop.exit_code() if stop.is_set() else Exit.FABRIC)
     try:
         sink = McapSink(
             args.output,
@@ -126,14 +138,17 @@ def _record(args: argparse.Namespace) -> int:
         tell(f"recording session {args.session} into {args.output}")
         _wait(recorder, stop, deadline, args.progress_s)
         stats = recorder.stop()
+        unreached = reached_nothing(notice, fabric)
     finally:
         notice.close()
         session.close()
+    if unreached:  # "recorded 0 messages" would read as a session where nothing happened
+        code = stop.exit_code() if stop.is_set() else Exit.FABRIC
+        return fail("record", f"{unreached}: nothing recorded into {args.output}", code)
     tell(f"recorded {_describe(stats)} into {args.output}")
     if stats.failure:
-        tell(f"carlaverse record: RECORDING FAILED: {stats.failure}")
-        return 1
-    return 0
+        return fail("record", f"RECORDING FAILED: {stats.failure}", Exit.FAILED)
+    return Exit.OK
 
 
 def _wait(
@@ -153,15 +168,6 @@ def _wait(
             last = _progress(recorder.stats(), last)
     except KeyboardInterrupt:  # only when signals could not be taken over (not main thread)
         return
-
-
-def _stop_event() -> threading.Event:
-    """Set by SIGINT/SIGTERM, so the file is always finished with its indexes."""
-    stop = threading.Event()
-    if threading.current_thread() is threading.main_thread():
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda *_: stop.set())
-    return stop
 
 
 def _progress(stats: RecorderStats, last: tuple[float, int]) -> tuple[float, int]:

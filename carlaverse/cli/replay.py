@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import argparse
 import signal
-import sys
 import threading
 from collections.abc import Mapping
 from pathlib import Path
 
-from carlaverse.cli.common import add_fabric_args, fabric_from_args
+from carlaverse.cli.common import add_fabric_args, fabric_from_args, fail, tell
+from carlaverse.cli.exit_codes import Exit
+from carlaverse.config import ConfigError
 from carlaverse.fabric.session import FabricError, await_mesh, open_session
 from carlaverse.keys import KeySpaceError, check_token, parse
 from carlaverse.recording.reading import iter_samples, read_channels
@@ -55,33 +56,35 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.speed <= 0:
-        print(f"carlaverse replay: --speed must be > 0, got {args.speed}", file=sys.stderr)
-        return 2
+        return fail("replay", f"--speed must be > 0, got {args.speed}")
+    if not args.file.is_file():
+        return fail("replay", f"{args.file}: no such recording")
     try:
         if args.session:
             check_token(args.session, "session name")
-        if not args.file.is_file():
-            raise RecordingError(f"no recording at {args.file}")
         stats = _replay(args)
-    except (RecordingError, FabricError, KeySpaceError) as exc:
-        print(f"carlaverse replay: {exc}", file=sys.stderr)
-        return 1
+    except (KeySpaceError, ConfigError) as exc:  # ConfigError: a --roster problem
+        return fail("replay", str(exc))
+    except FabricError as exc:
+        return fail("replay", str(exc), Exit.FABRIC)
+    except RecordingError as exc:
+        return fail("replay", str(exc), Exit.FAILED)
     withheld = f", {stats.withheld} commands withheld" if stats.withheld else ""
-    print(
+    tell(
         f"replayed {stats.published} samples on {len(stats.per_key)} keys in {stats.passes} "
         f"pass(es); {stats.late} late (worst {stats.max_late_s * 1e3:.1f} ms), "
-        f"{stats.skipped} skipped{withheld}",
-        file=sys.stderr,
+        f"{stats.skipped} skipped{withheld}"
     )
-    return 0
+    return Exit.OK
 
 
 def _replay(args: argparse.Namespace) -> ReplayStats:
     stop = _stop_event()
     channels = read_channels(args.file)
     target = args.session or default_target(recorded_session(channels, args.file))
-    print(f"replaying {args.file} into session {target}", file=sys.stderr, flush=True)
-    session = open_session(fabric_from_args(args))
+    fabric = fabric_from_args(args)  # a --roster problem is said before anything else
+    tell(f"replaying {args.file} into session {target}")
+    session = open_session(fabric)
     replayer = Replayer(
         session,
         target,

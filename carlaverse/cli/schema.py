@@ -21,7 +21,7 @@ import msgspec
 
 from carlaverse import messages as m
 from carlaverse.cli import wire_catalog as wc
-from carlaverse.cli.common import fail
+from carlaverse.cli.common import fail, json_stdout
 
 JSON_SCHEMA_DIALECT = "https://json-schema.org/draft/2020-12/schema"
 REF = "#/$defs/{name}"
@@ -44,7 +44,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     if args.json:
-        sys.stdout.write(json.dumps(json_schema(), indent=2) + "\n")
+        with json_stdout(True) as out:
+            out.write(json.dumps(json_schema(), indent=2) + "\n")
     elif args.markdown:
         from carlaverse.cli.protocol_doc import all_regions
 

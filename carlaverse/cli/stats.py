@@ -6,6 +6,7 @@ import argparse
 import sys
 import threading
 import time
+from typing import TextIO
 
 import msgspec
 
@@ -15,9 +16,12 @@ from carlaverse.cli.common import (
     attend,
     fabric_from_args,
     fail,
+    json_stdout,
     print_json,
+    reached_nothing,
     stop_on_signals,
 )
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
 from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import NodeClient, NodeSettings
@@ -48,9 +52,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     add_fabric_args(parser)
     add_output_args(parser, duration=10.0)
+    parser.epilog = "Exit 3 when no router or peer was reached for the whole run."
 
 
 def run(args: argparse.Namespace) -> int:
+    with json_stdout(args.json) as out:
+        return _run(args, out)
+
+
+def _run(args: argparse.Namespace, out: TextIO) -> int:
     settings = NodeSettings(
         node_id=args.node_id, session=args.session or "default", kind="observer", actor_kind="",
         pose_digest=args.pose_digest,
@@ -69,22 +79,26 @@ def run(args: argparse.Namespace) -> int:
     try:
         session, notice = attend("stats", fabric, Keys(settings.session), stop, deadline)
     except FabricUnreachable as exc:
-        return fail("stats", str(exc), stop.exit_code() if stop.is_set() else 5)
+        return fail("stats", str(exc), stop.exit_code() if stop.is_set() else Exit.FABRIC)
     except FabricError as exc:
-        return fail("stats", str(exc), 3)
+        return fail("stats", str(exc), Exit.FABRIC)
     client = NodeClient(session, settings, MonotonicClock()).start()
     try:
         result = _observe(args, client, stop, deadline)
+        unreached = reached_nothing(notice, fabric)
     finally:
         notice.close()
         client.close()
         session.close()
+    if unreached:  # an empty table would read as a session where nobody publishes
+        code = stop.exit_code() if stop.is_set() else Exit.FABRIC
+        return fail("stats", f"{unreached}: nothing measured", code)
     if args.json:
         # dropped, rejected, handler_errors, impulses_accepted: what the fabric layer counted
-        print_json({"nodes": result, **msgspec.structs.asdict(client.counters())})
+        print_json({"nodes": result, **msgspec.structs.asdict(client.counters())}, out)
     else:
         _print_table(result)
-    return 0
+    return Exit.OK
 
 
 def _observe(

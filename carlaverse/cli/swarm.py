@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 import threading
+import time
+from typing import TextIO
 
 import msgspec
 
@@ -13,10 +15,12 @@ from carlaverse.cli.common import (
     add_output_args,
     fabric_from_args,
     fail,
+    json_stdout,
     print_json,
     say,
     stop_on_signals,
 )
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError, invalid_at
 from carlaverse.fabric.session import FabricError, FabricUnreachable, open_session
 from carlaverse.keys import KeySpaceError
@@ -81,32 +85,44 @@ def settings_from_args(args: argparse.Namespace) -> SwarmSettings:
 
 
 def run(args: argparse.Namespace) -> int:
+    with json_stdout(args.json) as out:
+        return _run(args, out)
+
+
+def _run(args: argparse.Namespace, out: TextIO) -> int:
     try:
         settings = settings_from_args(args)
         fabric = fabric_from_args(args, identity=settings.prefix)
     except (ConfigError, FabricError) as exc:
         return fail("swarm", str(exc))
     stop = stop_on_signals()
+    deadline = None if args.duration is None else time.monotonic() + args.duration
     try:
-        session = open_session(fabric, stop, None, say("swarm"))
+        session = open_session(fabric, stop, deadline, say("swarm"))
     except FabricUnreachable as exc:
-        return fail("swarm", str(exc), stop.exit_code())
+        return fail("swarm", str(exc), stop.exit_code() if stop.is_set() else Exit.NOT_ADMITTED)
     except FabricError as exc:
-        return fail("swarm", str(exc), 3)
+        return fail("swarm", str(exc), Exit.FABRIC)
     try:
-        return _run_swarm(session, settings, stop, args)
+        return _run_swarm(session, settings, stop, args, out)
     except KeySpaceError as exc:
         return fail("swarm", str(exc))
     finally:
         session.close()
 
 
-def _run_swarm(session: object, settings: SwarmSettings, stop: threading.Event, args) -> int:
+def _run_swarm(
+    session: object,
+    settings: SwarmSettings,
+    stop: threading.Event,
+    args: argparse.Namespace,
+    out: TextIO,
+) -> int:
     swarm = Swarm(session, settings)  # type: ignore[arg-type]
     joined = swarm.join()
     if joined == 0 and swarm.members.refused:
         reason = next(iter(swarm.members.refused.values()))
-        return fail("swarm", f"the authority refused every ego: {reason}", 4)
+        return fail("swarm", f"the authority refused every ego: {reason}", Exit.REFUSED)
     print(
         f"carlaverse swarm: {joined} of {settings.egos} egos joined session "
         f"{settings.session!r}; publishing at {settings.rate_hz:g} Hz",
@@ -117,10 +133,10 @@ def _run_swarm(session: object, settings: SwarmSettings, stop: threading.Event, 
     watcher.start()
     report = swarm.run(args.duration)
     if args.json:
-        print_json(report)
+        print_json(report, out)
     else:
         print(summary_text(report), file=sys.stderr)
-    return 0
+    return Exit.OK
 
 
 def summary_text(r: SwarmReport) -> str:

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import signal
-import sys
 import threading
 import time
 from dataclasses import dataclass
@@ -14,7 +12,16 @@ from typing import TYPE_CHECKING
 
 import zenoh
 
-from carlaverse.cli.common import add_fabric_args, attend, fabric_from_args
+from carlaverse.cli.common import (
+    add_fabric_args,
+    attend,
+    fabric_from_args,
+    fail,
+    reached_nothing,
+    stop_on_signals,
+    tell,
+)
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
 from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config
 from carlaverse.keys import Keys, KeySpaceError, check_token
@@ -94,28 +101,36 @@ def run(args: argparse.Namespace) -> int:
     if args.rate <= 0:
         return _fail(f"--rate must be > 0, got {args.rate}")
     if args.recording is not None:
-        return _show(args, viewer_url, _stop_event(), None)
+        if not args.recording.is_file():
+            return _fail(f"{args.recording}: no such recording")
+        return _show(args, viewer_url, stop_on_signals(), None)
     try:  # a bad endpoint, session name or roster entry is a usage error: before any output
         check_token(args.session, "session name")
         fabric = fabric_from_args(args)
         build_config(fabric)
     except (KeySpaceError, FabricError, ConfigError) as exc:
         return _fail(str(exc))
-    stop = _stop_event()
+    stop = stop_on_signals()
     deadline = None if args.duration is None else time.monotonic() + args.duration
     try:  # first, so what it waits for is said before Rerun's seconds-long import
         session, notice = attend("view", fabric, Keys(args.session), stop, deadline)
     except FabricUnreachable as exc:
-        return _fail(str(exc), 0 if stop.is_set() else 5)  # Ctrl-C while waiting: a normal end
+        return _fail(str(exc), stop.exit_code() if stop.is_set() else Exit.FABRIC)
     except FabricError as exc:
-        return _fail(str(exc), 3)
+        return _fail(str(exc), Exit.FABRIC)
     try:
         if not _load_viewer(stop):
-            return 0  # stopped while Rerun was still loading: a normal end
-        return _show(args, viewer_url, stop, Live(session, Keys(args.session), deadline))
+            return stop.exit_code()  # stopped while Rerun was still loading
+        code = _show(args, viewer_url, stop, Live(session, Keys(args.session), deadline))
+        unreached = reached_nothing(notice, fabric)
     finally:  # a missing rerun-sdk or mcap is said by carlaverse.cli.main, naming its extra
         notice.close()
         session.close()
+    if unreached and code == Exit.OK:  # an empty view would read as an empty session
+        return _fail(
+            f"{unreached}: nothing shown", stop.exit_code() if stop.is_set() else Exit.FABRIC
+        )
+    return code
 
 
 VIEWER_MODULES = ("carlaverse.recording.sink", "carlaverse.viz.outputs", "carlaverse.viz.live")
@@ -159,7 +174,7 @@ def _show(
     args: argparse.Namespace, viewer_url: str | None, stop: threading.Event, live: Live | None
 ) -> int:
     from carlaverse.recording.sink import RecordingError  # imports mcap: after the session
-    from carlaverse.viz.outputs import Outputs, ViewerError, ViewOutput
+    from carlaverse.viz.outputs import Outputs, PortInUse, ViewerError, ViewOutput
 
     outputs = Outputs(
         save=args.save, connect=viewer_url, serve=args.serve, spawn=args.spawn,
@@ -167,16 +182,18 @@ def _show(
     )  # fmt: skip
     try:
         view = ViewOutput(outputs)
+    except PortInUse as exc:  # as for any flag the user can change
+        return _fail(f"--web-port: {exc}; choose another, or 0 for any free one")
     except ViewerError as exc:
-        return _fail(str(exc), 1)
+        return _fail(str(exc), Exit.FAILED)
     try:
         if view.web_url:
-            print(f"web viewer: {view.web_url}", file=sys.stderr, flush=True)
+            tell(f"web viewer: {view.web_url}")
         if live is None:
             return _render_file(args, view, stop)
         return _watch(args, live, view, stop)
     except (RecordingError, FabricError, KeySpaceError) as exc:
-        return _fail(str(exc), 1)
+        return _fail(str(exc), Exit.FAILED)
     finally:
         view.close()
 
@@ -188,12 +205,12 @@ def _render_file(args: argparse.Namespace, view: ViewOutput, stop: threading.Eve
 
     scene = SceneLogger(view.rec, trails=not args.no_trails, raw=args.raw)
     stats = render_recording(args.recording, scene, rate_hz=args.rate)
-    print(f"rendered {stats.samples} samples in {stats.frames} frames", file=sys.stderr)
+    tell(f"rendered {stats.samples} samples in {stats.frames} frames")
     if view.viewers:  # a served/spawned viewer would vanish with us: keep it until Ctrl-C
         view.rec.flush(timeout_sec=10.0)
-        print("serving the recording; Ctrl-C to stop", file=sys.stderr, flush=True)
+        tell("serving the recording; Ctrl-C to stop")
         wait_forever_or(stop, view.viewers)
-    return 0
+    return Exit.OK
 
 
 def _watch(args: argparse.Namespace, live: Live, view: ViewOutput, stop: threading.Event) -> int:
@@ -208,21 +225,11 @@ def _watch(args: argparse.Namespace, live: Live, view: ViewOutput, stop: threadi
         stats = watcher.start().run(stop, left)
     finally:
         watcher.close()
-    print(
-        f"viewed {stats.samples} samples in {stats.frames} frames ({stats.skipped_frames} skipped)",
-        file=sys.stderr,
+    tell(
+        f"viewed {stats.samples} samples in {stats.frames} frames ({stats.skipped_frames} skipped)"
     )
-    return 0
+    return Exit.OK
 
 
-def _stop_event() -> threading.Event:
-    stop = threading.Event()
-    if threading.current_thread() is threading.main_thread():
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            signal.signal(sig, lambda *_: stop.set())
-    return stop
-
-
-def _fail(message: str, code: int = 2) -> int:
-    print(f"carlaverse view: {message}", file=sys.stderr)
-    return code
+def _fail(message: str, code: int = Exit.USAGE) -> int:
+    return fail("view", message, code)

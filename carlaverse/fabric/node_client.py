@@ -122,6 +122,9 @@ class NodeClient:
         self.joined = threading.Event()  # accepted by the current authority
         self.admitted = threading.Event()  # accepted at least once: poses may flow
         self.refused: str | None = None
+        # What the join waits for when the authority is there but its answer is not: a query
+        # that times out (a loaded authority or link) is asked again, never a refusal.
+        self.unanswered = ""
         self._settled = threading.Event()  # the first join was answered, yes or no
         self.join_reply: m.JoinReply | None = None
         self.snapshot: m.Snapshot | None = None
@@ -347,12 +350,16 @@ class NodeClient:
         return self._ask(key, payload, timeout)[0]
 
     def _ask(self, key: str, payload: bytes, timeout: float) -> tuple[bytes | None, str]:
-        """The first good reply's payload, else None and the error reply's text (or "")."""
+        """The first good reply's payload, else None and the error reply's text ("" when
+        nobody answered in time)."""
         error = ""
         try:
             for reply in self.session.get(key, payload=payload, timeout=timeout):
                 if reply.ok is not None:
                     return reply.ok.payload.to_bytes(), ""
+                if timed_out(reply):  # nobody answered: not the authority's word
+                    log.debug("query %s: no answer within %g s", key, timeout)
+                    continue
                 error = _error_text(reply.err)
                 log.warning("query %s answered with an error: %s", key, error)
         except zenoh.ZError as exc:
@@ -372,7 +379,13 @@ class NodeClient:
         if raw is None:
             if error:  # the authority cannot read our request; asking again will not help
                 self._refuse(error)
+            else:
+                self.unanswered = (
+                    f"waiting for the authority of session {s.session!r} to answer the join: "
+                    f"no answer within {s.join_timeout_s:g} s (asking again)"
+                )
             return
+        self.unanswered = ""
         try:
             reply = m.JOIN_REPLY.decode(raw)
         except m.MessageError as exc:
@@ -431,6 +444,19 @@ class NodeClient:
         if not reply.known and self.joined.is_set() and self.refused is None:
             self.joined.clear()  # the authority lost us (restart, partition): join again
             self._wake.set()
+
+
+def timed_out(reply: zenoh.Reply) -> bool:
+    """Whether an error reply is Zenoh's own "Timeout", not a queryable's answer.
+
+    Zenoh ends a query that no queryable finished in time with an error reply "Timeout",
+    from the querier's own session (no replier) or from the session that forwarded the query
+    (its runtime, entity id 0; measured: a held query through a router, 2 s). A queryable
+    replies under its own entity id, never 0, and the authority never says "Timeout".
+    """
+    if reply.err is None or reply.err.payload.to_bytes() != b"Timeout":
+        return False
+    return reply.replier_id is None or reply.replier_id.eid == 0
 
 
 def _error_text(err: zenoh.ReplyError | None) -> str:

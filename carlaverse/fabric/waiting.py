@@ -39,6 +39,9 @@ class SessionWait:
         self.settings = settings
         self.keys = keys
         self.authority = threading.Event()
+        # Set once a router or peer was reached: a recorder that reached nothing for its
+        # whole run recorded nothing because of the network, and says so (exit 3).
+        self.reached = threading.Event()
         # history=True: a token declared before we subscribed is delivered at once.
         self._sub: zenoh.Subscriber | None = session.liveliness().declare_subscriber(
             keys.node(AUTHORITY_ID), self._on_authority, history=True
@@ -53,7 +56,7 @@ class SessionWait:
     def missing(self) -> str | None:
         """One line naming the endpoint and what is missing, or None when all is there."""
         where = ", ".join(self.settings.connect)
-        if not reaches_anyone(self.session):
+        if not self.reaches_anyone():
             if not where:
                 return (
                     "waiting for a router or peer: none found (no --connect endpoint given and "
@@ -68,6 +71,13 @@ class SessionWait:
                 f"(start `carlaverse authority --session {session}`)"
             )
         return None
+
+    def reaches_anyone(self) -> bool:
+        """Whether a router or peer is connected now (and remember that one was)."""
+        if reaches_anyone(self.session):
+            self.reached.set()
+            return True
+        return False
 
     def close(self) -> None:
         if self._sub is not None:
@@ -95,9 +105,11 @@ class WaitNotice:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
-    def poll(self) -> str | None:
-        """Check now; return what is missing (also before the grace period ends)."""
-        missing = self.wait.missing()
+    def poll(self, also: str | None = None) -> str | None:
+        """Check now; return what is missing (also before the grace period ends). `also` is
+        what the caller itself still waits for once the router and the authority are there
+        (an unanswered join), said like the rest."""
+        missing = self.wait.missing() or also
         if missing is None and self.said is not None:
             session = self.wait.keys.session
             self.say(f"reached the router and the authority of session {session!r}")

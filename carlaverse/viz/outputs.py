@@ -28,6 +28,9 @@ log = logging.getLogger(__name__)
 APPLICATION_ID = "carlaverse"
 _GRPC_LINE = re.compile(r"Listening for gRPC connections on ([0-9.:\[\]a-fA-F]+):(\d+)")
 _WEB_LINE = re.compile(r"Hosting a web-viewer at http://([0-9.:\[\]a-fA-F]+):(\d+)")
+# rerun's last word when a port is taken: "Error: Failed to create server: Address already in
+# use (os error 98): (127.0.0.1:9090): ..."
+_IN_USE = re.compile(r"Address already in use.*?\((?P<host>[0-9.:\[\]a-fA-F]+):(?P<port>\d+)\)")
 _ANSI = re.compile(r"\x1b\[[0-9;]*m")
 
 
@@ -50,6 +53,10 @@ def default_blueprint() -> rrb.Blueprint:
 
 class ViewerError(RuntimeError):
     """A viewer process that could not be started or reached."""
+
+
+class PortInUse(ViewerError):
+    """The viewer's port is taken by another process: the user chooses another."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -105,6 +112,9 @@ class ViewerProcess:
             tail = "".join(self.lines[-20:])
             self.stop()
             raise ViewerError(f"rerun viewer did not start within {timeout_s:g} s:\n{tail}")
+        if not self._serving():  # it exited first: say its own last word, in one line
+            self.stop()
+            raise _start_error(self.lines)
 
     def _read(self) -> None:
         assert self._proc.stdout is not None
@@ -115,9 +125,12 @@ class ViewerProcess:
                 self.grpc = (g.group(1), int(g.group(2)))
             if (w := _WEB_LINE.search(line)) is not None:
                 self.web = (w.group(1), int(w.group(2)))
-            if self.grpc and (self.web or not self._wants_web):
+            if self._serving():
                 self._ready.set()
         self._ready.set()  # exited: let the waiter see it
+
+    def _serving(self) -> bool:
+        return self.grpc is not None and (self.web is not None or not self._wants_web)
 
     @property
     def grpc_url(self) -> str:
@@ -145,6 +158,18 @@ class ViewerProcess:
             except subprocess.TimeoutExpired:
                 self._proc.kill()
                 self._proc.wait()
+
+
+def _start_error(lines: list[str]) -> ViewerError:
+    """Why a rerun child exited before serving, from its output, as one line."""
+    text = "".join(lines)
+    taken = _IN_USE.search(text)
+    if taken is not None:
+        return PortInUse(f"port {taken['port']} on {taken['host']} is in use by another program")
+    said = [line.strip() for line in lines if line.strip()]
+    errors = [line for line in said if line.startswith("Error:") or " ERROR " in line]
+    last = (errors or said or ["(it printed nothing)"])[-1]
+    return ViewerError(f"rerun viewer exited before serving: {last}")
 
 
 def serve_web(host: str = "127.0.0.1", web_port: int = 0, grpc_port: int = 0) -> ViewerProcess:

@@ -79,7 +79,7 @@ def test_a_broken_scenario_names_the_file_and_the_field(
     text = (REPO / "scenarios/town.yaml").read_text()
     broken = tmp_path / "town-broken.yaml"
     broken.write_text(text + "\nmystery_field: 1\n")
-    assert main(["config", "validate", str(broken)]) == 1
+    assert main(["config", "validate", str(broken)]) == 2  # a config error, as in `join`
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0, err
     assert str(broken) in err and "mystery_field" in err
@@ -90,7 +90,7 @@ def test_a_node_config_with_a_bad_endpoint_is_rejected(
 ) -> None:
     config = tmp_path / "car.yaml"
     config.write_text("node: {kind: scripted}\nfabric: {connect: ['127.0.0.1:7447']}\n")
-    assert main(["config", "validate", str(config)]) == 1
+    assert main(["config", "validate", str(config)]) == 2  # a config error, as in `join`
     err = capsys.readouterr().err
     assert "bad --connect endpoint '127.0.0.1:7447'" in err and ".rs:" not in err
 
@@ -100,9 +100,9 @@ def test_a_file_of_no_known_kind_says_how_to_choose(
 ) -> None:
     odd = tmp_path / "odd.yaml"
     odd.write_text("colour: blue\n")
-    assert main(["config", "validate", str(odd)]) == 1
+    assert main(["config", "validate", str(odd)]) == 2  # a config error, as in `join`
     assert "pass --kind" in capsys.readouterr().err
-    assert main(["config", "validate", "--kind", "vehicle", str(odd)]) == 1
+    assert main(["config", "validate", "--kind", "vehicle", str(odd)]) == 2
     assert "unknown field `colour`" in capsys.readouterr().err
 
 
@@ -111,7 +111,7 @@ def test_a_walk_configs_body_options_are_checked(
 ) -> None:
     config = tmp_path / "walk.yaml"
     config.write_text("node: {kind: walk}\nbody: {source: camera, options: {rate_hz: 0}}\n")
-    assert main(["config", "validate", str(config)]) == 1
+    assert main(["config", "validate", str(config)]) == 2  # a config error, as in `join`
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and str(config) in err
     assert "body.options" in err and "rate_hz" in err

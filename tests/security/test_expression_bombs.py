@@ -72,9 +72,9 @@ def test_config_validate_refuses_every_bomb_in_one_line_naming_the_field(tmp_pat
     done = _carlaverse("config", "validate", *map(str, files.values()), timeout=60)
     elapsed = time.monotonic() - started
     lines = done.stderr.strip().splitlines()
-    assert done.returncode == 1 and len(lines) == len(BOMBS), done.stdout + done.stderr
+    assert done.returncode == 2 and len(lines) == len(BOMBS), done.stdout + done.stderr
     for (stem, (axis, _)), line in zip(BOMBS.items(), lines, strict=True):
-        assert line.startswith(f"error: {files[stem]}: controls.{axis}.curve: "), line
+        assert line.startswith(f"carlaverse config: {files[stem]}: controls.{axis}.curve: "), line
     assert elapsed < 30, f"refusing took {elapsed:.1f} s"  # a process start and seven parses
 
 
