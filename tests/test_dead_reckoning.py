@@ -240,8 +240,8 @@ def test_the_collision_check_and_a_remote_view_put_an_ego_at_one_place(mode: str
     circle = Circle(r=15.0, v=6.0, left=True)
     wire = m.encode_pose(circle.pose(10.0, 1.0))
     view = WorldView("me", InterpolationSettings(render_mode=mode))  # type: ignore[arg-type]
-    view.push_present("bike-1")
-    view.push_wire("bike-1", wire, 10.01)
+    view.intake.present("bike-1")
+    view.intake.pose("bike-1", wire, 10.01)
     view.update(10.2)
     (drawn,) = view.ego_views(10.2)
     assert drawn.render_t > 10.1  # projected beyond the sample in either mode

@@ -4,7 +4,8 @@ Every subscriber callback of a `NodeClient` lives here. None of them waits or ra
 that does not decode is counted in `dropped` under its channel; a well-formed message that is
 refused (not from the authority, a duplicate impulse, a reserved id) is counted in `rejected`
 under `<channel>/<why>`; anything unexpected is counted by the guard and logged at a bounded
-rate. Accepted input goes to the world view's inbox or to the node's queues.
+rate. Accepted input goes to the world view through its intake (`fabric.intake`, the one way
+in: `Inbound` is the live session's `WorldSource`) or to the node's queues.
 
 Who may speak for the authority. World messages (`world/*`) and impulses must come from the
 Zenoh session of the authority this node joined. The authority stamps each of them with a Zenoh
@@ -30,7 +31,7 @@ import zenoh
 from carlaverse import messages as m
 from carlaverse.fabric.clock import SessionClock
 from carlaverse.fabric.guard import HandlerGuard, Tally
-from carlaverse.fabric.world_view import WorldView
+from carlaverse.fabric.intake import WorldIntake
 from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse, parse_cached
 
 log = logging.getLogger(__name__)
@@ -44,12 +45,14 @@ class Inbound:
     `lost()` is called when the authority forgot this node (it left, or despawned us);
     `appeared()` when an authority token appears: it may be the one we joined (a late
     history sample) or a new one that knows nothing of us, which a clock query tells apart.
+    The poses of `intake.own_id` (this node's, or those of the node a render process draws
+    from shared memory) stop at the intake, never decoded.
     """
 
     def __init__(
         self,
         node_id: str,
-        world: WorldView,
+        intake: WorldIntake,
         clock: SessionClock,
         lost: Callable[[], None],
         appeared: Callable[[], None],
@@ -59,15 +62,15 @@ class Inbound:
         # Pose callbacks on Zenoh's network thread (one thread hand-off fewer, see
         # `pose_handler`) instead of zenoh-python's own callback thread.
         self.direct_poses = direct_poses
-        self.world = world
+        self._intake = intake
         self.clock = clock
         self._lost = lost
         self._appeared = appeared
         self.impulses: deque[m.Impulse] = deque(maxlen=256)
         self.overrides: deque[m.Override] = deque(maxlen=64)
-        # undecodable payloads, by channel: the world view's tally, since the view checks the
-        # digests' rows on its owner's thread
-        self.dropped = world.dropped
+        # undecodable payloads, by channel: the intake's tally, since the world view checks
+        # the poses on its owner's thread
+        self.dropped = intake.dropped
         self.rejected = Tally()  # well-formed but refused, by `<channel>/<why>`
         # World messages that arrive before the join reply names the authority cannot be
         # checked; the snapshot fetched after joining supersedes them. Not hostile: kept apart.
@@ -84,19 +87,35 @@ class Inbound:
         self.pose_feed: zenoh.Subscriber | None = None
         self.pose_feed_kind = ""
 
+    @property
+    def intake(self) -> WorldIntake:
+        return self._intake
+
+    def feed(self, until_t: float) -> None:
+        """Nothing left to hand over: each sample went to the intake as it arrived."""
+
     def subscribe(
-        self, session: zenoh.Session, keys: Keys, spatial: bool = True, digest: bool = False
+        self,
+        session: zenoh.Session,
+        keys: Keys,
+        spatial: bool = True,
+        digest: bool = False,
+        skeletons: bool = False,
     ) -> list[object]:
         """Declare the node's subscriptions. `spatial=False`: poses and NPCs come through
         an interest area (`spatial_handlers`) instead of from the whole world; `digest`: the
         whole world's poses come through the authority's digest, many to a sample, instead of
-        one sample each."""
+        one sample each; `skeletons`: every walker's joints too (`ego/*/skeleton`), for a node
+        that draws bodies."""
         g = self.guard
         world = {"lights": self._on_lights, "weather": self._on_weather, "events": self._on_event}
         entities: list[object] = []
         if spatial:  # the whole world: its poses (`pose_feed`) and its NPCs in one batch
             world["npc"] = self._on_npc
             self._feed(session, keys, "digest" if digest else "poses")
+        if skeletons:
+            skeleton = g.sample("skeleton", self._on_skeleton)
+            entities.append(session.declare_subscriber(keys.all_ego("skeleton"), skeleton))
         entities += [
             session.declare_subscriber(keys.all_ego("state"), g.sample("state", self._on_state)),
             session.declare_subscriber(
@@ -208,21 +227,27 @@ class Inbound:
         except KeySpaceError:
             self.dropped.add("pose")
             return
-        self.world.push_wire(node_id, sample.payload.to_bytes(), rx_t)
+        self._intake.pose(node_id, sample.payload.to_bytes(), rx_t)
 
     def _on_digest(self, sample: zenoh.Sample) -> None:
         """Poses relayed by the authority. Each row is checked as a pose of its own would be,
-        by the world view's update, with every other digest it drains (`push_digest`)."""
+        by the world view's update, with every other pose it drains."""
         rx_t = self.clock.now()
         digest = self._authority_message(sample, m.POSE_DIGEST, "digest")
         if isinstance(digest, m.PoseDigest):
-            self.world.push_digest(digest.ids, digest.rows, rx_t)
+            self._intake.pose_rows(digest.ids, digest.rows, rx_t)
 
     def _on_state(self, sample: zenoh.Sample) -> None:
         node_id = self._sender(sample, "state")
         state = self._decode(sample, m.EGO_STATE, "state")
         if node_id is not None and state is not None:
-            self.world.inbox.append(("state", node_id, state))
+            self._intake.state(node_id, state)  # type: ignore[arg-type]
+
+    def _on_skeleton(self, sample: zenoh.Sample) -> None:
+        node_id = self._sender(sample, "skeleton")
+        skeleton = self._decode(sample, m.SKELETON, "skeleton")
+        if node_id is not None and skeleton is not None:
+            self._intake.skeleton(node_id, skeleton)  # type: ignore[arg-type]
 
     def _on_override(self, sample: zenoh.Sample) -> None:
         override = self._decode(sample, m.OVERRIDE, "override")
@@ -244,9 +269,9 @@ class Inbound:
                 self._lost()
         elif node_id != self.node_id:
             if alive:
-                self.world.push_present(node_id)
+                self._intake.present(node_id)
             else:
-                self.world.push_gone(node_id, "liveliness", self.clock.now())
+                self._intake.gone(node_id, "liveliness", self.clock.now())
 
     # ------------------------------------------------------------ the authority's
 
@@ -260,17 +285,17 @@ class Inbound:
         except KeySpaceError:
             self.dropped.add("npc")
             return
-        self.world.push_npc(batch, rx_t, tile)  # type: ignore[arg-type]
+        self._intake.npc(batch, rx_t, tile)  # type: ignore[arg-type]
 
     def _on_lights(self, sample: zenoh.Sample) -> None:
         lights = self._authority_message(sample, m.LIGHTS, "lights")
         if lights is not None:
-            self.world.lights = lights  # type: ignore[assignment]
+            self._intake.lights(lights)  # type: ignore[arg-type]
 
     def _on_weather(self, sample: zenoh.Sample) -> None:
         weather = self._authority_message(sample, m.WEATHER, "weather")
         if weather is not None:
-            self.world.weather = weather  # type: ignore[assignment]
+            self._intake.weather(weather)  # type: ignore[arg-type]
 
     def _on_event(self, sample: zenoh.Sample) -> None:
         event = self._authority_message(sample, m.WORLD_EVENT, "events")
@@ -280,13 +305,13 @@ class Inbound:
             if event.node_id == AUTHORITY_ID:
                 self.rejected.add("events/reserved_id")  # no actor for the authority, ever
             elif event.node_id != self.node_id:
-                self.world.push_present(event.node_id)
+                self._intake.present(event.node_id)
         elif isinstance(event, m.Notice) and event.to in ("", self.node_id):
-            self.world.push_notice(event)
+            self._intake.notice(event)
 
     def _on_despawned(self, event: m.Despawned) -> None:
         if event.node_id != self.node_id:
-            self.world.push_gone(event.node_id, event.reason, self.clock.now())
+            self._intake.gone(event.node_id, event.reason, self.clock.now())
         elif event.reason == "left":
             self.left.set()  # our own leave, acknowledged: the token may go now
         else:

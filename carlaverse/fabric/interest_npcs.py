@@ -14,11 +14,10 @@ from collections.abc import Iterator
 
 import numpy as np
 
+from carlaverse.fabric.intake import WHOLE_WORLD
 from carlaverse.fabric.npc_table import NpcFrame, NpcTable
 from carlaverse.fabric.remote_actor import InterpolationSettings, StreamTiming
 from carlaverse.messages import NpcBatch
-
-WHOLE_WORLD = ""  # the tile name of the `world/npc` stream
 
 
 class NpcTiles:

@@ -8,7 +8,8 @@
     for view in client.world.ego_views(now): draw(view)
     client.close()
 
-Threads: Zenoh's callbacks (`fabric.inbound`) decode, check and enqueue, never wait or raise;
+Threads: Zenoh's callbacks (`fabric.inbound`) check and hand over to the world view's intake,
+never wait or raise;
 a publisher thread sends the ego pose at the configured rate; a control thread joins (and
 re-joins after an authority restart or a partition), keeps the session clock in sync, and
 nothing else. The node's own control loop never calls into Zenoh.
@@ -99,7 +100,14 @@ class NodeClient:
         settings: NodeSettings,
         clock: Clock,
         config_yaml: str = "",
+        *,
+        own_actor: str = "",
+        skeletons: bool = False,
     ) -> None:
+        """`own_actor`: the actor this node's world view leaves out, its own (by default its
+        own id; a render process that joins as `<node id>.view` names its node, whose actor
+        it reads from shared memory: those poses are never decoded). `skeletons`: hear every
+        walker's joints too (`ego/*/skeleton`), for a node that draws bodies."""
         check_token(settings.node_id)
         if settings.site:  # the authority refuses any other (authority/join_check.py)
             check_token(settings.site, "site name")
@@ -111,11 +119,14 @@ class NodeClient:
         self.clock = SessionClock(clock)
         self.instance = uuid.uuid4().hex
         self.config_yaml = config_yaml
-        self.world = WorldView(settings.node_id, settings.interpolation)
+        self.world = WorldView(own_actor or settings.node_id, settings.interpolation)
         self.inbound = Inbound(
-            settings.node_id, self.world, self.clock, self._authority_lost, self._authority_seen,
-            direct_poses=settings.direct_pose_callbacks,
+            settings.node_id, self.world.intake, self.clock, self._authority_lost,
+            self._authority_seen, direct_poses=settings.direct_pose_callbacks,
         )  # fmt: skip
+        self._skeletons = skeletons
+        self._skeleton_pub: zenoh.Publisher | None = None
+        self._skeleton_seq = 0
         self.impulses: deque[m.Impulse] = self.inbound.impulses
         self.overrides: deque[m.Override] = self.inbound.overrides
         self.dropped: Tally = self.inbound.dropped
@@ -144,7 +155,7 @@ class NodeClient:
             self.interest = InterestArea(
                 session, self.keys, settings.interest_radius_m, on_pose, on_npc
             )
-            self.world.interest = frozenset()  # nothing is in earshot before our first pose
+            self.world.intake.interest(frozenset())  # nothing in earshot before our first pose
         self._interest_due = threading.Event()
         self._pose_pub = TiledPublisher(
             session,
@@ -183,8 +194,9 @@ class NodeClient:
     def start(self, pose_source: PoseSource | None = None) -> NodeClient:
         spatial = self.interest is None
         self._entities += self.inbound.subscribe(
-            self.session, self.keys, spatial=spatial, digest=self.settings.pose_digest
-        )
+            self.session, self.keys, spatial=spatial, digest=self.settings.pose_digest,
+            skeletons=self._skeletons,
+        )  # fmt: skip
         self._spawn(self._control_loop, "control")
         if self.interest is not None:
             self._spawn(self._interest_loop, "interest")
@@ -210,6 +222,9 @@ class NodeClient:
         if self.interest is not None:
             self.interest.close()
         self._pose_pub.undeclare()
+        if self._skeleton_pub is not None:
+            self._skeleton_pub.undeclare()
+            self._skeleton_pub = None
         if self._token is not None:
             self._leave()
             self._token.undeclare()  # whoever missed the `left` event despawns us now
@@ -247,7 +262,25 @@ class NodeClient:
                 return
             self._interest_due.clear()
             area.refresh()
-            self.world.push_interest(area.tiles)
+            self.world.intake.interest(area.tiles)
+
+    def publish_skeleton(self, skeleton: m.Skeleton) -> bool:
+        """Send a body's joints (`ego/<id>/skeleton`) with the next sequence number, its `t`
+        (the source's own monotonic time [s]) moved onto session time. False, and nothing
+        sent, while the session clock has no offset to move it by."""
+        if not self.clock.synced:
+            return False
+        if self._skeleton_pub is None:  # declared by the nodes that have a body, once
+            self._skeleton_pub = self.session.declare_publisher(
+                self.keys.ego(self.node_id, "skeleton"),
+                congestion_control=zenoh.CongestionControl.DROP,
+            )
+        self._skeleton_seq += 1
+        stamped = msgspec.structs.replace(
+            skeleton, seq=self._skeleton_seq, t=skeleton.t + self.clock.offset
+        )
+        self._skeleton_pub.put(m.SKELETON.encode(stamped))
+        return True
 
     def publish_state(self, state: m.EgoState) -> None:
         self._state_seq += 1
@@ -425,7 +458,7 @@ class NodeClient:
             log.warning("unreadable snapshot: %s", exc)
             return
         self.snapshot = snapshot
-        self.world.inbox.append(("snapshot", snapshot, self.now()))
+        self.world.intake.snapshot(snapshot, self.now())
 
     def _sync_clock(self) -> None:
         local = self.clock.local

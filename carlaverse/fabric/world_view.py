@@ -1,11 +1,13 @@
 """A node's picture of the world: remote egos and NPCs, lights and weather.
 
-Zenoh callbacks only push into `inbox` (a deque append is atomic under the GIL, so they never
-wait); the owner of the view drains it in `update(now)` on its own thread. That keeps every
-`RemoteActor` single-threaded and the callbacks cheap. Poses come in as they travel, 64 bytes
-each: the callback that received one does not look inside it. The poses an update drains are
-checked and decoded once, together (`messages.decode_pose_rows`), and the decoded `Pose`s are
-what the senders' streams keep (`ego_streams`); an actor takes its samples when it is read.
+Everything comes in through the view's `intake` (`fabric.intake`), the one writer, from
+whatever source feeds it (`fabric.source`: a live session, a recording, a synthetic feed):
+its methods only append to a deque (atomic under the GIL), so a Zenoh callback never waits,
+and the owner of the view applies what came in `update(now)` on its own thread. That keeps
+every `RemoteActor` single-threaded and the callbacks cheap. Poses come in as they travel, 64
+bytes each. The poses an update drains are checked and decoded once, together
+(`messages.decode_pose_rows`), and the decoded `Pose`s are what the senders' streams keep
+(`ego_streams`); an actor takes its samples when it is read.
 
 One render time per view: every actor of a view, egos and NPCs, is drawn at the same session
 time, so that their relative positions are true (two actors drawn at different times are
@@ -30,16 +32,14 @@ import logging
 from collections import Counter, deque
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import Any
 
 from carlaverse.fabric.ego_streams import Applied, EgoActors, EgoStreams, StreamStatsTable
-from carlaverse.fabric.guard import Tally
-from carlaverse.fabric.interest_npcs import WHOLE_WORLD, NpcTiles
+from carlaverse.fabric.intake import POSE, ROWS, WHOLE_WORLD, Departure, WorldIntake
+from carlaverse.fabric.interest_npcs import NpcTiles
 from carlaverse.fabric.npc_table import NpcFrame
 from carlaverse.fabric.remote_actor import ActorView, DelaySlew, InterpolationSettings, Phase
 from carlaverse.keys import AUTHORITY_ID, tile_of, tile_token
 from carlaverse.messages import (
-    POSE_SIZE,
     EgoInfo,
     EgoState,
     LightsState,
@@ -50,38 +50,32 @@ from carlaverse.messages import (
     Snapshot,
     Weather,
     decode_pose_rows,
-    encode_pose,
 )
 
 log = logging.getLogger(__name__)
 
-INBOX_LIMIT = 100_000  # beyond this the owner is not draining; oldest input is dropped
 TOMBSTONE_S = 30.0  # [s] a tombstone outlives any sample still in flight by far
 STATS_LIMIT = 1024  # senders kept at most; beyond, a departed one's place is reused
 NOTICE_LIMIT = 32  # scenario messages waiting for the node's loop; older ones are dropped
 # Despawns kept for the summary; with interest areas every ego that drives out of a node's
 # tiles is one (`far`), so over a long session the oldest go.
 DESPAWN_LIMIT = 10_000
-# Inbox tags of poses (compared by identity in `update`, nearly every item is one of them):
-_POSE = "pose"  # one node's pose: (tag, node id, 64 bytes, arrival)
-_ROWS = "rows"  # poses relayed together: (tag, node ids, their rows, arrival)
 
 
 @dataclass(frozen=True, slots=True)
 class Despawn:
     actor_id: str
-    reason: str
+    reason: Departure
     t: float
 
 
 class WorldView:
     def __init__(self, own_id: str, settings: InterpolationSettings) -> None:
         self.own_id = own_id
-        # Malformed input found on the owner's thread (a digest's bad rows), by channel; a
-        # node's inbound counts its own drops here too, so a channel's are in one place.
-        self.dropped = Tally()
+        self.intake = WorldIntake(own_id)  # the one way in
+        # Malformed input by channel: what the sources could not decode, and bad poses
+        self.dropped = self.intake.dropped
         self.settings = settings
-        self.inbox: deque[tuple[Any, ...]] = deque(maxlen=INBOX_LIMIT)
         # scenario messages for this participant, oldest first; the node's loop takes them
         self.notices: deque[Notice] = deque(maxlen=NOTICE_LIMIT)
         self.streams = EgoStreams(own_id, settings)
@@ -109,6 +103,7 @@ class WorldView:
             "skeleton": self._on_skeleton, "npc": self._on_npc, "interest": self._on_interest,
             "gone": self._on_gone, "present": self._on_present, "notice": self._on_notice,
             "state": self._on_state, "snapshot": self._on_snapshot,
+            "lights": self._on_lights, "weather": self._on_weather,
         }  # fmt: skip
 
     @property
@@ -120,46 +115,6 @@ class WorldView:
         """How far behind now this view draws [s] (0 in present mode)."""
         return 0.0 if self.render_mode == "present" else self._delay.delay_s
 
-    # ------------------------------------------------------------ called from callbacks
-
-    def push_pose(self, node_id: str, pose: Pose, rx_t: float) -> None:
-        """A pose from a local source (a recording, a test), as it would have travelled."""
-        self.push_wire(node_id, encode_pose(pose), rx_t)
-
-    def push_wire(self, node_id: str, payload: bytes, rx_t: float) -> None:
-        """A received pose in its 64-byte wire form, unchecked: the update checks and decodes
-        every pose it drains at once, counting a bad one in `dropped` under `pose`. The
-        callback that received it then costs next to nothing, which matters most when it runs
-        cold, as it does at 50 Hz."""
-        if len(payload) != POSE_SIZE:  # it would shift every row joined after it
-            self.dropped.add("pose")
-        elif node_id != self.own_id:
-            self.inbox.append((_POSE, node_id, payload, rx_t))
-
-    def push_digest(self, ids: list[str], rows: bytes, rx_t: float) -> None:
-        """Many nodes' poses received together (a `PoseDigest`'s ids and rows, as many rows as
-        ids), unchecked like `push_wire`'s."""
-        self.inbox.append((_ROWS, ids, rows, rx_t))
-
-    def push_skeleton(self, node_id: str, skeleton: Skeleton) -> None:
-        if node_id != self.own_id:
-            self.inbox.append(("skeleton", node_id, skeleton))
-
-    def push_npc(self, batch: NpcBatch, rx_t: float, tile: str = WHOLE_WORLD) -> None:
-        self.inbox.append(("npc", batch, rx_t, tile))
-
-    def push_interest(self, tiles: frozenset[str]) -> None:
-        self.inbox.append(("interest", tiles))
-
-    def push_gone(self, node_id: str, reason: str, t: float) -> None:
-        self.inbox.append(("gone", node_id, reason, t))
-
-    def push_present(self, node_id: str) -> None:
-        self.inbox.append(("present", node_id))
-
-    def push_notice(self, notice: Notice) -> None:
-        self.inbox.append(("notice", notice))
-
     # ------------------------------------------------------------ owner thread
 
     def update(self, now: float) -> None:
@@ -167,7 +122,7 @@ class WorldView:
 
         Poses are gathered and applied together; anything else applies the poses before it
         first, so that order holds (a pose in flight after its node left is refused)."""
-        inbox, handlers = self.inbox, self._handlers
+        inbox, handlers = self.intake.inbox, self._handlers
         ids: list[str] = []  # the poses gathered: who sent each, its bytes, when it came
         rows: list[bytes] = []
         rx: list[float] = []
@@ -176,12 +131,12 @@ class WorldView:
             tag = item[0]
             # identity, not equality: the tags are interned literals (an equal tag that is not
             # identical still takes the path below, only slower)
-            if tag is _POSE:  # nearly every item
+            if tag is POSE:  # nearly every item
                 ids.append(item[1])
                 rows.append(item[2])
                 rx.append(item[3])
                 continue
-            if tag is _ROWS:
+            if tag is ROWS:
                 ids += item[1]
                 rows.append(item[2])
                 rx += [item[3]] * len(item[1])
@@ -224,6 +179,12 @@ class WorldView:
 
     def _on_notice(self, notice: Notice) -> None:
         self.notices.append(notice)
+
+    def _on_lights(self, lights: LightsState) -> None:
+        self.lights = lights
+
+    def _on_weather(self, weather: Weather) -> None:
+        self.weather = weather
 
     def _on_npc(self, batch: NpcBatch, rx_t: float, tile: str = WHOLE_WORLD) -> None:
         if not self.npcs.add(batch, rx_t, tile):
@@ -285,7 +246,7 @@ class WorldView:
         elif node_id not in self.skeletons or skeleton.t >= self.skeletons[node_id].t:
             self.skeletons[node_id] = skeleton
 
-    def _on_gone(self, node_id: str, reason: str, t: float) -> None:
+    def _on_gone(self, node_id: str, reason: Departure, t: float) -> None:
         if reason == "left" and node_id in self._tombstones and node_id not in self.egos:
             self._amend_loss(node_id)
         self._tombstones[node_id] = t
@@ -318,7 +279,7 @@ class WorldView:
         self.present.add(node_id)
         self.streams.admit(node_id, STATS_LIMIT)
 
-    def _remove(self, node_id: str, reason: str, t: float) -> None:
+    def _remove(self, node_id: str, reason: Departure, t: float) -> None:
         if self.egos.close(node_id) is not None:
             self.despawns.append(Despawn(node_id, reason, t))
             log.info("despawned %s (%s)", node_id, reason)

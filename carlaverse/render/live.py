@@ -3,14 +3,12 @@ node itself from shared memory, the newest skeleton per walker.
 
 Everyone else comes through an observer `NodeClient` of the render process's own (id
 `<node id>.view`, kind `observer`: the authority gives it no body). It brings what every node
-has: the session clock, the snapshot for late joiners, presence, validation of every sample.
-The node's own actor is read from its shared-memory state block (`OwnPoseBlock`) each frame,
-so the driver's view of their own car has no network delay; the copy of it that comes back
-over the fabric is dropped from the frame.
-
-Skeletons (`ego/*/skeleton`) go into the world view (NodeClient does not subscribe to them;
-this module does), which keeps the newest valid one per present node; frames get them as
-joint-angle maps.
+has: the session clock, the snapshot for late joiners, presence, validation of every sample,
+and, asked for, every walker's skeleton, of which the world view keeps the newest valid one
+per present node; frames get them as joint-angle maps. The node's own actor is read from its
+shared-memory state block (`OwnPoseBlock`) each frame, so the driver's view of their own car
+has no network delay; the client's world view leaves that actor out (`own_actor`), so the
+copy of its pose that comes back over the fabric is never decoded.
 """
 
 from __future__ import annotations
@@ -18,7 +16,6 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from collections import Counter
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -29,7 +26,6 @@ from carlaverse.fabric.clock import MonotonicClock
 from carlaverse.fabric.node_client import JoinRefused, NodeClient, NodeSettings
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.hal.xr.fov import EyeFov
-from carlaverse.keys import KeySpaceError, parse
 from carlaverse.render.frame import (
     ActorDraw,
     Dashboard,
@@ -132,23 +128,6 @@ class OwnPose:
             self._block = None
 
 
-class SkeletonFeed:
-    """Decodes `ego/*/skeleton` samples into a WorldView (a Zenoh callback: never waits)."""
-
-    def __init__(self, view: WorldView) -> None:
-        self.view = view
-        self.dropped: Counter[str] = Counter()
-
-    def on_sample(self, sample: zenoh.Sample) -> None:
-        try:
-            node_id = parse(str(sample.key_expr)).node_id
-            skeleton = m.SKELETON.decode(sample.payload.to_bytes())
-        except (KeySpaceError, m.MessageError):
-            self.dropped["skeleton"] += 1
-            return
-        self.view.push_skeleton(node_id, skeleton)
-
-
 def skeleton_angles(view: WorldView) -> dict[str, JointAngles]:
     """Joint angles per walker the view keeps a skeleton of."""
     return {node_id: joint_angles(s) for node_id, s in view.skeletons.items()}
@@ -189,12 +168,10 @@ class LiveWorld:
             actor_kind="", site=node.site, interpolation=node.interpolation,
         )  # fmt: skip
         self.node_id = node.node_id
-        self.client = NodeClient(session, settings, MonotonicClock())
-        self.own = OwnPose(own, node.node_id) if own is not None else None
-        self.skeletons = SkeletonFeed(self.client.world)
-        self._subscriber = session.declare_subscriber(
-            self.client.keys.all_ego("skeleton"), self.skeletons.on_sample
+        self.client = NodeClient(
+            session, settings, MonotonicClock(), own_actor=node.node_id, skeletons=True
         )
+        self.own = OwnPose(own, node.node_id) if own is not None else None
 
     def start(self) -> LiveWorld:
         self.client.start()
@@ -232,7 +209,7 @@ class LiveWorld:
         if actor_id is not None:
             return frame.actor(actor_id) is not None
         world = self.client.world
-        return bool(world.egos.keys() - {self.node_id}) or world.npc_frame(frame.t) is not None
+        return bool(world.egos) or world.npc_frame(frame.t) is not None
 
     def _not_arrived(self, frame: SceneFrame, actor_id: str | None) -> str:
         session = self.client.settings.session
@@ -264,14 +241,10 @@ class LiveWorld:
         kinds, extents = _snapshot_attributes(self.client.snapshot)
         frame = frame_from_view(world, now, kinds=kinds, extents=extents)
         frame = with_skeletons(frame, skeleton_angles(world))
-        actors = [a for a in frame.actors if a.actor_id != self.node_id]
         own = self.own.actor() if self.own is not None else None
-        if own is not None:
-            actors.append(own)
-        return replace(frame, actors=tuple(actors))
+        return frame if own is None else replace(frame, actors=(*frame.actors, own))
 
     def close(self) -> None:
-        self._subscriber.undeclare()
         self.client.close()
         if self.own is not None:
             self.own.close()

@@ -1,6 +1,7 @@
 """Every renderer measured against the same references (issue 11, item 3).
 
-A `RendererSet` takes one actor's pose stream and draws it three ways per frame:
+A `RendererSet` takes one actor's pose stream (a synthetic feed: each pose goes into the world
+views' intakes as it would travel, its 64 bytes) and draws it three ways per frame:
 - `past`: the library's world view in past mode (interpolated, now − delay);
 - `present`: the library's world view in present mode (projected to now, blended);
 - `naive`: the newest sample received, drawn as is.
@@ -26,7 +27,7 @@ import msgspec
 
 from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.fabric.world_view import WorldView
-from carlaverse.messages import Pose
+from carlaverse.messages import Pose, encode_pose
 from carlaverse.support.stats import percentile
 
 RENDERERS = ("past", "present", "naive")
@@ -44,12 +45,13 @@ class RendererSet:
             for mode in ("past", "present")
         }
         for view in self.views.values():
-            view.push_present(actor_id)
+            view.intake.present(actor_id)
         self.newest: Pose | None = None
 
     def add(self, pose: Pose, rx_t: float) -> None:
+        wire = encode_pose(pose)
         for view in self.views.values():
-            view.push_pose(self.actor_id, pose, rx_t)
+            view.intake.pose(self.actor_id, wire, rx_t)
         if self.newest is None or pose.t > self.newest.t:
             self.newest = pose
 

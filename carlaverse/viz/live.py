@@ -2,8 +2,8 @@
 
 Three threads, none of which can slow the fabric:
 - Zenoh callbacks copy the payload into the `SampleStore` (O(1), short lock); pose and NPC
-  samples are also decoded and pushed into the `WorldView` inbox (a deque append), stamped
-  with their session receive time;
+  samples also go into the `WorldView`'s intake (a deque append: a pose's bytes as they came,
+  an NPC batch decoded), stamped with their session receive time;
 - a query thread keeps the session clock synchronised (first, so that receive times are
   session times) and asks the authority for the map (until it has one) and a snapshot (at
   start and whenever an ego of unknown kind appears);
@@ -25,8 +25,9 @@ import zenoh
 from carlaverse import messages as m
 from carlaverse.fabric.clock import Clock, MonotonicClock, SessionClock
 from carlaverse.fabric.remote_actor import InterpolationSettings
+from carlaverse.fabric.source import SampleFeed
 from carlaverse.fabric.world_view import WorldView
-from carlaverse.keys import Keys, KeySpaceError, parse
+from carlaverse.keys import Keys
 from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import ActorFeed
 from carlaverse.viz.scene import SceneLogger
@@ -79,8 +80,9 @@ class LiveView:
         self.clock = SessionClock(self._local)
         self.store = SampleStore()
         self.view = WorldView(VIEW_ID, settings.interpolation)
-        self.feed = ActorFeed(self.view, scene.raw)
-        self.world = WorldModel(self.view, latency_of=self._latency)
+        samples = SampleFeed(self.view.intake)
+        self.feed = ActorFeed(samples, scene.raw)
+        self.world = WorldModel(samples, latency_of=self._latency)
         self.stats = ViewStats()
         self._want_snapshot = threading.Event()
         self._stop_queries = threading.Event()
@@ -119,14 +121,8 @@ class LiveView:
         self.store.offer(str(sample.key_expr), sample.payload.to_bytes(), self.clock.now(), kind)
 
     def _on_actor_sample(self, sample: zenoh.Sample) -> None:
-        """Zenoh thread: decode a pose or NPC batch into the view's inbox (no waiting)."""
-        rx_t = self.clock.now()
-        try:
-            key = parse(str(sample.key_expr))
-        except KeySpaceError:
-            self.feed.bad["key"] += 1
-            return
-        self.feed.decoded(key.channel, sample.payload.to_bytes(), key.node_id, rx_t)
+        """Zenoh thread: a pose or NPC batch into the view's intake (no waiting)."""
+        self.feed.offer(str(sample.key_expr), sample.payload.to_bytes(), self.clock.now())
 
     def _latency(self, rx_t: float, msg_t: float) -> float | None:
         if not self.clock.synced:

@@ -5,9 +5,10 @@ render thread only. It decodes, validates (bad payloads are counted per key and 
 marks what changed, so the scene logs only that.
 
 Where actors are drawn is the fabric's `WorldView`'s business (one render time per view), not
-this model's: pose and NPC streams go straight into the view's inbox. The model hands the view
-what decides membership — presence tokens, spawn and despawn events, snapshots — in receive
-order, and keeps what the view does not: each ego's kind and extent (from snapshots).
+this model's: pose and NPC streams go straight into the view (`raw.ActorFeed`). The model hands
+the view what decides membership — presence tokens, spawn and despawn events, snapshots — in
+receive order, through the same `SampleFeed` and decoded once, and keeps what the view does
+not: each ego's kind and extent (from snapshots).
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from carlaverse import messages as m
-from carlaverse.fabric.world_view import WorldView
+from carlaverse.fabric.source import SampleFeed
 from carlaverse.viz.store import Batch, Sample
 
 log = logging.getLogger(__name__)
@@ -60,10 +61,10 @@ class WorldModel:
 
     def __init__(
         self,
-        view: WorldView | None = None,
+        view: SampleFeed | None = None,
         latency_of: Callable[[float, float], float | None] | None = None,
     ) -> None:
-        self.view = view  # told who is present; None: a model without actors (tests)
+        self.view = view  # into the world view: who is present; None: no actors (tests)
         # latency_of(rx_t, msg_t) -> one-way latency [s], or None when clocks are not comparable
         self._latency_of = latency_of
         self.map: m.MapReply | None = None
@@ -95,10 +96,10 @@ class WorldModel:
         key = sample.key
         codec = m.CHANNEL_CODECS.get((key.area, key.channel))
         if key.area == "node":
-            self._presence(key.node_id, sample)
+            self._presence(sample)
             return
         if codec is None or sample.kind != "put" or (key.area, key.channel) == ("world", "npc"):
-            return  # NPC batches go to the view as they are; it validates them
+            return  # NPC batches go to the view as they come (`raw.ActorFeed`)
         try:
             msg = codec.decode(sample.payload)
         except m.MessageError as exc:
@@ -107,6 +108,8 @@ class WorldModel:
             self.bad[path] += 1
             log.debug("dropping a bad %s payload: %s", key.path, exc)
             return
+        if self.view is not None and isinstance(msg, m.Snapshot | m.Spawned | m.Despawned):
+            self.view.hand(key, msg, sample.rx_t)  # membership, in receive order
         self._dispatch(key.node_id, msg, sample.rx_t)
 
     def _dispatch(self, node_id: str, msg: object, rx_t: float) -> None:
@@ -153,33 +156,22 @@ class WorldModel:
             self.lights, self.lights_dirty = snap.lights, True
         if snap.weather is not None and self.weather is None:
             self.weather, self.weather_dirty = snap.weather, True
-        if self.view is not None:
-            self.view.inbox.append(("snapshot", snap, rx_t))
 
-    def _presence(self, node_id: str, sample: Sample) -> None:
-        if self.view is None:
-            return
-        if sample.kind == "delete":
-            self.view.push_gone(node_id, "left (liveliness lost)", sample.rx_t)
-        else:
-            self.view.push_present(node_id)
+    def _presence(self, sample: Sample) -> None:
+        if self.view is not None:
+            self.view.route_parsed(sample.key, sample.kind, sample.payload, sample.rx_t)
 
     def _event(self, event: m.WorldEvent, rx_t: float) -> None:
         if isinstance(event, m.Spawned):
             self.events.append(Event(event.t, f"spawned {event.node_id} ({event.kind})"))
             self.newcomers = True
-            if self.view is not None:
-                self.view.push_present(event.node_id)
-        elif isinstance(event, m.Despawned):
-            # the view reports the removal (with this reason) when it applies it
-            if self.view is not None:
-                self.view.push_gone(event.node_id, f"despawned: {event.reason}", rx_t)
         elif isinstance(event, m.ContactStarted):
             speed = event.relative_speed_mps
             text = f"contact {event.contact_id}: {event.a} × {event.b} at {speed:.1f} m/s"
             self.events.append(Event(event.t, text, "WARN"))
-        else:
+        elif isinstance(event, m.ContactEnded):
             self.events.append(Event(event.t, f"contact {event.contact_id} ended"))
+        # a despawn: the view reports the removal (with its reason) when it applies it
 
     def update_rates(self, now_rx: float, window_s: float = 1.0) -> None:
         """Close a rate window per node once it is `window_s` old."""

@@ -19,8 +19,9 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from carlaverse.fabric.remote_actor import InterpolationSettings
+from carlaverse.fabric.source import SampleFeed
 from carlaverse.fabric.world_view import WorldView
-from carlaverse.keys import KeySpaceError, parse
+from carlaverse.keys import KeySpaceError, parse_cached
 from carlaverse.recording.reading import iter_samples
 from carlaverse.render.recording import first_pose
 from carlaverse.viz.live import VIEW_ID, viewer_interpolation
@@ -63,9 +64,10 @@ def render_recording(
     """Log a whole recording into `scene`'s stream; returns how much was rendered."""
     offset, comparable = receive_offset(path)
     view = WorldView(VIEW_ID, interpolation or viewer_interpolation())
-    feed = ActorFeed(view, scene.raw)
+    samples = SampleFeed(view.intake)
+    feed = ActorFeed(samples, scene.raw)
     store, stats = SampleStore(), PlaybackStats()
-    world = WorldModel(view, latency_of=_latency if comparable else None)
+    world = WorldModel(samples, latency_of=_latency if comparable else None)
     period = 1.0 / rate_hz
     next_frame: float | None = None
 
@@ -93,10 +95,8 @@ def render_recording(
 
 def _feed_actor(feed: ActorFeed, key: str, payload: bytes, rx_t: float) -> None:
     try:
-        parsed = parse(key)
+        parsed = parse_cached(key)
     except KeySpaceError:
         return  # the store counts unknown keys
-    if parsed.area == "world" and parsed.tile:
-        return  # a tile's cut of the NPC batch: the whole batch is in the recording too
-    if (parsed.area, parsed.channel) in ACTOR_CHANNELS:
-        feed.decoded(parsed.channel, payload, parsed.node_id, rx_t)
+    if (parsed.area, parsed.channel) in ACTOR_CHANNELS:  # the rest goes through the model
+        feed.offer(key, payload, rx_t)

@@ -5,8 +5,8 @@ process (`loop_process`). The pose publisher reads the loop's shared state at th
 sends it as a `pedestrian` (the authority carries walkers into SUMO as persons, so NPC cars
 yield to them at crossings). The node's step hands the loop the clock offset and the spawn
 pose, sends it the walkable lanes of the map when `lanes.snap` is on (fetched from the
-authority in a thread), and publishes the body's joints from the skeleton source (`body:`) on
-`ego/<id>/skeleton`.
+authority in a thread), and publishes the body's joints from the skeleton source (`body:`)
+through its node client (`NodeClient.publish_skeleton`, on `ego/<id>/skeleton`).
 """
 
 from __future__ import annotations
@@ -19,7 +19,6 @@ import threading
 from typing import Any
 
 import msgspec
-import zenoh
 from carlaverse_nodes.loop_host import LoopHost
 from carlaverse_nodes.walk.body import check_body, open_skeleton_source
 from carlaverse_nodes.walk.config import WalkNodeConfig, node_settings
@@ -77,8 +76,7 @@ class WalkNode(LoopHost):
         self._lanes_join = 0  # the join whose map was asked for
         self._walkable_segments: int | None = None
         self._body: SkeletonSource | None = open_skeleton_source(config.body)
-        self._skeleton_pub: Any = None
-        self._skeleton_seq = 0
+        self._skeletons_sent = 0
 
     @staticmethod
     def check_config(config: WalkNodeConfig) -> None:
@@ -148,18 +146,8 @@ class WalkNode(LoopHost):
         if self._body is None:
             return
         skeleton = self._body.poll()
-        if skeleton is None or not client.clock.synced:  # no session time to stamp it with yet
-            return
-        if self._skeleton_pub is None:
-            self._skeleton_pub = client.session.declare_publisher(
-                client.keys.ego(client.node_id, "skeleton"),
-                congestion_control=zenoh.CongestionControl.DROP,
-            )
-        self._skeleton_seq += 1
-        stamped = msgspec.structs.replace(
-            skeleton, seq=self._skeleton_seq, t=skeleton.t + client.clock.offset
-        )
-        self._skeleton_pub.put(m.SKELETON.encode(stamped))
+        if skeleton is not None and client.publish_skeleton(skeleton):
+            self._skeletons_sent += 1
 
     def close(self) -> None:
         if self._body is not None:
@@ -168,11 +156,8 @@ class WalkNode(LoopHost):
             except Exception:  # closing must not hide the summary; log it
                 log.exception("closing the skeleton source failed")
             self._body = None
-        if self._skeleton_pub is not None:
-            self._skeleton_pub.undeclare()
-            self._skeleton_pub = None
         self._stop_loop()
 
     def report(self) -> dict[str, Any]:
-        return {"loop": self._loop_summary, "skeletons_sent": self._skeleton_seq,
+        return {"loop": self._loop_summary, "skeletons_sent": self._skeletons_sent,
                 "walkable_segments": self._walkable_segments}  # fmt: skip

@@ -29,13 +29,13 @@ def _direct_observer(cluster: Cluster) -> NodeClient:
 def _threads_handing_over(client: NodeClient) -> set[str]:
     """The names of the threads that hand poses to the world view, collected from now."""
     names: set[str] = set()
-    push_wire = client.world.push_wire
+    push_wire = client.world.intake.pose
 
     def noted(node_id: str, payload: bytes, rx_t: float) -> None:
         names.add(threading.current_thread().name)
         push_wire(node_id, payload, rx_t)
 
-    client.world.push_wire = noted  # type: ignore[method-assign]
+    client.world.intake.pose = noted  # type: ignore[method-assign]
     return names
 
 

@@ -25,15 +25,15 @@ def rows(ids_poses: list[tuple[str, m.Pose]]) -> tuple[list[str], bytes]:
 def joined(*node_ids: str, mode: str = "present") -> WorldView:
     world = WorldView("me", InterpolationSettings(render_mode=mode))  # type: ignore[arg-type]
     for node_id in node_ids:
-        world.push_present(node_id)
+        world.intake.present(node_id)
     world.update(0.0)
     return world
 
 
 def test_two_samples_of_one_sender_in_one_update_are_both_applied_in_order() -> None:
     world = joined("a", "b")
-    world.push_digest(*rows([("a", CIRCLE.pose_at(1.00)), ("b", CIRCLE.pose_at(1.00))]), 1.01)
-    world.push_digest(*rows([("a", CIRCLE.pose_at(1.02)), ("a", CIRCLE.pose_at(1.04))]), 1.05)
+    world.intake.pose_rows(*rows([("a", CIRCLE.pose_at(1.00)), ("b", CIRCLE.pose_at(1.00))]), 1.01)
+    world.intake.pose_rows(*rows([("a", CIRCLE.pose_at(1.02)), ("a", CIRCLE.pose_at(1.04))]), 1.05)
     world.update(1.05)
     assert world.stats["a"].count == 3 and world.stats["b"].count == 1
     actor = world.egos["a"]
@@ -42,17 +42,18 @@ def test_two_samples_of_one_sender_in_one_update_are_both_applied_in_order() -> 
     assert actor.timing.interval_s == pytest.approx(0.02, abs=1e-6)
 
 
-def test_wire_poses_and_local_poses_of_one_sender_apply_in_arrival_order() -> None:
-    """The fabric hands bytes (`push_wire`), a recording hands `Pose`s (`push_pose`): runs of
-    each, interleaved in one update, are applied in the order they came."""
+def test_single_poses_and_relayed_rows_of_one_sender_apply_in_arrival_order() -> None:
+    """A pose on its own key (`intake.pose`) and rows relayed together (`intake.pose_rows`,
+    the authority's digest): interleaved in one update, they are applied in the order they
+    came, and this node's own row among the relayed ones is skipped, not counted."""
     world = joined("a")
     ts = [1.00, 1.02, 1.04, 1.06, 1.08, 1.10]
     for k, t in enumerate(ts):
-        pose = m.Pose(k + 1, t, float(k), 0.0)
+        wire = m.encode_pose(m.Pose(k + 1, t, float(k), 0.0))
         if k in (1, 2, 4):
-            world.push_wire("a", m.encode_pose(pose), t)
+            world.intake.pose_rows(["me", "a"], wire + wire, t)
         else:
-            world.push_pose("a", pose, t)
+            world.intake.pose("a", wire, t)
     world.update(1.10)
     actor = world.egos["a"]
     assert world.stats["a"].count == 6 and actor.samples_received == 6  # none taken as late
@@ -60,7 +61,7 @@ def test_wire_poses_and_local_poses_of_one_sender_apply_in_arrival_order() -> No
     assert world.rejected == {}
     # a wire pose is what `decode_pose` makes of the bytes, field for field
     wired = m.Pose(7, 1.12, 1.5, -2.25, 0.5, 0.1, 0.2, 0.3, 14.0, 0.5, 0.0, 0.0, 0.0, 0.25, 1.0)
-    world.push_wire("a", m.encode_pose(wired), 1.12)
+    world.intake.pose("a", m.encode_pose(wired), 1.12)
     world.update(1.12)
     assert world.egos["a"].newest == m.decode_pose(m.encode_pose(wired))
 
@@ -70,9 +71,9 @@ def test_digests_drained_together_drop_only_their_bad_rows_and_count_them() -> N
     nan = bytearray(m.encode_pose(m.Pose(2, 1.02, 0.0, 0.0)))
     nan[16:20] = b"\x00\x00\xc0\x7f"  # x = NaN
     first = rows([("a", m.Pose(1, 1.00, 1.0, 0.0)), ("b", m.Pose(1, 1.00, 2.0, 0.0))])
-    world.push_digest(*first, 1.01)
-    world.push_digest(["a", "b"], bytes(nan) + m.encode_pose(m.Pose(2, 1.02, 3.0, 0.0)), 1.03)
-    world.push_wire("a", m.encode_pose(m.Pose(3, 1.04, 4.0, 0.0)), 1.05)
+    world.intake.pose_rows(*first, 1.01)
+    world.intake.pose_rows(["a", "b"], bytes(nan) + m.encode_pose(m.Pose(2, 1.02, 3.0, 0.0)), 1.03)
+    world.intake.pose("a", m.encode_pose(m.Pose(3, 1.04, 4.0, 0.0)), 1.05)
     world.update(1.05)
     assert world.dropped["pose"] == 1 and world.rejected == {}
     assert world.stats["a"].count == 2 and world.stats["b"].count == 2
@@ -96,8 +97,8 @@ def test_poses_the_decoder_refuses_are_counted_and_dropped_and_the_rest_kept_in_
     for k, payload in enumerate(bad):
         with pytest.raises(m.MessageError):
             m.decode_pose(payload)
-        world.push_wire("a", payload, 1.0)
-        world.push_wire("a", m.encode_pose(m.Pose(k + 1, 1.0 + k / 50, float(k), 0.0)), 1.0)
+        world.intake.pose("a", payload, 1.0)
+        world.intake.pose("a", m.encode_pose(m.Pose(k + 1, 1.0 + k / 50, float(k), 0.0)), 1.0)
     world.update(1.1)
     assert world.dropped["pose"] == len(bad) and world.rejected == {}
     assert world.stats["a"].count == len(bad)
@@ -116,7 +117,7 @@ def test_lazy_actors_draw_exactly_what_eagerly_fed_actors_draw() -> None:
             t = 10.0 + 0.02 * k
             pose = m.decode_pose(m.encode_pose(CIRCLE.pose_at(t)))  # as it travels
             rx = t + 0.004 + 0.003 * math.sin(k)  # jittered latency
-            world.push_pose("a", pose, rx)
+            world.intake.pose("a", m.encode_pose(pose), rx)
             eager.add(pose, rx)
             if k % 3 == 0:  # a frame every 60 ms, after the samples that arrived by then
                 now = rx + 0.001
@@ -133,7 +134,7 @@ def test_a_view_that_is_not_read_keeps_a_bounded_ring_per_sender() -> None:
     world = joined("a")
     for k in range(1, 500):
         t = 0.02 * k
-        world.push_pose("a", m.Pose(k, t, float(k), 0.0), t)
+        world.intake.pose("a", m.encode_pose(m.Pose(k, t, float(k), 0.0)), t)
     world.update(10.0)
     assert world.stats["a"].count == 499  # every sample counted ...
     actor = world.egos["a"]  # ... but the actor, read now, takes only the ring's newest
@@ -146,7 +147,7 @@ def test_our_own_row_in_a_digest_is_skipped_and_an_intruder_grows_nothing() -> N
     slots = len(world.streams)
     pose = m.Pose(1, 1.0, 0.0, 0.0)
     senders = ["me", "a", "mallory", "authority"]
-    world.push_digest(*rows([(sender, pose) for sender in senders]), 1.0)
+    world.intake.pose_rows(*rows([(sender, pose) for sender in senders]), 1.0)
     world.update(1.0)
     assert set(world.egos) == {"a"} and set(world.stats) == {"a"}
     assert world.rejected == {"pose_from_absent_node": 2}  # not our own row
@@ -162,7 +163,7 @@ def test_statistics_match_their_definitions() -> None:
     for k in sent:
         t = 0.02 * k
         latency = 0.005 + 0.002 * ((k * 7) % 5)
-        world.push_pose("a", m.Pose(k, t, 0.0, 0.0), t + latency)
+        world.intake.pose("a", m.encode_pose(m.Pose(k, t, 0.0, 0.0)), t + latency)
         latencies.append(latency)
         if transit_prev is not None:
             jitter += (abs(latency - transit_prev) - jitter) / 16
@@ -185,11 +186,11 @@ def test_a_departed_senders_place_is_reused_beyond_the_limit(
     world = joined()
     for k in range(20):
         node = f"n{k}"
-        world.push_present(node)
-        world.push_pose(node, m.Pose(1, 0.0, 0.0, 0.0), 0.0)
-        world.push_gone(node, "left", 0.0)
-    world.push_present("last")
-    world.push_pose("last", m.Pose(7, 0.0, 0.0, 0.0), 0.0)
+        world.intake.present(node)
+        world.intake.pose(node, m.encode_pose(m.Pose(1, 0.0, 0.0, 0.0)), 0.0)
+        world.intake.gone(node, "left", 0.0)
+    world.intake.present("last")
+    world.intake.pose("last", m.encode_pose(m.Pose(7, 0.0, 0.0, 0.0)), 0.0)
     world.update(0.0)
     assert len(world.streams) <= 8 and "last" in world.egos
     assert world.stats["last"].summary(0.0).samples == 1  # nothing of the slot's former owner

@@ -118,7 +118,7 @@ def _digest_observer(
     client = NodeClient(session, settings, MonotonicClock())
     sizes: list[int] = []
     seqs: dict[str, list[int]] = {}
-    push_digest = client.world.push_digest
+    push_digest = client.world.intake.pose_rows
 
     def noted(ids: list[str], rows: bytes, rx_t: float) -> None:
         sizes.append(len(ids))
@@ -126,7 +126,7 @@ def _digest_observer(
             seqs.setdefault(sender, []).append(seq)
         push_digest(ids, rows, rx_t)
 
-    client.world.push_digest = noted  # type: ignore[method-assign]
+    client.world.intake.pose_rows = noted  # type: ignore[method-assign]
     client.start()
     cluster.sessions.append(client)
     return client, sizes, seqs

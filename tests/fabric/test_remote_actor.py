@@ -12,7 +12,7 @@ from carlaverse_nodes.scripted.trajectories import CirclePath, PolylinePath
 
 from carlaverse.fabric.remote_actor import InterpolationSettings, Phase, RemoteActor
 from carlaverse.fabric.world_view import WorldView
-from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
+from carlaverse.messages import POSE_FLAG_TELEPORT, Pose, encode_pose
 from carlaverse.support.stats import percentile
 
 CIRCLE = CirclePath(radius=30.0, speed_mps=14.0)
@@ -147,8 +147,8 @@ def test_yaw_takes_the_shortest_arc() -> None:
 
 def test_stale_then_despawned_after_timeout() -> None:
     world = WorldView("me", S)
-    world.push_present("a")
-    world.push_pose("a", Pose(1, 0.0, 0, 0), 0.0)
+    world.intake.present("a")
+    world.intake.pose("a", encode_pose(Pose(1, 0.0, 0, 0)), 0.0)
     world.update(0.5)
     assert "a" in world.egos and not next(world.ego_views(0.5)).stale
     world.update(1.5)
@@ -161,21 +161,22 @@ def _hearing(*node_ids: str) -> WorldView:
     """A world view that has heard a first pose from each of `node_ids`, at 0.1 s."""
     world = WorldView("me", S)
     for n in node_ids:
-        world.push_present(n)
-        world.push_pose(n, Pose(1, 0.0, 0, 0), 0.0)
+        world.intake.present(n)
+        world.intake.pose(n, encode_pose(Pose(1, 0.0, 0, 0)), 0.0)
     world.update(0.1)
     return world
 
 
 def test_presence_loss_and_authority_event_despawn_at_once_and_tombstone() -> None:
     world = _hearing("a", "b")
-    world.push_gone("a", "liveliness", 0.1)
-    world.push_gone("b", "timeout", 0.1)
-    world.push_pose("a", Pose(2, 0.05, 0, 0), 0.12)  # in flight when it left: no ghost
+    world.intake.gone("a", "liveliness", 0.1)
+    world.intake.gone("b", "timeout", 0.1)
+    in_flight = encode_pose(Pose(2, 0.05, 0, 0))
+    world.intake.pose("a", in_flight, 0.12)  # in flight when it left: no ghost
     world.update(0.2)
     assert not world.egos
-    world.push_present("a")  # it came back (re-join)
-    world.push_pose("a", Pose(3, 1.0, 0, 0), 1.0)
+    world.intake.present("a")  # it came back (re-join)
+    world.intake.pose("a", encode_pose(Pose(3, 1.0, 0, 0)), 1.0)
     world.update(1.0)
     assert "a" in world.egos
 
@@ -183,27 +184,27 @@ def test_presence_loss_and_authority_event_despawn_at_once_and_tombstone() -> No
 def test_a_token_loss_heard_before_the_authoritys_left_is_amended_to_left() -> None:
     # The leaver's DELETE and the authority's `left` event reach a peer on different links.
     world = _hearing("a", "b")
-    world.push_gone("a", "liveliness", 0.1)
-    world.push_gone("b", "liveliness", 0.1)
+    world.intake.gone("a", "liveliness", 0.1)
+    world.intake.gone("b", "liveliness", 0.1)
     world.update(0.15)
     assert not world.egos
-    world.push_gone("a", "left", 0.2)  # the authority's word, late: a left on purpose
+    world.intake.gone("a", "left", 0.2)  # the authority's word, late: a left on purpose
     world.update(0.2)
     assert [(d.actor_id, d.reason, d.t) for d in world.despawns] == [
         ("a", "left", 0.1), ("b", "liveliness", 0.1)
     ]  # fmt: skip
-    world.push_present("b")  # b re-joins and later leaves properly: one record each time
-    world.push_pose("b", Pose(2, 1.0, 0, 0), 1.0)
+    world.intake.present("b")  # b re-joins and later leaves properly: one record each time
+    world.intake.pose("b", encode_pose(Pose(2, 1.0, 0, 0)), 1.0)
     world.update(1.0)
-    world.push_gone("b", "left", 1.1)
+    world.intake.gone("b", "left", 1.1)
     world.update(1.1)
     assert [d.reason for d in world.despawns] == ["left", "liveliness", "left"]
 
 
 def test_poses_from_nodes_without_presence_are_rejected() -> None:
     world = WorldView("me", S)
-    world.push_pose("mallory", Pose(1, 0.0, 0, 0), 0.0)
-    world.push_pose("me", Pose(1, 0.0, 0, 0), 0.0)  # our own echo
+    world.intake.pose("mallory", encode_pose(Pose(1, 0.0, 0, 0)), 0.0)
+    world.intake.pose("me", encode_pose(Pose(1, 0.0, 0, 0)), 0.0)  # our own echo
     world.update(0.0)
     assert not world.egos and world.rejected["pose_from_absent_node"] == 1
 
@@ -219,7 +220,7 @@ def parallel_world(settings: InterpolationSettings, far_latency: float) -> list[
     inner, outer = CirclePath(radius=20.0, speed_mps=14.0), CirclePath(radius=23.0, speed_mps=16.1)
     world = WorldView("me", settings)
     for n in ("near", "far"):
-        world.push_present(n)
+        world.intake.present(n)
     arrivals = sorted(
         [(k * 0.02 + 0.001, "near", k * 0.02) for k in range(300)]
         + [(k * 0.02 + far_latency, "far", k * 0.02) for k in range(300)]
@@ -229,7 +230,9 @@ def parallel_world(settings: InterpolationSettings, far_latency: float) -> list[
         now = step * 0.01
         while j < len(arrivals) and arrivals[j][0] <= now:
             rx, node, t = arrivals[j]
-            world.push_pose(node, (inner if node == "near" else outer).pose_at(t), rx)
+            world.intake.pose(
+                node, encode_pose((inner if node == "near" else outer).pose_at(t)), rx
+            )
             j += 1
         world.update(now)
         views = {v.actor_id: v for v in world.ego_views(now)}
@@ -251,9 +254,9 @@ def test_past_view_delay_covers_the_slowest_stream() -> None:
     world = WorldView("me", PAST)
     parallel_world(PAST, far_latency=0.060)
     world = WorldView("me", PAST)
-    world.push_present("a")
+    world.intake.present("a")
     for k in range(200):
-        world.push_pose("a", CIRCLE.pose_at(k * 0.02), k * 0.02 + 0.06)
+        world.intake.pose("a", encode_pose(CIRCLE.pose_at(k * 0.02)), k * 0.02 + 0.06)
         world.update(k * 0.02 + 0.06)
         world.render_time(k * 0.02 + 0.06)
     assert 0.08 < world.delay_s < 0.12  # interval + latency + margin, reached by slewing
@@ -290,8 +293,8 @@ def test_present_mode_holds_after_the_projection_limit_and_never_reverses() -> N
 
 def test_the_authority_id_never_becomes_an_actor() -> None:
     world = WorldView("me", S)
-    world.push_present("authority")
-    world.push_pose("authority", Pose(1, 0.0, 0, 0), 0.0)
+    world.intake.present("authority")
+    world.intake.pose("authority", encode_pose(Pose(1, 0.0, 0, 0)), 0.0)
     world.update(0.0)
     assert not world.egos and "authority" not in world.present
     assert world.rejected["reserved_id"] == 1 and world.rejected["pose_from_absent_node"] == 1
@@ -299,9 +302,9 @@ def test_the_authority_id_never_becomes_an_actor() -> None:
 
 def test_pose_times_far_from_session_time_are_rejected() -> None:
     world = WorldView("me", S)
-    world.push_present("a")
-    world.push_pose("a", Pose(1, 100.0 + 3600, 0, 0), 100.0)
-    world.push_pose("a", Pose(2, 100.0 - 6, 0, 0), 100.0)
+    world.intake.present("a")
+    world.intake.pose("a", encode_pose(Pose(1, 100.0 + 3600, 0, 0)), 100.0)
+    world.intake.pose("a", encode_pose(Pose(2, 100.0 - 6, 0, 0)), 100.0)
     world.update(100.0)
     assert not world.egos and world.rejected["pose_time_implausible"] == 2
     assert not world.stats  # nothing kept for a rejected sender
@@ -313,10 +316,10 @@ def test_statistics_only_for_present_senders_and_bounded() -> None:
     world = WorldView("me", S)
     for k in range(world_view.STATS_LIMIT + 50):
         node = f"n{k}"
-        world.push_present(node)
-        world.push_pose(node, Pose(1, 0.0, 0, 0), 0.0)
-        world.push_gone(node, "left", 0.0)
-    world.push_pose("ghost", Pose(1, 0.0, 0, 0), 0.0)
+        world.intake.present(node)
+        world.intake.pose(node, encode_pose(Pose(1, 0.0, 0, 0)), 0.0)
+        world.intake.gone(node, "left", 0.0)
+    world.intake.pose("ghost", encode_pose(Pose(1, 0.0, 0, 0)), 0.0)
     world.update(0.0)
     assert len(world.stats) <= world_view.STATS_LIMIT and "ghost" not in world.stats
 
@@ -344,7 +347,7 @@ def test_npcs_interpolate_as_arrays_at_the_views_render_time() -> None:
     for k in range(60):
         t = k * 0.05
         ids = sorted(paths) if k < 40 else sorted(paths)[5:]  # five NPCs leave at 2 s
-        world.push_npc(npc_batch(t, ids, paths), t + 0.01)
+        world.intake.npc(npc_batch(t, ids, paths), t + 0.01)
         for sub in range(5):
             now = t + 0.01 + sub * 0.01
             world.update(now)
@@ -369,7 +372,7 @@ def test_npcs_appearing_after_an_empty_batch_are_drawn_not_raised() -> None:
     for k in range(12):
         t = k * 0.05
         ids = [] if k < 6 else sorted(paths)
-        world.push_npc(npc_batch(t, ids, paths), t + 0.01)
+        world.intake.npc(npc_batch(t, ids, paths), t + 0.01)
     for now in (0.3, 0.31, 0.35, 0.4, 0.5, 0.6):  # render times across the empty -> full step
         world.update(now)
         frame = world.npc_frame(now)
@@ -409,8 +412,8 @@ def test_the_despawn_log_keeps_the_newest_within_its_bound(
     world = WorldView("me", S)
     for k in range(80):
         node_id, t = f"n{k}", k * 0.1
-        world.push_present(node_id)
-        world.push_pose(node_id, Pose(1, t, 0, 0), t)
-        world.push_gone(node_id, "left", t + 0.05)
+        world.intake.present(node_id)
+        world.intake.pose(node_id, encode_pose(Pose(1, t, 0, 0)), t)
+        world.intake.gone(node_id, "left", t + 0.05)
         world.update(t + 0.05)
     assert [d.actor_id for d in world.despawns] == [f"n{k}" for k in range(30, 80)]

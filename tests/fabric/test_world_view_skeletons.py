@@ -16,17 +16,17 @@ def _skeleton(t: float, joints: dict[str, tuple[float, float, float]]) -> m.Skel
 
 def test_newest_valid_skeleton_per_present_node_until_it_leaves() -> None:
     view = WorldView("me", InterpolationSettings())
-    view.push_present("w1")
-    view.push_skeleton("w1", _skeleton(1.0, {"neck": (0.1, 0.2, 0.3)}))
-    view.push_skeleton("w1", m.Skeleton(2, 2.0, ["neck", "left_knee"], b"\x00" * 12))  # short
-    view.push_skeleton("w1", _skeleton(3.0, {"left_knee": (0.5, 0.0, 0.0)}))
-    view.push_skeleton("w1", _skeleton(0.5, {"neck": (9.0, 9.0, 9.0)}))  # older: ignored
-    view.push_skeleton("stranger", _skeleton(1.0, {"neck": (0.0, 0.0, 0.0)}))  # never joined
-    view.push_skeleton("me", _skeleton(1.0, {"neck": (0.0, 0.0, 0.0)}))  # our own echo
+    view.intake.present("w1")
+    view.intake.skeleton("w1", _skeleton(1.0, {"neck": (0.1, 0.2, 0.3)}))
+    view.intake.skeleton("w1", m.Skeleton(2, 2.0, ["neck", "left_knee"], b"\x00" * 12))  # short
+    view.intake.skeleton("w1", _skeleton(3.0, {"left_knee": (0.5, 0.0, 0.0)}))
+    view.intake.skeleton("w1", _skeleton(0.5, {"neck": (9.0, 9.0, 9.0)}))  # older: ignored
+    view.intake.skeleton("stranger", _skeleton(1.0, {"neck": (0.0, 0.0, 0.0)}))  # never joined
+    view.intake.skeleton("me", _skeleton(1.0, {"neck": (0.0, 0.0, 0.0)}))  # our own echo
     view.update(3.0)
     assert set(view.skeletons) == {"w1"} and view.skeletons["w1"].t == 3.0
     assert view.rejected["skeleton_size"] == 1
     assert view.rejected["skeleton_from_absent_node"] == 1
-    view.push_gone("w1", "liveliness", 4.0)
+    view.intake.gone("w1", "liveliness", 4.0)
     view.update(4.0)
     assert view.skeletons == {}

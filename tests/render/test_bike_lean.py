@@ -53,9 +53,9 @@ def turning_pose(steer_axis: float) -> m.Pose:
 def silhouette(pose: m.Pose, save_shot, name: str) -> tuple[np.ndarray, Eye]:
     """Pixels the bike changes, seen from behind along its heading."""
     view = WorldView("camera", InterpolationSettings())
-    view.push_present("rider")
-    view.push_wire("rider", m.encode_pose(pose), rx_t=pose.t)
-    view.weather = NOON
+    view.intake.present("rider")
+    view.intake.pose("rider", m.encode_pose(pose), rx_t=pose.t)
+    view.intake.weather(NOON)
     view.update(pose.t)
     b = BikeNodeConfig().bicycle
     size = Extent(b.length_m, b.width_m, b.height_m)

@@ -40,10 +40,10 @@ NOON = m.Weather(0, 0.0, sun_altitude_deg=60.0, sun_azimuth_deg=200.0)
 def _view_with(npcs: np.ndarray, ids: list[str]) -> WorldView:
     """A real world view holding our ego 'me' at the origin and one NPC batch."""
     view = WorldView("render", InterpolationSettings())
-    view.push_present("me")
-    view.push_pose("me", m.Pose(1, 0.0, 0.0, 0.0), rx_t=0.0)
-    view.push_npc(m.NpcBatch.pack(1, 0.0, ids, npcs), rx_t=0.0)
-    view.weather = NOON
+    view.intake.present("me")
+    view.intake.pose("me", m.encode_pose(m.Pose(1, 0.0, 0.0, 0.0)), rx_t=0.0)
+    view.intake.npc(m.NpcBatch.pack(1, 0.0, ids, npcs), rx_t=0.0)
+    view.intake.weather(NOON)
     view.update(0.0)
     return view
 

@@ -1,4 +1,5 @@
-"""The viewer's inbox, model and feed: O(1) hand-over, bounded events, bad input counted."""
+"""The viewer's inbox, model and feed: O(1) hand-over, bounded events, bad input counted, and
+the world view written through its one door (`SampleFeed` into its intake)."""
 
 from __future__ import annotations
 
@@ -6,6 +7,7 @@ import numpy as np
 
 from carlaverse import messages as m
 from carlaverse.fabric.remote_actor import InterpolationSettings
+from carlaverse.fabric.source import SampleFeed
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import Keys
 from carlaverse.viz.model import ActorLook, WorldModel
@@ -30,9 +32,14 @@ def test_store_keeps_newest_state_and_every_event() -> None:
     assert not store.take().latest, "take() hands everything over once"
 
 
-def test_model_counts_bad_payloads_and_hands_membership_to_the_view() -> None:
+def _viewer() -> tuple[WorldView, SampleFeed]:
     view = WorldView("viewer", InterpolationSettings(render_mode="past"))
-    store, world = SampleStore(), WorldModel(view, latency_of=lambda rx, t: rx - t)
+    return view, SampleFeed(view.intake)
+
+
+def test_model_counts_bad_payloads_and_hands_membership_to_the_view() -> None:
+    view, samples = _viewer()
+    store, world = SampleStore(), WorldModel(samples, latency_of=lambda rx, t: rx - t)
     store.offer(KEYS.pose("a", "t0_0"), b"\x00garbage", 0.0)
     store.offer(KEYS.pose("b", "t0_0"), m.POSE.encode(m.Pose(1, 1.0, 3.0, 4.0, yaw=0.5)), 1.01)
     store.offer(KEYS.node("b"), b"", 1.0)  # b's presence token
@@ -42,24 +49,51 @@ def test_model_counts_bad_payloads_and_hands_membership_to_the_view() -> None:
     assert world.newcomers, "an ego of unknown look: ask for a snapshot"
     view.update(1.02)
     assert view.present == {"b"}, "presence is the view's to know"
-    ActorFeed(view).pose("b", m.Pose(2, 1.02, 3.0, 4.0), 1.02)
+    ActorFeed(samples).offer(KEYS.pose("b", "t0_0"), m.encode_pose(m.Pose(2, 1.02, 3, 4)), 1.02)
     info = m.EgoInfo("b", "scripted", "truck", m.Extent(9.0, 2.5, 3.4), 9000.0)
     store.offer(KEYS.authority("snapshot"), m.SNAPSHOT.encode(m.Snapshot(1, 1.0, [info])), 1.03)
     store.offer(KEYS.world("events"), m.WORLD_EVENT.encode(m.Despawned(1, 1.04, "b", "left")), 1.05)
     world.apply(store.take())
     assert world.looks["b"] == ActorLook("truck", m.Extent(9.0, 2.5, 3.4))
     view.update(1.06)
-    assert [(d.actor_id, d.reason) for d in view.despawns] == [("b", "despawned: left")]
+    assert [(d.actor_id, d.reason) for d in view.despawns] == [("b", "left")]
 
 
-def test_feed_drops_malformed_npc_batches_and_taps_raw_samples() -> None:
-    view = WorldView("viewer", InterpolationSettings())
-    feed = ActorFeed(view, RawTap())
-    feed.npc(m.NpcBatch(2, 1.1, ["n1"], b"\x01\x02"), 1.1)
-    feed.decoded("pose", b"\x00garbage", "b", 1.1)
-    assert feed.bad == {"npc": 1, "pose": 1} and not view.inbox and not feed.raw.npcs
+def test_a_token_loss_before_the_authoritys_left_reads_left_in_a_viewer_as_in_a_node() -> None:
+    """A leaver's token DELETE can reach a viewer before the authority's `left` event (two
+    links); a node's view then amends the loss to `left`, and so must a viewer's: one set of
+    reasons, whoever feeds the view. (The viewer once wrote its own strings, 'left (liveliness
+    lost)' and 'despawned: left', which the amendment never matched.)"""
+    view, samples = _viewer()
+    store, world = SampleStore(), WorldModel(samples)
+    store.offer(KEYS.node("b"), b"", 1.0)
+    world.apply(store.take())
+    ActorFeed(samples).offer(KEYS.pose("b", "t0_0"), m.encode_pose(m.Pose(1, 1.0, 3, 4)), 1.01)
+    view.update(1.02)
+    store.offer(KEYS.node("b"), b"", 1.03, "delete")
+    world.apply(store.take())
+    view.update(1.04)
+    left = m.Despawned(1, 1.03, "b", "left")
+    store.offer(KEYS.world("events"), m.WORLD_EVENT.encode(left), 1.05)
+    world.apply(store.take())
+    view.update(1.06)
+    assert [(d.actor_id, d.reason) for d in view.despawns] == [("b", "left")]
+
+
+def test_feed_drops_malformed_npc_batches_and_poses_and_taps_raw_samples() -> None:
+    view, samples = _viewer()
+    feed = ActorFeed(samples, RawTap())
+    assert feed.raw is not None
+    bad_npcs = m.NPC_BATCH.encode(m.NpcBatch(2, 1.1, ["n1"], b"\x01\x02"))  # rows for no one
+    feed.offer(KEYS.world("npc"), bad_npcs, 1.1)
+    feed.offer(KEYS.pose("b", "t0_0"), b"\x00garbage", 1.1)  # a pose is 64 bytes
+    feed.offer("carlaverse/w/nowhere", b"", 1.1)
+    assert view.dropped == {"npc": 1, "pose": 1, "key": 1}
+    assert not view.intake.inbox and not feed.raw.npcs
     rows = np.zeros(2, dtype=m.NPC_DTYPE)
-    feed.npc(m.NpcBatch.pack(3, 1.2, ["n1", "n2"], rows), 1.2)
+    feed.offer(
+        KEYS.world("npc"), m.NPC_BATCH.encode(m.NpcBatch.pack(3, 1.2, ["n1", "n2"], rows)), 1.2
+    )
     view.update(1.2)
     assert list(view.npcs) == ["n1", "n2"] and len(feed.raw.npcs) == 1
 

@@ -126,14 +126,14 @@ def stamp_after_decode(client: Any, into: list[float]) -> None:
     """
     from carlaverse.messages import decode_pose
 
-    push_wire = client.world.push_wire
+    push_wire = client.world.intake.pose
 
     def stamped(node_id: str, payload: bytes, rx_t: float) -> None:
         # the sender stamped t with time.monotonic()
         into.append(time.monotonic() - decode_pose(payload).t)
         push_wire(node_id, payload, rx_t)
 
-    client.world.push_wire = stamped
+    client.world.intake.pose = stamped
 
 
 def sender(

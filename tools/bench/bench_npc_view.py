@@ -54,7 +54,7 @@ def measure(payloads: list[bytes], mode: str) -> dict[str, float]:
     for k, payload in enumerate(payloads):
         now = 1000.0 + k / RATE_HZ + 0.03
         c0 = time.process_time()
-        world.push_npc(m.NPC_BATCH.decode(payload), now)
+        world.intake.npc(m.NPC_BATCH.decode(payload), now)
         world.update(now)
         c1 = time.process_time()
         world.npc_frame(now + 0.001)

@@ -37,6 +37,7 @@ from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse import messages as m
 from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.fabric.source import SampleFeed
 from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import Keys
 from carlaverse.recording.reading import iter_samples, read_metadata
@@ -184,8 +185,9 @@ def bench_view(actors: int, seconds: float, rate_hz: float = 20.0) -> dict[str, 
         rec = rr.RecordingStream("bench-view")
         rec.set_sinks(rr.FileSink(str(Path(tmp) / "v.rrd")))
         view = WorldView(VIEW_ID, viewer_interpolation())
-        store, feed, scene = SampleStore(), ActorFeed(view), SceneLogger(rec)
-        world = WorldModel(view)
+        samples = SampleFeed(view.intake)
+        store, feed, scene = SampleStore(), ActorFeed(samples), SceneLogger(rec)
+        world = WorldModel(samples)
         frames: list[float] = []
         period, t0 = 1.0 / rate_hz, time.perf_counter()
         cpu0 = time.process_time()
@@ -193,7 +195,7 @@ def bench_view(actors: int, seconds: float, rate_hz: float = 20.0) -> dict[str, 
             t = i * period
             payload = m.NPC_BATCH.encode(m.NpcBatch.pack(i, t, ids, npc_rows(actors, t)))
             store.offer(KEYS.world("npc"), payload, t)
-            feed.decoded("npc", payload, "", t)
+            feed.offer(KEYS.world("npc"), payload, t)
             f0 = time.perf_counter()
             world.apply(store.take())
             view.update(t)
@@ -210,21 +212,21 @@ def bench_view(actors: int, seconds: float, rate_hz: float = 20.0) -> dict[str, 
 
 
 def bench_offer(n: int = 200_000) -> float:
-    """µs the viewer's Zenoh callbacks spend on one pose: store it, decode it, push it."""
+    """µs the viewer's Zenoh callbacks spend on one pose: store it, hand it to the view."""
     store, key, payload = (
         SampleStore(),
         KEYS.pose("ego-0", "t0_0"),
         m.POSE.encode(ego_pose(0, 1, 0.0)),
     )
     view = WorldView(VIEW_ID, viewer_interpolation())
-    feed = ActorFeed(view)
+    feed = ActorFeed(SampleFeed(view.intake))
     t0 = time.perf_counter()
     for i in range(n):
         store.offer(key, payload, float(i))
-        feed.decoded("pose", payload, "ego-0", float(i))
+        feed.offer(key, payload, float(i))
         if i % 1000 == 0:
             store.take()
-            view.inbox.clear()
+            view.intake.inbox.clear()
     return (time.perf_counter() - t0) / n * 1e6
 
 
@@ -273,7 +275,7 @@ def main(argv: list[str] | None = None) -> int:
         [*lines, "", *live_lines, "", *view_lines, "",
          f"The viewer's Zenoh callbacks hand a pose over in {offer:.2f} µs "
          "(`SampleStore.offer`: parse cache + dict store under a lock; `ActorFeed`: "
-         "decode + append to the world view's inbox).",
+         "key + append to the world view's intake; the view decodes in its update).",
          "", reading(live, sink_pose, per100)]
     )  # fmt: skip
     print(text)

@@ -259,12 +259,12 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
 
     world = WorldView(NODE_ID, InterpolationSettings())
     for i in range(egos):  # as if their tokens had come
-        world.push_present(f"e{i}")
+        world.intake.present(f"e{i}")
     world.update(0.0)
     clock = SessionClock(MonotonicClock())
-    inbound = Inbound(NODE_ID, world, clock, lost=lambda: None, appeared=lambda: None)
+    inbound = Inbound(NODE_ID, world.intake, clock, lost=lambda: None, appeared=lambda: None)
     receiver = Receiver(world=world)
-    push_wire = world.push_wire
+    push_wire = world.intake.pose
 
     latency = receiver.latency_s
 
@@ -273,15 +273,15 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
         latency.append(rx_t - pose_stamp(payload)[1])
         push_wire(node_id, payload, rx_t)
 
-    push_digest = world.push_digest
+    push_digest = world.intake.pose_rows
 
     def counted_many(ids: list[str], rows: bytes, rx_t: float) -> None:  # one call per digest
         receiver.received += len(ids)
         latency.extend((rx_t - pose_stamps(rows)[1]).tolist())
         push_digest(ids, rows, rx_t)
 
-    world.push_wire = counted  # type: ignore[method-assign]
-    world.push_digest = counted_many  # type: ignore[method-assign]
+    world.intake.pose = counted  # type: ignore[method-assign]
+    world.intake.pose_rows = counted_many  # type: ignore[method-assign]
     if feed.authority:
         inbound.authority_id = feed.authority  # as a join reply names it
         handler = inbound.digest_handler()

@@ -138,14 +138,14 @@ def probe_main(
     )
     client = NodeClient(session, settings, MonotonicClock())
     receipts = Receipts()
-    push_wire = client.world.push_wire
+    push_wire = client.world.intake.pose
 
     def stamped(sender: str, payload: bytes, rx_t: float) -> None:
         seq, t = pose_stamp(payload)
         receipts.heard(sender, seq, rx_t - t)
         push_wire(sender, payload, rx_t)
 
-    push_digest = client.world.push_digest
+    push_digest = client.world.intake.pose_rows
 
     def stamped_many(ids: list[str], rows: bytes, rx_t: float) -> None:
         seqs, times = pose_stamps(rows)
@@ -170,8 +170,8 @@ def probe_main(
 
         Inbound._on_digest = noted  # type: ignore[method-assign]  # this child's class only
 
-    client.world.push_wire = stamped  # type: ignore[method-assign]
-    client.world.push_digest = stamped_many  # type: ignore[method-assign]
+    client.world.intake.pose = stamped  # type: ignore[method-assign]
+    client.world.intake.pose_rows = stamped_many  # type: ignore[method-assign]
     client.start(lambda t: Pose(0, t, x, y))
     client.wait_joined(60)
     conn.send("joined")

@@ -94,7 +94,7 @@ class PoseReceiver:
         self._stamp_callback_entry()
         self._client = _open_client(plan, lowlatency, f"rx{index}", "observer", "")  # no actor
         world = self._client.world
-        push_wire = world.push_wire
+        push_wire = world.intake.pose
 
         def stamped(node_id: str, payload: bytes, rx_t: float) -> None:
             # The fabric's part ends where the harness takes over (and stamps the arrival).
@@ -105,7 +105,7 @@ class PoseReceiver:
             deliver.payload(payload)
             push_wire(node_id, payload, rx_t)
 
-        world.push_wire = stamped
+        world.intake.pose = stamped  # type: ignore[method-assign]
 
     def _stamp_callback_entry(self) -> None:
         """Note when the fabric's pose callback starts (`Inbound._on_pose`, wrapped in this

@@ -61,14 +61,14 @@ def callback_steps() -> list[tuple[str, float, float]]:
     steps: list[tuple[str, Callable[[], object]]] = [
         ("session clock (`SessionClock.now`)", clock.now),
         ("sender from the key (`keys.parse_cached`)", lambda: parse_cached(key).node_id),
-        ("hand-over (`WorldView.push_wire`)", lambda: world.push_wire("tx", payload, 0.0)),
+        ("hand-over (`WorldIntake.pose`)", lambda: world.intake.pose("tx", payload, 0.0)),
     ]
     timed = []
     for name, call in steps:
         warm = per_call_s(call)
-        world.inbox.clear()
+        world.intake.inbox.clear()
         timed.append((name, warm, spaced_call_s(call)))
-        world.inbox.clear()
+        world.intake.inbox.clear()
     return timed
 
 
