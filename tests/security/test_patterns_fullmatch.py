@@ -42,7 +42,7 @@ from carlaverse.fabric.session import FabricError, FabricSettings, check_endpoin
 from carlaverse.hmi.config import PAGE_NAME
 from carlaverse.hmi.site import ASSET
 from carlaverse.keys import Keys, KeySpaceError, check_token, parse, tile_index
-from carlaverse.render.scene_roads import _edge_and_index
+from carlaverse.render.scene_roads import edge_and_index
 from carlaverse.security.roster import load_roster
 from carlaverse.traffic.openscenario import _identifier
 from tests.support import Cluster, wait_until
@@ -135,7 +135,7 @@ VALIDATORS: list[Any] = [
     ("join: instance", lambda v: _join_accepts(instance=v), "4f2a9c"),
     ("join: hostname", lambda v: _join_accepts(hostname=v), "rig-7.example.org"),
     ("join: version", lambda v: _join_accepts(version=v), "0.7.2"),
-    ("map lane id index", lambda v: _edge_and_index(f"edge_{v}") is not None, "12"),
+    ("map lane id index", lambda v: edge_and_index(f"edge_{v}") is not None, "12"),
     pytest.param("hmi page name", lambda v: bool(PAGE_NAME.match(v)), "dash-1"),
     pytest.param("hmi asset name", lambda v: bool(ASSET.match(v)), "hmi.js"),
 ]
