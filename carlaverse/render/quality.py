@@ -5,11 +5,12 @@
 - `cpu`: for a software rasteriser (Mesa llvmpipe), whose cost is per pixel: the same light
   (sky, sun, tone mapping, wet roads, night lights) computed per vertex, the pixel only
   looking up its shadow (a 512² map over a smaller film, one hardware-filtered tap) and its
-  texture; 3 headlight spotlights, sparser rain, no multisampling (which costs llvmpipe 3–4×
-  the frame). Its budget: 1.5× the `flat` frame time at
-  1920×1080 and 3 × 1920×1080 (docs/benchmarks.md, Renderer).
+  texture; actors cast the shadows of their boxes (`shadow_proxies`), 2 headlight
+  spotlights, sparser rain, no multisampling (which costs llvmpipe 3–4× the frame). Its
+  budget: 1.5× the `flat` frame time at 1920×1080 and 3 × 1920×1080 (docs/benchmarks.md,
+  Renderer).
 - `flat`: the fixed-function look the renderer had before (one sky colour, vertex lighting,
-  no shadows): the cheapest, and the benchmark's baseline.
+  no shadows, surfaces in plain palette colours): the cheapest, and the benchmark's baseline.
 - `auto` (the default): `cpu` when the driver is a software rasteriser, else `full`.
 
 No Panda3D here: the choice is testable on its own.
@@ -30,10 +31,12 @@ class Preset:
 
     name: str
     shaded: bool  # own GLSL shading (sky, sun, tone mapping, weather, night); else fixed-function
+    textured: bool  # the map's procedural textures (asphalt, paving, facades); else plain colours
     per_pixel: bool  # light every pixel; else every vertex, the pixel only shadowed (shaders.py)
     shadow_map_px: int  # side of the sun's shadow map [px]; 0 = no shadows
     shadow_film_m: float  # [m] side of the square around the eye that shadows cover
     shadow_taps: int  # 1 (hardware 2×2 filter) or 4 (softer edges)
+    box_shadows: bool  # actors cast their declared box's shadow (one draw call for all)
     multisamples: int  # MSAA samples per pixel; 0 = none
     headlights: int  # spotlights at the nearest vehicles whose low or high beams are on
     glare_lamps: int  # lit headlamps drawn as glowing sprites (nearest first)
@@ -43,9 +46,9 @@ class Preset:
 
 
 PRESETS: dict[str, Preset] = {
-    "full": Preset("full", True, True, 2048, 160.0, 4, 4, 8, 48, True, True, 4000),
-    "cpu": Preset("cpu", True, False, 512, 100.0, 1, 0, 3, 24, True, True, 1200),
-    "flat": Preset("flat", False, False, 0, 0.0, 1, 0, 0, 0, False, False, 0),
+    "full": Preset("full", True, True, True, 2048, 160.0, 4, False, 4, 8, 48, True, True, 4000),
+    "cpu": Preset("cpu", True, True, False, 512, 100.0, 1, True, 0, 2, 24, True, True, 1200),
+    "flat": Preset("flat", False, False, False, 0, 0.0, 1, False, 0, 0, 0, False, False, 0),
 }
 
 

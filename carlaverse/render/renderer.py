@@ -63,7 +63,7 @@ class Renderer:
         """Static meshes, flattened: the whole map costs a handful of draw calls."""
         static = self.world.attach_new_node("map")
         road = static.attach_new_node("road")  # kept apart: wetness darkens it alone
-        scene = build_static(road_map, self.bounds)
+        scene = build_static(road_map, self.bounds, textured=self.graphics.preset.textured)
         for parent, group in ((static, scene.land), (road, scene.road)):
             for mesh in group:
                 if not mesh.empty:

@@ -14,8 +14,9 @@ Two ways to run `light()`, by preset (`quality.Preset.per_pixel`):
   fogs and tone maps each vertex twice — in shadow and in sun — and the fragment shader only
   mixes the two by the shadow map and multiplies the texture, as fixed-function drawing
   modulates a texture. Smooth terms come out the same; highlights are left to wet ground.
-  By night the vertex hands over linear light instead and the fragment adds the headlights
-  (a beam's pool on a road cut every 5 m needs pixels) and tone-maps.
+  By night the vertex hands over linear light instead and the fragment adds the nearest
+  vehicle's headlights — the camera's own: a beam's pool on a road cut every 5 m needs
+  pixels — and tone-maps; other vehicles' beams light the vertices.
 
 Programs come in a day and a night variant (`NIGHT`): street lights, headlights and lit
 windows cost nothing by day.
@@ -38,6 +39,7 @@ SUN_DISC_GAIN = 60.0  # disc radiance per unit of sun irradiance: it tone-maps t
 WET_DARKENING = 0.5  # diffuse albedo lost on a fully wet surface (Lekner & Dorf 1988: ~½)
 WATER_F0 = 0.02  # normal-incidence reflectance of water
 HEAD_RGB = (1.0, 0.93, 0.82)  # halogen-ish headlamp colour
+HEAD_REACH_M = 50.0  # [m] beyond this a low beam lights the road with under 1 % of its pool
 STREET_RGB = (1.0, 0.82, 0.6)  # warm-white LED street lamps
 # An emission texture (a texture stage in mode M_emission: a facade's lit windows, black
 # elsewhere) glows at night with this radiance per unit of its linear colour; the sky's
@@ -57,8 +59,11 @@ uniform vec4 fog;             // rgb colour, a = extinction [1/m]
 uniform float exposure;
 uniform float night;
 uniform float wetness;
-uniform vec4 surface;         // x wet response, y roughness, z unused, w gloss
+uniform vec4 surface;         // x wet response, y roughness, z flags (POOLS, WINDOWS), w gloss
 uniform vec4 clouds;          // x cover 0..1, y unused, zw drift of the pattern (sky)
+
+// the surface's flags: headlight pools per pixel (roads), an emission stage (lit windows)
+bool flagged(int flag) { return (int(surface.z + 0.5) & flag) != 0; }
 
 vec3 to_linear(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }
 vec3 to_display(vec3 c) { return pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)); }
@@ -105,24 +110,35 @@ float specular(vec3 N, vec3 L, vec3 V, float rough, float f0) {
 #if NIGHT && HEADLIGHTS > 0
 uniform vec4 lamp_pos[HEADLIGHTS];  // xyz [m], w intensity (0: none)
 uniform vec4 lamp_dir[HEADLIGHTS];  // xyz beam axis (unit, horizontal), w cut-off (tan, up +)
-vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float f0) {
+// the lamps first .. last - 1 (nearest first: the camera's own car is lamp 0)
+vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float f0, int first,
+                int last) {
     vec3 sum = vec3(0.0);
-    for (int i = 0; i < HEADLIGHTS; ++i) {
+    for (int i = first; i < last; ++i) {
         vec4 p = lamp_pos[i];
         vec3 L = p.xyz - pos;
-        float d2 = max(dot(L, L), 0.25);
-        vec3 l = L * inversesqrt(d2);
         vec3 axis = lamp_dir[i].xyz;
-        float along = max(-dot(l, axis), 1e-3);
-        float across = abs(dot(l, vec3(axis.y, -axis.x, 0.0))) / along;  // tan, sideways
-        float rise = -l.z / along;                                       // tan, upwards
-        float beam = step(0.05, along) * smoothstep(0.85, 0.3, across)
-                   * smoothstep(lamp_dir[i].w + 0.008, lamp_dir[i].w - 0.008, rise)
+        float ahead = -dot(L, axis);  // [m] along the beam
+        float d2 = dot(L, L);
+        // most pixels are behind a lamp, beyond its reach or facing away: skip them early
+        if (p.w <= 0.0 || ahead < 0.3 || d2 > HEAD_REACH_M * HEAD_REACH_M) continue;
+        float ndl = dot(N, L);
+        if (ndl <= 0.0) continue;
+        float inv = inversesqrt(d2);
+        float per = 1.0 / ahead;
+        float across = abs(dot(L, vec3(axis.y, -axis.x, 0.0))) * per;  // tan, sideways
+        float below = lamp_dir[i].w + L.z * per;  // tan under the cut-off (rise is −L.z/ahead)
+        float beam = clamp((0.85 - across) * 1.8, 0.0, 1.0)  // fading out by ±40°
+                   * clamp(below * 60.0 + 0.5, 0.0, 1.0)      // the cut-off, ±0.5°
                    // brightest just under the cut-off, falling by e every 3.4° below it:
                    // aimed at the road 20–60 m ahead, not at the bonnet
-                   * exp(min(rise - lamp_dir[i].w, 0.0) / 0.06);
-        vec3 e = HEAD_RGB * (p.w * beam * max(dot(N, l), 0.0) / d2);
-        sum += e * (albedo + specular(N, l, V, rough, f0));
+                   * exp2(-max(below, 0.0) * (1.4427 / 0.06));
+        vec3 e = HEAD_RGB * (p.w * beam * ndl * inv * inv * inv);
+#if PER_PIXEL
+        sum += e * (albedo + specular(N, L * inv, V, rough, f0));
+#else
+        sum += e * albedo;  // a headlamp's highlight is left to the GPU preset
+#endif
     }
     return sum;
 }
@@ -165,13 +181,17 @@ void light(vec3 pos, vec3 N, vec3 V, vec3 base, out vec3 rest, out vec3 sunlit) 
     // smears into a diagonal streak: only a wet surface, finely cut, mirrors the sky
     float gloss = s.wet;
 #endif
-    // a sun behind clouds leaves no sharp highlight
-    float spec = gloss * (1.0 - clouds.x) * specular(N, sun_dir, V, s.rough, s.f0);
+    // a sun behind clouds leaves no sharp highlight: its disc shows through (1 − cover)
+    // of the sky, and only a clear patch in front of it lets the mirror image through
+    float clear = (1.0 - clouds.x) * (1.0 - clouds.x);
+    float spec = gloss * clear * specular(N, sun_dir, V, s.rough, s.f0);
     sunlit = sun_color * ndl * (s.albedo + spec);
     rest = s.albedo * mix(ground_ambient, sky_ambient, 0.5 + 0.5 * N.z);
     rest += sky_radiance(reflect(-V, N)) * (s.fresnel * gloss * (1.0 - s.rough));
-#if NIGHT && HEADLIGHTS > 0 && PER_PIXEL
-    rest += headlights(pos, N, V, s.albedo, s.rough, s.f0);
+#if NIGHT && HEADLIGHTS > 0
+    // per pixel all lamps; lit per vertex, a road leaves the nearest to the fragment shader
+    int first = PER_PIXEL == 0 && flagged(POOLS) ? 1 : 0;
+    rest += headlights(pos, N, V, s.albedo, s.rough, s.f0, first, HEADLIGHTS);
 #endif
 #if NIGHT && STREET_LIGHTS
     rest += s.albedo * street_light(pos, N);
@@ -222,7 +242,7 @@ SHADOW_LOOKUP = """
 in vec4 v_shadow;
 float sun_visible() {
 #if SHADOW_TAPS > 0
-    vec3 p = v_shadow.xyz / v_shadow.w;
+    vec3 p = v_shadow.xyz;  // orthographic: w is 1
 #if SHADOW_TAPS > 1
     vec2 t = vec2(0.6 / SHADOW_PX);
     float s = 0.25 * (texture(shadow_map, p + vec3(-t.x, -t.y, 0.0))
@@ -296,7 +316,7 @@ void main() {
 """
 
 VERTEX_LIT_VS = """
-out vec3 v_shade;   // by day the display colour in shadow, by night linear radiance (× fog)
+out vec3 v_shade;   // the display colour in shadow; a road's by night: linear radiance × fog
 out vec3 v_sun;     // the same in sun
 out float v_alpha;
 #if NIGHT
@@ -332,12 +352,14 @@ void main() {
     vec3 rest, sunlit;
     light(world.xyz, N, V, base.rgb, rest, sunlit);
 #if NIGHT
-    v_shade = rest * through;
-    v_sun = (rest + sunlit) * through;
-#else
+    if (flagged(POOLS)) {  // the fragment adds the beam and tone-maps
+        v_shade = rest * through;
+        v_sun = (rest + sunlit) * through;
+        return;
+    }
+#endif
     v_shade = to_display(tone_map(mix(fog.rgb, rest, through)));
     v_sun = to_display(tone_map(mix(fog.rgb, rest + sunlit, through)));
-#endif
 }
 """
 
@@ -357,32 +379,31 @@ in float v_emissive;
 out vec4 frag;
 void main() {
     vec4 tex = texture(p3d_TextureModulate, v_uv);
-#if NIGHT
-    // by night the pixel tone-maps (γ 2): the headlights' pools are drawn per pixel
-    if (v_emissive > 0.5) {
-        frag = vec4(v_shade * tex.rgb, v_alpha * tex.a);
+#if NIGHT && HEADLIGHTS > 0
+    // a road by night: the nearest vehicle's beam pool per pixel, then tone-mapped (γ 2)
+    if (flagged(POOLS) && v_emissive < 0.5) {
+        vec3 t = tex.rgb * tex.rgb;
+        vec3 c = mix(v_shade, v_sun, sun_visible()) * t + v_fog_in;
+        c += headlights(v_pos, v_normal, vec3(0.0), v_albedo.rgb * t, 0.0, 0.0, 0, 1)
+           * v_albedo.a;
+        frag = vec4(sqrt(tone_map(c)), v_alpha * tex.a);
         return;
     }
-    vec3 t = tex.rgb * tex.rgb;
-    vec3 c = mix(v_shade, v_sun, sun_visible()) * t + v_fog_in + emission(v_uv);
-#if HEADLIGHTS > 0
-    vec3 N = normalize(v_normal);
-    vec3 V = normalize(eye_position() - v_pos);
-    Surface s = surface_at(N, V, v_albedo.rgb * t);
-    c += headlights(v_pos, N, V, v_albedo.rgb * t, s.rough, s.f0) * v_albedo.a;
 #endif
-    frag = vec4(sqrt(tone_map(c)), v_alpha * tex.a);
-#else
     vec3 c = mix(v_shade, v_sun, sun_visible()) * tex.rgb;
-    frag = vec4(c, v_alpha * tex.a);
+#if NIGHT
+    if (flagged(WINDOWS)) {
+        c += sqrt(tone_map(emission(v_uv)));  // γ 2 here: a pixel's pow is dear on llvmpipe
+    }
 #endif
+    frag = vec4(c, v_alpha * tex.a);
 }
 """
 
 # The sky: the clear sky through the fog layer, clouds, and the sun's disc in front unless a
 # cloud hides it. `sky_at` gives the clear sky and the lit cloud colour for a direction; the
-# per-pixel sky calls it per pixel, the vertex-lit one per dome vertex (colours interpolated,
-# the cloud pattern and the disc still per pixel).
+# per-pixel sky calls it per pixel, the vertex-lit one per dome vertex (colours and cloud
+# cover interpolated, only the disc per pixel).
 SKY_COMMON = """
 uniform sampler2D cloud_map;
 float fog_through(vec3 d) { return exp(-fog.a * min(FOG_LAYER_M / max(d.z, 1e-3), FAR_SKY_M)); }
@@ -408,10 +429,15 @@ SKY_VS = """
 uniform mat4 p3d_ModelViewProjectionMatrix;
 in vec4 p3d_Vertex;
 out vec3 v_dir;
-out vec3 v_clear;   // display colours (vertex-lit presets)
-out vec3 v_cloud;
-out vec3 v_disc;
-out vec2 v_cloud_uv;
+out vec3 v_colour;  // display colour (vertex-lit presets)
+float cover_at(vec3 d) {
+#if CLOUDS
+    // per vertex on a finely cut dome, from the pattern's coarser levels: soft-edged clouds
+    return cloud_density(textureLod(cloud_map, cloud_uv(d), 2.0).r, d);
+#else
+    return 0.0;
+#endif
+}
 void main() {
     // on the far plane: drawn after the scene, it only fills pixels nothing else covered
     gl_Position = (p3d_ModelViewProjectionMatrix * p3d_Vertex).xyww;
@@ -419,25 +445,18 @@ void main() {
 #if !PER_PIXEL
     vec3 d = normalize(v_dir), clear, cloud;
     sky_at(d, clear, cloud);
-    v_clear = to_display(tone_map(clear));
-    v_cloud = to_display(tone_map(cloud));
-    v_disc = to_display(tone_map(sun_color * (SUN_DISC_GAIN * fog_through(d)))) - v_clear;
-    v_cloud_uv = cloud_uv(d);
+    v_colour = to_display(tone_map(mix(clear, cloud, cover_at(d))));
 #endif
 }
 """
 
 SKY_FS = """
 in vec3 v_dir;
-in vec3 v_clear;
-in vec3 v_cloud;
-in vec3 v_disc;
-in vec2 v_cloud_uv;
+in vec3 v_colour;
 out vec4 frag;
 void main() {
-    vec3 d = normalize(v_dir);
 #if PER_PIXEL
-    vec3 clear, cloud;
+    vec3 d = normalize(v_dir), clear, cloud;
     sky_at(d, clear, cloud);
     vec3 c = clear + sun_color * (SUN_DISC_GAIN * fog_through(d) * sun_disc(d));
 #if CLOUDS
@@ -445,12 +464,38 @@ void main() {
 #endif
     frag = vec4(to_display(tone_map(c)), 1.0);
 #else
-    vec3 c = v_clear + v_disc * sun_disc(d);
+    frag = vec4(v_colour, 1.0);  // the sun's disc is a sprite of its own (SUN_*)
+#endif
+}
+"""
+
+# The sun's disc where the sky is lit per vertex: a small card at the sun's direction on the
+# far plane, added to the sky behind it, dimmed by the cloud in front and the fog.
+SUN_VS = """
+uniform mat4 p3d_ModelViewProjectionMatrix;
+in vec4 p3d_Vertex;
+in vec2 p3d_MultiTexCoord0;
+out vec2 v_uv;
+out vec3 v_colour;
+void main() {
+    gl_Position = (p3d_ModelViewProjectionMatrix * p3d_Vertex).xyww;
+    v_uv = p3d_MultiTexCoord0 * 2.0 - 1.0;
 #if CLOUDS
-    c = mix(c, v_cloud, cloud_density(texture(cloud_map, v_cloud_uv).r, d));
+    float cover = cloud_density(textureLod(cloud_map, cloud_uv(sun_dir), 2.0).r, sun_dir);
+#else
+    float cover = 0.0;
 #endif
-    frag = vec4(c, 1.0);
-#endif
+    vec3 disc = sun_color * (SUN_DISC_GAIN * fog_through(sun_dir) * (1.0 - cover));
+    v_colour = to_display(tone_map(disc));
+}
+"""
+
+SUN_FS = """
+in vec2 v_uv;
+in vec3 v_colour;
+out vec4 frag;
+void main() {
+    frag = vec4(v_colour * smoothstep(1.0, 1.0 / 1.3, length(v_uv)), 1.0);
 }
 """
 
@@ -537,6 +582,9 @@ def shader_defines(preset: Preset, night: bool, sun_up: bool = True) -> str:
         "STREET_RGB": "vec3({}, {}, {})".format(*STREET_RGB),
         "WINDOW_RADIANCE": f"{WINDOW_RADIANCE}",
         "RAIN_ALPHA": "0.55",
+        "POOLS": "1",
+        "WINDOWS": "2",
+        "HEAD_REACH_M": f"{HEAD_REACH_M}",
     }
     return "\n".join(f"#define {name} {value}" for name, value in values.items())
 
@@ -558,3 +606,7 @@ def surface_sources(preset: Preset, night: bool, sun_up: bool) -> tuple[str, str
 
 def sky_sources(preset: Preset) -> tuple[str, str]:
     return program(preset, SKY_COMMON, SKY_VS), program(preset, SKY_COMMON, SKY_FS)
+
+
+def sun_sources(preset: Preset) -> tuple[str, str]:
+    return program(preset, SKY_COMMON, SUN_VS), program(preset, SKY_COMMON, SUN_FS)

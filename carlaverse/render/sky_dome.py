@@ -19,6 +19,8 @@ import math
 import numpy as np
 from panda3d.core import (
     BitMask32,
+    CardMaker,
+    ColorBlendAttrib,
     DepthTestAttrib,
     Geom,
     GeomNode,
@@ -30,15 +32,18 @@ from panda3d.core import (
     SamplerState,
     Shader,
     Texture,
+    Vec3,
 )
 
 from carlaverse.render.quality import Preset
-from carlaverse.render.shaders import sky_sources
+from carlaverse.render.shaders import SUN_DISC_RAD, sky_sources, sun_sources
 
 CLOUD_PX = 256  # side of the cloud texture
 CLOUD_OCTAVES = 6
 CLOUD_SEED = 42
-RINGS, SEGMENTS = 24, 48  # the dome's tessellation: fine enough for a sky lit per vertex
+# The dome's tessellation: per pixel a coarse one does; lit per vertex its clouds need ~4°.
+RINGS, SEGMENTS = 24, 48
+FINE_RINGS, FINE_SEGMENTS = 45, 90
 
 
 class SkyDome:
@@ -46,39 +51,59 @@ class SkyDome:
 
     def __init__(self, world: NodePath, preset: Preset, radius_m: float,
                  hide_from: BitMask32) -> None:  # fmt: skip
-        self.node = world.attach_new_node(sphere("sky", radius_m))
+        rings, segments = (RINGS, SEGMENTS) if preset.per_pixel else (FINE_RINGS, FINE_SEGMENTS)
+        self.node = world.attach_new_node(sphere("sky", radius_m, rings, segments))
         self.node.set_shader(Shader.make(Shader.SL_GLSL, *sky_sources(preset)))
-        # trilinear where pixels are cheap; bilinear on llvmpipe, which pays per texel read
-        self.node.set_shader_input("cloud_map", cloud_texture(mipmaps=preset.per_pixel))
+        self.node.set_shader_input("cloud_map", cloud_texture())
         self.node.set_bin("fixed", 0)  # after the opaque scene, before rain and glare
         self.node.set_depth_write(False)
         self.node.set_attrib(DepthTestAttrib.make(DepthTestAttrib.M_less_equal))
         self.node.set_two_sided(True)
         self.node.set_light_off(1)
         self.node.hide(hide_from)
+        self.radius_m = radius_m
+        self.sun = None if preset.per_pixel else self._sun_card(preset)
+
+    def _sun_card(self, preset: Preset) -> NodePath:
+        """The disc where the sky is lit per vertex: a card added over the sky, drawn after it."""
+        half = SUN_DISC_RAD * 1.3 * self.radius_m  # [m] the disc's edge fades out to here
+        maker = CardMaker("sun")
+        maker.set_frame(-half, half, -half, half)
+        card = self.node.attach_new_node(maker.generate())
+        card.set_shader(Shader.make(Shader.SL_GLSL, *sun_sources(preset)))
+        card.set_attrib(ColorBlendAttrib.make(ColorBlendAttrib.M_add,
+                        ColorBlendAttrib.O_one, ColorBlendAttrib.O_one))  # fmt: skip
+        card.set_bin("fixed", 1)
+        return card
+
+    def aim(self, towards_sun: tuple[float, float, float]) -> None:
+        """Put the sun's card at its direction, facing the eye."""
+        if self.sun is not None:
+            self.sun.set_pos(Vec3(*towards_sun) * self.radius_m)
+            self.sun.look_at(0.0, 0.0, 0.0)
 
     def follow(self, eye: NodePath) -> None:
         """Centre the dome on `eye` (the rig's head)."""
         self.node.set_pos(eye.get_pos(self.node.get_parent()))
 
 
-def sphere(name: str, radius: float) -> GeomNode:
+def sphere(name: str, radius: float, rings: int, segments: int) -> GeomNode:
     """A UV sphere of `radius` [m], positions only."""
     data = GeomVertexData(name, GeomVertexFormat.get_v3(), Geom.UH_static)
     vertex = GeomVertexWriter(data, "vertex")
-    for i in range(RINGS + 1):
-        lat = math.pi * (i / RINGS - 0.5)
-        for j in range(SEGMENTS + 1):
-            lon = 2 * math.pi * j / SEGMENTS
+    for i in range(rings + 1):
+        lat = math.pi * (i / rings - 0.5)
+        for j in range(segments + 1):
+            lon = 2 * math.pi * j / segments
             vertex.add_data3(
                 radius * math.cos(lat) * math.cos(lon),
                 radius * math.cos(lat) * math.sin(lon),
                 radius * math.sin(lat),
             )
     tris = GeomTriangles(Geom.UH_static)
-    row = SEGMENTS + 1
-    for i in range(RINGS):
-        for j in range(SEGMENTS):
+    row = segments + 1
+    for i in range(rings):
+        for j in range(segments):
             a, b = i * row + j, (i + 1) * row + j
             tris.add_vertices(a, b, a + 1)
             tris.add_vertices(a + 1, b, b + 1)
@@ -119,7 +144,7 @@ def _smooth_upsample(grid: np.ndarray, size: int) -> np.ndarray:
     return rows[:, i0] * (1 - f)[None, :] + rows[:, i1] * f[None, :]
 
 
-def cloud_texture(mipmaps: bool) -> Texture:
+def cloud_texture() -> Texture:
     """The cloud noise as a repeating single-channel texture."""
     noise = (cloud_noise() * 255).astype(np.uint8)
     tex = Texture("clouds")
@@ -127,6 +152,6 @@ def cloud_texture(mipmaps: bool) -> Texture:
     tex.set_ram_image(noise.tobytes())
     tex.set_wrap_u(SamplerState.WM_repeat)
     tex.set_wrap_v(SamplerState.WM_repeat)
-    tex.set_minfilter(SamplerState.FT_linear_mipmap_linear if mipmaps else SamplerState.FT_linear)
+    tex.set_minfilter(SamplerState.FT_linear_mipmap_linear)
     tex.set_magfilter(SamplerState.FT_linear)
     return tex
