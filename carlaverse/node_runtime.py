@@ -30,13 +30,13 @@ from typing import Any, Protocol
 import msgspec
 
 from carlaverse.config import StrictStruct, to_yaml
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
-from carlaverse.fabric.session import FabricSettings, open_session
-from carlaverse.fabric.stream_summary import StreamSummary
-from carlaverse.fabric.waiting import POLL_S, SessionWait, WaitNotice
 from carlaverse.messages import Notice
 from carlaverse.redact import redact_yaml
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings, PoseSource
+from carlaverse.transport.session import FabricSettings, open_session
+from carlaverse.transport.waiting import POLL_S, SessionWait, WaitNotice
+from carlaverse.world.stream_summary import StreamSummary
 
 log = logging.getLogger(__name__)
 

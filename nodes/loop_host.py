@@ -15,11 +15,11 @@ import threading
 from collections.abc import Callable, Iterator
 from typing import Any
 
-from carlaverse.fabric.node_client import NodeClient, PoseSource
 from carlaverse.messages import Pose
 from carlaverse.realtime import stop_loop_process
 from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import SharedBlock, block_name
+from carlaverse.transport.node_client import NodeClient, PoseSource
 
 PLANAR = ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")  # pose fields every loop's state has
 

@@ -16,9 +16,9 @@ from typing import Any
 
 from carlaverse.authority.domain import EmptyDomain
 from carlaverse.authority.service import Authority, AuthoritySettings
-from carlaverse.fabric.clock import MonotonicClock, WallAlignedClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.transport.clock import MonotonicClock, WallAlignedClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
 
 
 def free_port() -> int:

@@ -19,12 +19,12 @@ from carlaverse import messages as m
 from carlaverse.authority.actors import egos_at
 from carlaverse.authority.domain import EgoTrack
 from carlaverse.dead_reckoning import Motion, npc_motion, project, project_many
-from carlaverse.fabric.npc_table import NpcTable
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import Pose
 from carlaverse.support.angles import wrap_angle
 from carlaverse.traffic.engine import NpcFrame
+from carlaverse.world.npc_table import NpcTable
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.world_view import WorldView
 
 FIELDS = ("x", "y", "z", "vx", "vy", "vz")
 

@@ -28,9 +28,9 @@ from carlaverse import messages as m
 from carlaverse.audio.config import AudioConfig
 from carlaverse.audio.ears import BlockSpec, Ears
 from carlaverse.audio.scene import LOCAL
-from carlaverse.fabric.session import FabricSettings
 from carlaverse.keys import Keys
 from carlaverse.support.stats import percentile
+from carlaverse.transport.session import FabricSettings
 
 log = logging.getLogger(__name__)
 
@@ -158,8 +158,8 @@ def run_audio(spec: AudioSpec, stop: Any, results: Any) -> None:
 def _run(spec: AudioSpec, stop: Any, results: Any, summary: AudioSummary) -> None:
     from carlaverse.audio.output import open_output
     from carlaverse.audio.renderer import build_renderer, layout_channels
-    from carlaverse.fabric.session import open_session
     from carlaverse.realtime import raise_priority
+    from carlaverse.transport.session import open_session
 
     # Before any thread starts: they inherit it (the device's, Zenoh's own run at theirs).
     summary.priority = raise_priority(spec.config.output.realtime_priority)

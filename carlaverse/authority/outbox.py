@@ -6,7 +6,7 @@ BLOCK and carry sequence numbers for idempotent receivers (docs/architecture.md 
 
 Every put carries a timestamp from the authority's own session: its id is the session's zid,
 which the join reply names, so nodes can tell the authority's world messages from anyone
-else's (see `carlaverse.fabric.inbound` for what that does and does not prove).
+else's (see `carlaverse.transport.inbound` for what that does and does not prove).
 """
 
 from __future__ import annotations

@@ -29,8 +29,8 @@ import zenoh
 
 from carlaverse import messages as m
 from carlaverse.authority.pose_intake import PoseIntake
-from carlaverse.fabric.guard import Tally
 from carlaverse.keys import Keys
+from carlaverse.support.tally import Tally
 
 log = logging.getLogger(__name__)
 

@@ -26,8 +26,8 @@ from collections import deque
 from typing import Protocol
 
 from carlaverse import messages as m
-from carlaverse.fabric.guard import Tally
 from carlaverse.keys import KeySpaceError, parse_cached
+from carlaverse.support.tally import Tally
 
 RING_CAPACITY = 32_768  # samples: 2.5 s of the session's largest roster (512 egos at 50 Hz)
 

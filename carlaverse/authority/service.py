@@ -32,11 +32,12 @@ from carlaverse.authority.outbox import ZenohOutbox
 from carlaverse.authority.pose_digest import DIGEST_PERIOD_S, PoseDigestRelay
 from carlaverse.authority.pose_intake import RING_CAPACITY, PoseIntake
 from carlaverse.config import StrictStruct
-from carlaverse.fabric.clock import Clock
-from carlaverse.fabric.guard import HandlerGuard, Tally, reply_err
 from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse
 from carlaverse.realtime import raise_priority
 from carlaverse.support.stats import percentile
+from carlaverse.support.tally import Tally
+from carlaverse.transport.clock import Clock
+from carlaverse.transport.guard import HandlerGuard, reply_err
 
 log = logging.getLogger(__name__)
 

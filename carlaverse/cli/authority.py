@@ -25,16 +25,16 @@ from carlaverse.cli.common import (
 )
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
-from carlaverse.fabric.clock import WallAlignedClock
-from carlaverse.fabric.session import (
+from carlaverse.keys import AUTHORITY_ID, KeySpaceError, check_token
+from carlaverse.traffic.engine import EngineFailed
+from carlaverse.transport.clock import WallAlignedClock
+from carlaverse.transport.session import (
     FabricError,
     FabricUnreachable,
     await_mesh,
     build_config,
     open_session,
 )
-from carlaverse.keys import AUTHORITY_ID, KeySpaceError, check_token
-from carlaverse.traffic.engine import EngineFailed
 
 log = logging.getLogger(__name__)
 

@@ -18,9 +18,9 @@ from typing import Any, TextIO
 import msgspec
 
 from carlaverse.cli.exit_codes import Exit
-from carlaverse.fabric.session import FabricSettings, open_session, reachable
-from carlaverse.fabric.waiting import SessionWait, WaitNotice
 from carlaverse.keys import Keys
+from carlaverse.transport.session import FabricSettings, open_session, reachable
+from carlaverse.transport.waiting import SessionWait, WaitNotice
 
 
 def add_fabric_args(parser: argparse.ArgumentParser, session: bool = True) -> None:

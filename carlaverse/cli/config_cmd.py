@@ -131,7 +131,7 @@ def _check_hmi(path: Path, data: Any, kind: str) -> None:
 def _check_zenohd(path: Path, data: Any, kind: str) -> None:
     import zenoh
 
-    from carlaverse.fabric.session import zenoh_reason
+    from carlaverse.transport.session import zenoh_reason
 
     try:
         zenoh.Config.from_file(str(path))
@@ -162,7 +162,7 @@ def _check_node(path: Path, data: Any, kind: str) -> None:
 
 def _check_fabric(path: Path, fabric: Any) -> None:
     """Endpoints and raw Zenoh entries, as the session will be opened with them."""
-    from carlaverse.fabric.session import FabricError, build_config
+    from carlaverse.transport.session import FabricError, build_config
 
     try:
         build_config(fabric)

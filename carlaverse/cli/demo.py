@@ -27,10 +27,10 @@ import yaml
 from carlaverse.cli.common import StopSignal, fail, stop_on_signals
 from carlaverse.cli.demo_summary import format_summary, summarise
 from carlaverse.config import ConfigError, load_config
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
 
 DEFAULT_NODES = "scripted,scripted,scripted"
 ERROR_TAIL_LINES = 20  # stderr lines kept per child, to say why it failed

@@ -26,8 +26,6 @@ from carlaverse.cli.exit_codes import Exit
 from carlaverse.cli.join_hmi import add_hmi_arguments, node_hmi
 from carlaverse.cli.join_view import add_view_arguments, node_view
 from carlaverse.config import ConfigError, load_config
-from carlaverse.fabric.node_client import JoinRefused, NodeSettings
-from carlaverse.fabric.session import FabricError, FabricSettings, FabricUnreachable, build_config
 from carlaverse.keys import KeySpaceError, check_token
 from carlaverse.messages import Notice
 from carlaverse.node_runtime import (
@@ -37,6 +35,13 @@ from carlaverse.node_runtime import (
     load_node_kind,
     node_kinds,
     run_node,
+)
+from carlaverse.transport.node_client import JoinRefused, NodeSettings
+from carlaverse.transport.session import (
+    FabricError,
+    FabricSettings,
+    FabricUnreachable,
+    build_config,
 )
 
 

@@ -21,8 +21,8 @@ import msgspec
 
 from carlaverse.cli.common import Companion
 from carlaverse.config import ConfigError, load_config
-from carlaverse.fabric.node_client import NodeSettings
-from carlaverse.fabric.session import FabricSettings
+from carlaverse.transport.node_client import NodeSettings
+from carlaverse.transport.session import FabricSettings
 
 DEFAULT_RIG = "rigs/rig-desktop"
 # A rider's eye is not a driver's: the default rig per kind of the node's own actor.

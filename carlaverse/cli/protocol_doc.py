@@ -21,8 +21,8 @@ from carlaverse import messages as m
 from carlaverse.authority.service import TickSummary
 from carlaverse.cli import wire_catalog as wc
 from carlaverse.cli.exit_codes import MEANING, Exit
-from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.node_runtime import NodeSummary
+from carlaverse.world.stream_summary import StreamSummary
 
 REGENERATE = "carlaverse schema --write-doc docs/protocol.md"
 

@@ -18,7 +18,6 @@ from carlaverse.cli.common import (
 )
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
-from carlaverse.fabric.session import FabricError, FabricUnreachable
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.recorder import (
     DEFAULT_QUEUE_BYTES,
@@ -28,6 +27,7 @@ from carlaverse.recording.recorder import (
 )
 from carlaverse.recording.recover import recover
 from carlaverse.recording.sink import DEFAULT_CHUNK_SIZE, McapSink, RecordingError
+from carlaverse.transport.session import FabricError, FabricUnreachable
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

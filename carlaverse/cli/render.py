@@ -111,10 +111,10 @@ def run(args: argparse.Namespace) -> int:
     except ImportError as exc:
         return fail("render", f"rendering needs Panda3D ({exc}): pip install 'carlaverse[render]'")
     from carlaverse.config import ConfigError
-    from carlaverse.fabric.session import FabricError, FabricUnreachable
     from carlaverse.recording.sink import RecordingError
     from carlaverse.render.live import WorldMissing
     from carlaverse.render.renderer import FollowError
+    from carlaverse.transport.session import FabricError, FabricUnreachable
 
     live = not is_recording(args.source)
     stop = stop_on_signals() if live else threading.Event()  # Ctrl-C leaves a session cleanly
@@ -171,8 +171,8 @@ def _usage_problem(args: argparse.Namespace) -> str:
 
 def _fabric_problem(args: argparse.Namespace) -> str:
     from carlaverse.config import ConfigError
-    from carlaverse.fabric.session import FabricError, build_config
     from carlaverse.keys import KeySpaceError, check_token
+    from carlaverse.transport.session import FabricError, build_config
 
     try:  # a bad session name, endpoint or roster entry is a usage error
         check_token(args.source, "session name")
@@ -233,8 +233,8 @@ def _render_recording(args: argparse.Namespace, stop: threading.Event) -> Shown:
 
 
 def _render_live(args: argparse.Namespace, stop: threading.Event) -> Shown:
-    from carlaverse.fabric.node_client import NodeSettings
     from carlaverse.keys import Keys
+    from carlaverse.transport.node_client import NodeSettings
 
     deadline = time.monotonic() + args.join_timeout
     fabric = fabric_from_args(args)

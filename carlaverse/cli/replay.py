@@ -11,11 +11,11 @@ from pathlib import Path
 from carlaverse.cli.common import add_fabric_args, fabric_from_args, fail, tell
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
-from carlaverse.fabric.session import FabricError, await_mesh, open_session
 from carlaverse.keys import KeySpaceError, check_token, parse
 from carlaverse.recording.reading import iter_samples, read_channels
 from carlaverse.recording.replay import Replayer, ReplayStats, default_target
 from carlaverse.recording.sink import RecordingError
+from carlaverse.transport.session import FabricError, await_mesh, open_session
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

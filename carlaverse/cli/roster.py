@@ -18,13 +18,13 @@ from typing import Any
 
 from carlaverse.cli.common import fail
 from carlaverse.config import ConfigError
-from carlaverse.fabric.session import FabricSettings
 from carlaverse.redact import redact
 from carlaverse.security.acl import site_acl
 from carlaverse.security.certs import CertificateError
 from carlaverse.security.roster import LoadedRoster, load_roster
 from carlaverse.security.sites import node_fabric_settings, password_files, router_settings_for_site
 from carlaverse.security.zenoh_entries import CredentialError, write_private
+from carlaverse.transport.session import FabricSettings
 
 PASSWORD_BYTES = 24  # 192 bits, base64url: 32 characters
 
@@ -109,7 +109,7 @@ def _zenoh_config(loaded: LoadedRoster, args: argparse.Namespace) -> int:
 
 def nested_config(settings: FabricSettings) -> dict[str, Any]:
     """The settings as one nested Zenoh config object (what `zenohd -c` reads)."""
-    from carlaverse.fabric.session import build_config
+    from carlaverse.transport.session import build_config
 
     return json.loads(str(build_config(settings)))
 

@@ -8,7 +8,7 @@ import time
 
 from carlaverse.cli.common import fail, stop_on_signals
 from carlaverse.config import ConfigError, StrictStruct, load_config
-from carlaverse.fabric.session import FabricError, FabricSettings, open_session
+from carlaverse.transport.session import FabricError, FabricSettings, open_session
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
 

@@ -23,11 +23,11 @@ from carlaverse.cli.common import (
 )
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config
-from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, check_token
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricError, FabricUnreachable, build_config
+from carlaverse.world.stream_summary import StreamSummary
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

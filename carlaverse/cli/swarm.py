@@ -22,9 +22,9 @@ from carlaverse.cli.common import (
 )
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError, invalid_at
-from carlaverse.fabric.session import FabricError, FabricUnreachable, open_session
 from carlaverse.keys import KeySpaceError
 from carlaverse.swarm.generator import Swarm, SwarmReport, SwarmSettings
+from carlaverse.transport.session import FabricError, FabricUnreachable, open_session
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

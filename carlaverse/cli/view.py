@@ -23,8 +23,8 @@ from carlaverse.cli.common import (
 )
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
-from carlaverse.fabric.session import FabricError, FabricUnreachable, build_config
 from carlaverse.keys import Keys, KeySpaceError, check_token
+from carlaverse.transport.session import FabricError, FabricUnreachable, build_config
 
 if TYPE_CHECKING:
     from carlaverse.viz.outputs import ViewOutput

@@ -15,9 +15,9 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.hmi.wire import Command
 from carlaverse.shm import SharedBlock, TornRead
+from carlaverse.transport.node_client import NodeSettings
 
 
 class HmiBridge(Protocol):

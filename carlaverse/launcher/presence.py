@@ -17,16 +17,16 @@ import msgspec
 
 from carlaverse import messages as m
 from carlaverse.cli.stats import summaries
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import (
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import (
     FabricError,
     FabricSettings,
     open_session,
     reachable,
     reaches_anyone,
 )
-from carlaverse.fabric.stream_summary import StreamSummary
+from carlaverse.world.stream_summary import StreamSummary
 
 log = logging.getLogger(__name__)
 

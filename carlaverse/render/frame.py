@@ -15,7 +15,6 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import (
     KIND_EXTENTS,
     LIGHT_LEFT_BLINKER,
@@ -26,6 +25,7 @@ from carlaverse.messages import (
     NpcBatch,
     Weather,
 )
+from carlaverse.world.world_view import WorldView
 
 INDICATOR_BITS = {
     "off": 0,

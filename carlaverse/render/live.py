@@ -22,9 +22,6 @@ import numpy as np
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import JoinRefused, NodeClient, NodeSettings
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.render.frame import (
     ActorDraw,
@@ -36,6 +33,9 @@ from carlaverse.render.frame import (
     with_skeletons,
 )
 from carlaverse.shm import SharedBlock, TornRead
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import JoinRefused, NodeClient, NodeSettings
+from carlaverse.world.world_view import WorldView
 
 log = logging.getLogger(__name__)
 

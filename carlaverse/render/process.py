@@ -27,11 +27,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from carlaverse.fabric.node_client import NodeSettings
-from carlaverse.fabric.session import FabricSettings
 from carlaverse.render.live import OwnPoseBlock
 from carlaverse.render.rig import RenderConfig
 from carlaverse.support.stats import percentile
+from carlaverse.transport.node_client import NodeSettings
+from carlaverse.transport.session import FabricSettings
 
 log = logging.getLogger(__name__)
 
@@ -130,9 +130,9 @@ def run_view(spec: ViewSpec, stop: Any, results: Any) -> None:
 
 
 def _run(spec: ViewSpec, stop: Any, summary: ViewSummary) -> None:
-    from carlaverse.fabric.session import open_session
     from carlaverse.render.live import LiveWorld
     from carlaverse.render.renderer import Renderer
+    from carlaverse.transport.session import open_session
 
     session = open_session(spec.fabric)
     world = LiveWorld(session, spec.node, spec.own).start()

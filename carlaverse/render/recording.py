@@ -1,7 +1,7 @@
 """A world view fed from an MCAP recording, so any moment of a session can be rendered.
 
 `RecordedWorld` is the recording's `WorldSource`: its samples go into a real `WorldView`
-through the view's intake (`fabric.source.SampleFeed`: each decoded once, in the intake's one
+through the view's intake (`world.source.SampleFeed`: each decoded once, in the intake's one
 representation, as a live node's would be), in receive order; the receive time is the
 recorder's log time moved onto the session clock (by the offset of the first pose: log time −
 the pose's own session time). `advance(t)` feeds everything received up to session time `t`;
@@ -18,13 +18,13 @@ from pathlib import Path
 
 from carlaverse import keys as keyspace
 from carlaverse import messages as m
-from carlaverse.fabric.intake import WorldIntake
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.source import SampleFeed
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.recording.reading import RecordedSample, iter_samples
 from carlaverse.render.frame import SceneFrame, frame_from_view, npc_attributes, with_skeletons
 from carlaverse.render.live import skeleton_angles
+from carlaverse.world.intake import WorldIntake
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.source import SampleFeed
+from carlaverse.world.world_view import WorldView
 
 log = logging.getLogger(__name__)
 VIEW_ID = "carlaverse-render"  # never a node id of the session: ids are reserved per node

@@ -19,7 +19,6 @@ from typing import Any
 import msgspec
 
 from carlaverse.config import ConfigError
-from carlaverse.fabric.session import FabricSettings, Mode
 from carlaverse.security.acl import site_acl
 from carlaverse.security.certs import CertificateError, ca_file, identity_files
 from carlaverse.security.roster import Identity, LoadedRoster, load_roster
@@ -32,6 +31,7 @@ from carlaverse.security.zenoh_entries import (
     usrpwd_entries,
     write_private,
 )
+from carlaverse.transport.session import FabricSettings, Mode
 
 
 def router_settings_for_site(config_path: str | Path, site: str) -> FabricSettings:

@@ -22,11 +22,11 @@ import zenoh
 
 from carlaverse import messages as m
 from carlaverse.config import StrictStruct
-from carlaverse.fabric.clock import MonotonicClock, SessionClock
-from carlaverse.fabric.interest import TiledPublisher
 from carlaverse.keys import Keys, check_token
 from carlaverse.swarm.membership import SwarmMembership
 from carlaverse.swarm.paths import BlockLoops
+from carlaverse.transport.clock import MonotonicClock, SessionClock
+from carlaverse.transport.interest import TiledPublisher
 
 log = logging.getLogger(__name__)
 

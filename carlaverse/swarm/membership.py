@@ -19,9 +19,9 @@ import zenoh
 
 from carlaverse import __version__
 from carlaverse import messages as m
-from carlaverse.fabric.clock import SessionClock
-from carlaverse.fabric.node_client import LEAVE_EVENT_WAIT_S
 from carlaverse.keys import Keys
+from carlaverse.transport.clock import SessionClock
+from carlaverse.transport.node_client import LEAVE_EVENT_WAIT_S
 
 log = logging.getLogger(__name__)
 

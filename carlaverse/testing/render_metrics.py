@@ -25,10 +25,10 @@ from typing import Any, Protocol
 
 import msgspec
 
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import Pose, encode_pose
 from carlaverse.support.stats import percentile
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.world_view import WorldView
 
 RENDERERS = ("past", "present", "naive")
 Frame = tuple[float, float, float, float]  # now, time shown [s], x, y [m]

@@ -14,10 +14,10 @@ import random
 from dataclasses import dataclass
 
 from carlaverse import messages as m
-from carlaverse.fabric.remote_actor import InterpolationSettings
 from carlaverse.testing.linkemu import LinkModel, LinkProfile, Transport
 from carlaverse.testing.render_metrics import RENDERERS, Frame, Metrics, RendererSet, measure
 from carlaverse.testing.trajectories import Trajectory
+from carlaverse.world.remote_actor import InterpolationSettings
 
 
 @dataclass(frozen=True, slots=True)

@@ -23,10 +23,10 @@ import numpy as np
 import rerun as rr
 
 from carlaverse import messages as m
-from carlaverse.fabric.npc_table import NpcFrame
-from carlaverse.fabric.remote_actor import ActorView
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.viz.model import ActorLook
+from carlaverse.world.npc_table import NpcFrame
+from carlaverse.world.remote_actor import ActorView
+from carlaverse.world.world_view import WorldView
 
 TRAIL_EGO = 600  # points kept per ego trail (30 s at 20 Hz)
 TRAIL_NPC = 40  # points kept per NPC trail (2 s at 20 Hz)

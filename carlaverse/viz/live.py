@@ -23,15 +23,15 @@ from typing import Any
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.fabric.clock import Clock, MonotonicClock, SessionClock
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.source import SampleFeed
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import Keys
+from carlaverse.transport.clock import Clock, MonotonicClock, SessionClock
 from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import ActorFeed
 from carlaverse.viz.scene import SceneLogger
 from carlaverse.viz.store import SampleStore
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.source import SampleFeed
+from carlaverse.world.world_view import WorldView
 
 log = logging.getLogger(__name__)
 VIEW_ID = "carlaverse-view"  # the view's own id in its WorldView: never a node id

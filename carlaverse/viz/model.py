@@ -19,8 +19,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from carlaverse import messages as m
-from carlaverse.fabric.source import SampleFeed
 from carlaverse.viz.store import Batch, Sample
+from carlaverse.world.source import SampleFeed
 
 log = logging.getLogger(__name__)
 

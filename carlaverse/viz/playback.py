@@ -18,9 +18,6 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.source import SampleFeed
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import KeySpaceError, parse_cached
 from carlaverse.recording.reading import iter_samples
 from carlaverse.render.recording import first_pose
@@ -29,6 +26,9 @@ from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import ActorFeed
 from carlaverse.viz.scene import SceneLogger
 from carlaverse.viz.store import SampleStore
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.source import SampleFeed
+from carlaverse.world.world_view import WorldView
 
 PLAUSIBLE_LATENCY_S = 10.0  # [s] above this (or below 0) the two clocks are not comparable
 ACTOR_CHANNELS = {("ego", "pose"), ("world", "npc")}

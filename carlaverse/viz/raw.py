@@ -18,9 +18,9 @@ import numpy as np
 import rerun as rr
 
 from carlaverse import messages as m
-from carlaverse.fabric.intake import INBOX_LIMIT
-from carlaverse.fabric.source import SampleFeed
 from carlaverse.keys import KeySpaceError, parse_cached
+from carlaverse.world.intake import INBOX_LIMIT
+from carlaverse.world.source import SampleFeed
 
 RAW_COLOR = (255, 0, 255)  # magenta: not a kind colour, so a raw sample never passes for an actor
 RAW_RADIUS_M = 0.25  # [m]

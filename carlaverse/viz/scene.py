@@ -25,10 +25,10 @@ import math
 import rerun as rr
 
 from carlaverse import messages as m
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.viz.actors import KIND_COLORS, ActorLayer, quaternion
 from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import RawTap
+from carlaverse.world.world_view import WorldView
 
 __all__ = ["KIND_COLORS", "LIGHT_COLORS", "SceneLogger", "quaternion"]
 

@@ -28,13 +28,13 @@ from carlaverse_nodes.bike.fork_feel import ForkFeelParams
 from carlaverse_nodes.bike.trainer_command import TrainerFeelParams
 
 from carlaverse.config import StrictStruct, resolve_path
-from carlaverse.fabric.node_client import NodeSettings
-from carlaverse.fabric.session import FabricSettings
 from carlaverse.hal import FfbConfig, InputConfig, SpeedSensorConfig, TrainerConfig
 from carlaverse.hal.trainer.resistance_table import ResistanceTable, load_table
 from carlaverse.messages import Extent
 from carlaverse.physics.bicycle import BicycleParams
 from carlaverse.physics.resistance import ResistanceParams
+from carlaverse.transport.node_client import NodeSettings
+from carlaverse.transport.session import FabricSettings
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 DEFAULT_TABLE = "bike-trainer-table.yaml"

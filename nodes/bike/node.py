@@ -27,9 +27,9 @@ from carlaverse_nodes.map_route import MapRoute, map_lanes
 
 from carlaverse import messages as m
 from carlaverse.config import ConfigError
-from carlaverse.fabric.node_client import NodeClient
 from carlaverse.hal import FfbConfig, InputConfig, TrainerConfig
 from carlaverse.hal.input.pursuit import scripted_route
+from carlaverse.transport.node_client import NodeClient
 
 log = logging.getLogger(__name__)
 

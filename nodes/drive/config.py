@@ -1,7 +1,7 @@
 """The drive node's configuration: one YAML file, the single source of truth
 (docs/architecture.md §10).
 
-    node:     {node_id: tum-drive-1, kind: drive}        carlaverse.fabric NodeSettings
+    node:     {node_id: tum-drive-1, kind: drive}        carlaverse.transport NodeSettings
     fabric:   {connect: [tcp/10.0.0.1:7447]}             FabricSettings
     vehicle:  vehicles/compact-car.yaml                  a file (relative to this one, or
                                                          shipped) or the parameters inline
@@ -28,8 +28,6 @@ from carlaverse_nodes.drive.adas import AdasParams
 from carlaverse_nodes.drive.controls import ControlsConfig
 
 from carlaverse.config import ConfigError, StrictStruct, load_config, resolve_path
-from carlaverse.fabric.node_client import NodeSettings
-from carlaverse.fabric.session import FabricSettings
 from carlaverse.hal import FfbConfig, InputConfig, MotionConfig
 from carlaverse.hal.motion_packet import MotionLimits
 from carlaverse.messages import Extent
@@ -37,6 +35,8 @@ from carlaverse.physics.motion_cueing import MotionCueingParams
 from carlaverse.physics.params import VehicleParams, load_vehicle
 from carlaverse.physics.roughness import RoughnessClass
 from carlaverse.physics.steering_feel import SteeringFeelParams
+from carlaverse.transport.node_client import NodeSettings
+from carlaverse.transport.session import FabricSettings
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 DEFAULT_VEHICLE = "vehicles/compact-car.yaml"

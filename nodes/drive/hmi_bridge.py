@@ -20,12 +20,12 @@ from carlaverse_nodes.drive.shared_state import INDICATORS
 from carlaverse_nodes.drive.touch import TouchPress
 from carlaverse_nodes.loop_host import drain
 
-from carlaverse.fabric.node_client import NodeSettings
 from carlaverse.hmi.bridge import StateBridge
 from carlaverse.hmi.wire import Command, Cruise, Press
 from carlaverse.messages import Override
 from carlaverse.physics.params import VehicleParams
 from carlaverse.shm import SharedBlock
+from carlaverse.transport.node_client import NodeSettings
 
 CRUISE_SOURCE = "hmi-cruise"
 REV_WARNING = 0.97  # of the redline

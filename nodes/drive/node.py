@@ -31,12 +31,12 @@ from carlaverse_nodes.map_route import MapRoute, map_lanes
 
 from carlaverse import messages as m
 from carlaverse.config import ConfigError
-from carlaverse.fabric.node_client import NodeClient
 from carlaverse.hal import FfbConfig, InputConfig, MotionConfig
 from carlaverse.hal.input.pursuit import scripted_route
 from carlaverse.messages import EgoState
 from carlaverse.physics.params import VehicleParams
 from carlaverse.physics.road_surface import RoadSurface
+from carlaverse.transport.node_client import NodeClient
 
 log = logging.getLogger(__name__)
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 from typing import Any
 
 from carlaverse.config import StrictStruct
-from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
-from carlaverse.fabric.session import FabricSettings
+from carlaverse.transport.node_client import NodeClient, NodeSettings, PoseSource
+from carlaverse.transport.session import FabricSettings
 
 
 class ObserverConfig(StrictStruct):

@@ -11,8 +11,8 @@ from typing import Any
 from carlaverse_nodes.scripted.trajectories import CirclePath, PathSpec
 
 from carlaverse.config import StrictStruct
-from carlaverse.fabric.node_client import NodeClient, NodeSettings, PoseSource
-from carlaverse.fabric.session import FabricSettings
+from carlaverse.transport.node_client import NodeClient, NodeSettings, PoseSource
+from carlaverse.transport.session import FabricSettings
 
 
 class ScriptedConfig(StrictStruct):

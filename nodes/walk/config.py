@@ -21,10 +21,10 @@ from carlaverse_nodes.walk.gait import GaitSettings
 from carlaverse_nodes.walk.walkable import LaneSettings
 
 from carlaverse.config import StrictStruct
-from carlaverse.fabric.node_client import NodeSettings
-from carlaverse.fabric.session import FabricSettings
 from carlaverse.hal import InputConfig, XrConfig
 from carlaverse.messages import Extent
+from carlaverse.transport.node_client import NodeSettings
+from carlaverse.transport.session import FabricSettings
 
 PEDESTRIAN = Extent(0.5, 0.6, 1.75)  # [m] length (depth), width (shoulders), height
 

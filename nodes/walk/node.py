@@ -28,11 +28,11 @@ from carlaverse_nodes.walk.walkable import Walkable
 
 from carlaverse import messages as m
 from carlaverse.body.skeleton import SkeletonSource
-from carlaverse.fabric.node_client import NodeClient
 from carlaverse.hal import XrConfig, xr
 from carlaverse.hal.errors import HalError
 from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import block_name
+from carlaverse.transport.node_client import NodeClient
 
 log = logging.getLogger(__name__)
 

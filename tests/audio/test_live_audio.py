@@ -18,8 +18,8 @@ from carlaverse.audio.config import AudioConfig
 from carlaverse.audio.output import SimulatedOutput
 from carlaverse.audio.wav import read_wav
 from carlaverse.cli import main
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster
 
 BLOCK_S = 512 / 48_000  # [s] the shipped configs' block

@@ -11,8 +11,8 @@ import zenoh
 
 from carlaverse import messages as m
 from carlaverse.authority.outbox import ZenohOutbox
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import free_port, wait_until
 
 K = Keys("t")

@@ -15,10 +15,10 @@ import pytest
 import zenoh
 
 from carlaverse.authority.pose_intake import RING_CAPACITY, PoseIntake
-from carlaverse.fabric.guard import Tally
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
 from carlaverse.messages import Pose, encode_pose
+from carlaverse.support.tally import Tally
+from carlaverse.transport.session import FabricSettings, open_session
 
 EGOS = 8
 SWAPS = 3_000  # relay on, take, off: each a moment where both readers could meet

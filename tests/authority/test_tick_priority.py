@@ -11,8 +11,8 @@ import pytest
 
 from carlaverse.authority.domain import EgoTrack, EmptyDomain, Outbox
 from carlaverse.authority.service import Authority, AuthoritySettings
-from carlaverse.fabric.clock import WallAlignedClock
-from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.transport.clock import WallAlignedClock
+from carlaverse.transport.session import FabricSettings, open_session
 
 
 class SchedulingProbe(EmptyDomain):

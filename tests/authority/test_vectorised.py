@@ -22,9 +22,9 @@ from carlaverse.authority.pose_intake import PoseIntake
 from carlaverse.authority.sound_audibility import audible, emitters
 from carlaverse.authority.sound_sources import EVERY_LISTENER, SoundSources, actor_columns
 from carlaverse.dead_reckoning import project
-from carlaverse.fabric.guard import Tally
 from carlaverse.messages import ACTOR_KINDS, AUDIO_KINDS, NPC_DTYPE, EgoInfo, Extent, Pose
 from carlaverse.support.angles import wrap_angle
+from carlaverse.support.tally import Tally
 from carlaverse.traffic.engine import EgoPlacements, NpcFrame, kind_code
 from carlaverse.traffic.scenario import CollisionSpec
 

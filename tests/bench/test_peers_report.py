@@ -113,7 +113,7 @@ def test_py_spy_stacks_are_staged_by_their_method_names(monkeypatch: pytest.Monk
     from peers.profile import hottest, stage_shares
 
     stacks = Counter({
-        "_send_measured (run.py:80);NodeClient.publish_pose (fabric/node_client.py:200)": 3,
+        "_send_measured (run.py:80);NodeClient.publish_pose (transport/node_client.py:200)": 3,
         "Thread.run (threading.py:1);guarded (guard.py:9);Inbound._on_pose (inbound.py:3)": 1,
     })  # fmt: skip
     shares = dict(stage_shares(stacks))

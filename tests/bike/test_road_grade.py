@@ -17,10 +17,10 @@ from carlaverse import messages as m
 from carlaverse.authority.domain import EmptyDomain
 from carlaverse.authority.service import Authority, AuthoritySettings
 from carlaverse.config import ConfigError
-from carlaverse.fabric.clock import WallAlignedClock
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.shm import SharedBlock, block_name
 from carlaverse.traffic.scenario import load_scenario
+from carlaverse.transport.clock import WallAlignedClock
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, wait_until
 
 HILL = """\

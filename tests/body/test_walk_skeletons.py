@@ -14,8 +14,8 @@ import yaml
 
 from carlaverse import messages as m
 from carlaverse.config import shipped_dir
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, wait_until
 
 

@@ -20,8 +20,8 @@ import pytest
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import AUTHORITY_ID, Keys
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, Proc, free_port
 
 STARTUP_S = 4.0  # [s] an interpreter and Zenoh starting on a loaded two-core host

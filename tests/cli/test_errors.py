@@ -8,7 +8,7 @@ import time
 import pytest
 
 from carlaverse.cli import main
-from carlaverse.fabric.session import (
+from carlaverse.transport.session import (
     CLIENT_ATTEMPT_MS,
     FabricError,
     FabricSettings,

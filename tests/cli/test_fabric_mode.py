@@ -7,7 +7,7 @@ import argparse
 import pytest
 
 from carlaverse.cli.common import add_fabric_args, fabric_from_args
-from carlaverse.fabric.session import FabricSettings, on_this_host, reachable
+from carlaverse.transport.session import FabricSettings, on_this_host, reachable
 
 # 192.0.2.0/24 is TEST-NET-1: never an address of this host. Nothing is sent to it: the test
 # only binds (and fails to bind) a socket to learn that.

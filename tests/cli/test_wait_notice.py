@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from carlaverse.fabric.waiting import WaitNotice
 from carlaverse.keys import Keys
+from carlaverse.transport.waiting import WaitNotice
 
 
 class FakeWait:

@@ -15,10 +15,10 @@ import zenoh
 
 from carlaverse import messages as m
 from carlaverse.authority.service import Authority
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import JoinRefused, NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import AUTHORITY_ID, Keys
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import JoinRefused, NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, wait_until
 
 KEYS = Keys("t")

@@ -12,11 +12,11 @@ import yaml
 from carlaverse import messages as m
 from carlaverse.authority.domain import EmptyDomain
 from carlaverse.authority.service import Authority, AuthoritySettings
-from carlaverse.fabric.clock import WallAlignedClock
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.hal.motion_server import LogPlatform, MotionServer
 from carlaverse.hal.motion_server.platform import LogPlatformOptions
 from carlaverse.traffic.scenario import load_scenario
+from carlaverse.transport.clock import WallAlignedClock
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster
 
 # A hump 8 cm high and 3 m long across the road at x = 40 m. The node's car spawns at the

@@ -11,8 +11,8 @@ import yaml
 from carlaverse_nodes.scripted.trajectories import CirclePath
 
 from carlaverse import messages as m
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, StallWatch, wait_until
 
 TIMEOUT_S = 3.0  # the authority's default despawn timeout

@@ -24,8 +24,8 @@ import zenoh
 
 from carlaverse import messages as m
 from carlaverse.authority.join_check import join_problem
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys, parse
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.integration.test_fabric_session import start_pair
 from tests.support import Cluster, wait_until
 

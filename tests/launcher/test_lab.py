@@ -11,12 +11,12 @@ from pathlib import Path
 import pytest
 
 from carlaverse import messages as m
-from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.keys import KeySpaceError
 from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.lab import Lab
 from carlaverse.launcher.presence import presence_rows
 from carlaverse.launcher.processes import LaunchError, Supervisor
+from carlaverse.world.stream_summary import StreamSummary
 from tests.support import wait_until
 
 

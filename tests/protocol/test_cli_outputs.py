@@ -11,8 +11,8 @@ from pathlib import Path
 import msgspec
 
 from carlaverse.authority.service import TickSummary
-from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.node_runtime import NodeSummary
+from carlaverse.world.stream_summary import StreamSummary
 from tests.support import Cluster
 
 DOC = (Path(__file__).resolve().parents[2] / "docs" / "protocol.md").read_text(encoding="utf-8")

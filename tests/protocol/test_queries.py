@@ -14,7 +14,7 @@ import pytest
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.fabric.session import FabricSettings, open_session
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, wait_until
 
 PREFIX = "carlaverse/t"

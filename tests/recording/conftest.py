@@ -12,10 +12,10 @@ from typing import Any
 import pytest
 import zenoh
 
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
 from carlaverse.recording.sink import McapSink
 from carlaverse.recording.synthetic import SyntheticSession, SyntheticSpec
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import free_port, wait_until
 
 

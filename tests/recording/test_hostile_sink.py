@@ -15,13 +15,13 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from carlaverse import messages as m
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
 from carlaverse.recording.admission import Budget, KeyAdmission
 from carlaverse.recording.reading import iter_samples, read_attachments, read_metadata
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.sink import McapSink
 from carlaverse.redact import REDACTED
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.recording.conftest import GatedSink
 from tests.recording.hostile import hostile_payloads
 from tests.support import wait_until

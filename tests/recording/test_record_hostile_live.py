@@ -21,9 +21,9 @@ from pathlib import Path
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
 from carlaverse.recording.reading import is_finished, iter_samples, read_metadata
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.recording.hostile import hostile_payloads
 from tests.support import Cluster, Proc, wait_until
 

@@ -13,13 +13,13 @@ import yaml
 import zenoh
 
 from carlaverse import cli, messages
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys, parse
 from carlaverse.recording.reading import RecordedSample, iter_samples
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.replay import Replayer, is_command
 from carlaverse.recording.replay import wait_until as wait_deadline
 from carlaverse.recording.sink import McapSink
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.recording.conftest import World
 from tests.support import wait_until
 

@@ -18,14 +18,14 @@ from carlaverse_nodes.bike.bike_loop import BikeLoop
 from carlaverse_nodes.bike.config import BikeNodeConfig, resolve_table
 
 from carlaverse import messages as m
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import Extent
 from carlaverse.render.cameras import Eye
 from carlaverse.render.frame import SceneFrame, frame_from_view
 from carlaverse.render.renderer import Renderer
 from carlaverse.render.rig import HeadPosition, RenderConfig, Resolution, SimpleRig, layout
 from carlaverse.render.rig import project_column as column_of
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.world_view import WorldView
 from tests.render.support import changed
 
 pytestmark = pytest.mark.usefixtures("offscreen_gl")

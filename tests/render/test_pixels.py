@@ -7,8 +7,6 @@ import numpy as np
 import pytest
 
 from carlaverse import messages as m
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.recording.synthetic import synthetic_map
 from carlaverse.render.frame import SceneFrame, frame_from_view, npc_attributes
 from carlaverse.render.renderer import Renderer
@@ -21,6 +19,8 @@ from carlaverse.render.rig import (
     layout,
     project_column,
 )
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.world_view import WorldView
 from tests.render.support import car, changed, footprint, green, head_frame, red, yellow
 
 pytestmark = pytest.mark.usefixtures("offscreen_gl")

@@ -48,11 +48,11 @@ def _empty_scene() -> np.ndarray:
 def test_view_process_shows_the_scripted_node_and_reports(tmp_path: Path) -> None:
     from carlaverse_nodes.drive.shared_state import STATE
 
-    from carlaverse.fabric.node_client import NodeSettings
-    from carlaverse.fabric.session import FabricSettings
     from carlaverse.render.live import OwnPoseBlock
     from carlaverse.render.process import ViewProcess, ViewSpec
     from carlaverse.shm import block_name
+    from carlaverse.transport.node_client import NodeSettings
+    from carlaverse.transport.session import FabricSettings
 
     scripted = tmp_path / "scripted.yaml"
     scripted.write_text(SCRIPTED)

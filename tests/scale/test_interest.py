@@ -15,10 +15,10 @@ import numpy as np
 import yaml
 
 from carlaverse import messages as m
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import tile_of, tile_token
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, InProcessAuthority, wait_until
 
 FAR_M = 5000.0  # [m] far beyond any interest radius

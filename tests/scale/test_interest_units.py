@@ -11,15 +11,15 @@ from hypothesis import strategies as st
 
 from carlaverse import messages as m
 from carlaverse.authority.npc_tiles import split_by_tile
-from carlaverse.fabric.interest import (
+from carlaverse.keys import TILE_SIZE_M, Keys, KeySpaceError, parse, tile_of, tile_token
+from carlaverse.transport.interest import (
     TILE_HYSTERESIS_M,
     TileTracker,
     tile_reach,
     tiles_around,
 )
-from carlaverse.fabric.interest_npcs import NpcTiles
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.keys import TILE_SIZE_M, Keys, KeySpaceError, parse, tile_of, tile_token
+from carlaverse.world.interest_npcs import NpcTiles
+from carlaverse.world.remote_actor import InterpolationSettings
 
 K = Keys("s")
 coordinate = st.floats(-20_000, 20_000, allow_nan=False)

@@ -10,9 +10,9 @@ import pytest
 
 from carlaverse.cli import main
 from carlaverse.cli.swarm import add_arguments, settings_from_args
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.messages import Pose, decode_pose
 from carlaverse.swarm.generator import Swarm, SwarmSettings
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, wait_until
 
 EGOS = 12

@@ -12,11 +12,11 @@ import msgspec
 import yaml
 import zenoh
 
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.security.certs import SubjectAltNames, ensure_authority, issue_to_directory
 from carlaverse.security.roster import LoadedRoster, load_roster
 from carlaverse.security.sites import node_fabric_settings, router_settings_for_site
 from carlaverse.security.zenoh_entries import write_private
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import free_port
 
 SESSION = "sec"

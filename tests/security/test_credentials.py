@@ -10,7 +10,6 @@ import msgspec
 import pytest
 import zenoh
 
-from carlaverse.fabric.session import FabricError, FabricSettings, open_session
 from carlaverse.keys import Keys
 from carlaverse.security.certs import (
     SubjectAltNames,
@@ -20,6 +19,7 @@ from carlaverse.security.certs import (
 )
 from carlaverse.security.sites import router_settings_for_site
 from carlaverse.security.zenoh_entries import tls_entries, usrpwd_entries
+from carlaverse.transport.session import FabricError, FabricSettings, open_session
 from tests.security.lab import SESSION, Inbox, Lab
 from tests.support import wait_until
 

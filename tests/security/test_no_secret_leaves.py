@@ -17,12 +17,12 @@ import yaml
 import zenoh
 
 from carlaverse import messages
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
 from carlaverse.recording.archive import CONFIG_ATTACHMENT
 from carlaverse.recording.reading import iter_samples, read_attachments, read_metadata
 from carlaverse.redact import REDACTED
 from carlaverse.security.zenoh_entries import write_private
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.security.lab import SESSION, Lab
 from tests.support import Cluster, Proc, free_port, wait_until
 

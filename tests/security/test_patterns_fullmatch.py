@@ -36,15 +36,15 @@ import pytest
 from carlaverse import messages as m
 from carlaverse.authority.join_check import join_problem
 from carlaverse.cli.doctor import host_port
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricError, FabricSettings, check_endpoint, open_session
 from carlaverse.hmi.config import PAGE_NAME
 from carlaverse.hmi.site import ASSET
 from carlaverse.keys import Keys, KeySpaceError, check_token, parse, tile_index
 from carlaverse.render.scene_roads import edge_and_index
 from carlaverse.security.roster import load_roster
 from carlaverse.traffic.openscenario import _identifier
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricError, FabricSettings, check_endpoint, open_session
 from tests.support import Cluster, wait_until
 
 REPO = Path(__file__).resolve().parents[2]

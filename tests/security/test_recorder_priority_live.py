@@ -23,11 +23,11 @@ from pathlib import Path
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import TILE_SIZE_M, Keys
 from carlaverse.recording.reading import iter_samples, read_metadata
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, Proc, wait_until
 
 K = Keys("t")

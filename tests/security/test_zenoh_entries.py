@@ -8,7 +8,6 @@ from pathlib import Path
 import pytest
 import zenoh
 
-from carlaverse.fabric.session import FabricSettings, build_config
 from carlaverse.security.zenoh_entries import (
     CredentialError,
     dictionary_text,
@@ -17,6 +16,7 @@ from carlaverse.security.zenoh_entries import (
     usrpwd_entries,
     write_private,
 )
+from carlaverse.transport.session import FabricSettings, build_config
 
 
 def test_entries_are_accepted_by_zenoh(tmp_path: Path) -> None:

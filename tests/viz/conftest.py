@@ -10,9 +10,9 @@ import pyarrow as pa
 import pytest
 import rerun.chunk as rrc
 
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
 from carlaverse.recording.synthetic import SyntheticSession, SyntheticSpec
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.recording.conftest import World
 from tests.support import free_port
 

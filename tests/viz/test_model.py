@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 
 from carlaverse import messages as m
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.source import SampleFeed
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import Keys
 from carlaverse.viz.model import ActorLook, WorldModel
 from carlaverse.viz.raw import ActorFeed, RawTap
 from carlaverse.viz.store import SampleStore
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.source import SampleFeed
+from carlaverse.world.world_view import WorldView
 
 KEYS = Keys("w")
 

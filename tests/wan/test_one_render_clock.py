@@ -17,12 +17,12 @@ import msgspec
 import pytest
 import yaml
 
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.support.stats import percentile
 from carlaverse.testing.linkemu import LinkEmulator, LinkProfile
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
+from carlaverse.world.remote_actor import InterpolationSettings
 from tests.support import Cluster, StallWatch, wait_until
 
 pytestmark = pytest.mark.slow

@@ -27,7 +27,7 @@ PUTS = 100
 OPEN = """
 import argparse, sys, time
 from carlaverse.cli.common import add_fabric_args, fabric_from_args
-from carlaverse.fabric.session import open_session
+from carlaverse.transport.session import open_session
 parser = argparse.ArgumentParser()
 add_fabric_args(parser)
 flags = ["--connect", "tcp/{lan}.1:7447"] + (["--mode", sys.argv[1]] if sys.argv[1] else [])

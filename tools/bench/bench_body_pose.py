@@ -27,10 +27,10 @@ from carlaverse import messages as m
 from carlaverse.body.model import require
 from carlaverse.body.pose_process import CameraBodySource
 from carlaverse.body.skeleton import BodyConfig
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.hal.camera import CameraConfig
 from carlaverse.keys import Keys
 from carlaverse.support.stats import percentile
+from carlaverse.transport.session import FabricSettings, open_session
 
 TARGET_MS = 40.0  # [ms] frame → published skeleton, p50 and p99 (issue 15)
 POLL_S = 0.001  # [s] how often this process polls the source, as a node loop would

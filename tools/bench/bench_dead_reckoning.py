@@ -27,9 +27,9 @@ import numpy as np
 from carlaverse import messages as m
 from carlaverse.authority.actors import egos_at
 from carlaverse.authority.domain import EgoTrack
-from carlaverse.fabric.npc_table import NpcTable
-from carlaverse.fabric.remote_actor import InterpolationSettings, RemoteActor
 from carlaverse.traffic.engine import NpcFrame
+from carlaverse.world.npc_table import NpcTable
+from carlaverse.world.remote_actor import InterpolationSettings, RemoteActor
 
 T = 100.0  # [s] session time of the newest samples
 

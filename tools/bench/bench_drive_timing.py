@@ -32,9 +32,9 @@ def peers(endpoint: str, first: int, count: int, stop: mp.synchronize.Event) -> 
     logging.disable(logging.WARNING)
     from carlaverse_nodes.scripted.trajectories import CirclePath
 
-    from carlaverse.fabric.clock import MonotonicClock
-    from carlaverse.fabric.node_client import NodeClient, NodeSettings
-    from carlaverse.fabric.session import FabricSettings, open_session
+    from carlaverse.transport.clock import MonotonicClock
+    from carlaverse.transport.node_client import NodeClient, NodeSettings
+    from carlaverse.transport.session import FabricSettings, open_session
 
     clients = []
     for i in range(first, first + count):

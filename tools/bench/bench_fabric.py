@@ -50,8 +50,8 @@ NOTE = (
 
 
 def _settings(connect: str, mode: str, node_id: str, kind: str, actor_kind: str) -> tuple[Any, Any]:
-    from carlaverse.fabric.node_client import NodeSettings
-    from carlaverse.fabric.session import FabricSettings
+    from carlaverse.transport.node_client import NodeSettings
+    from carlaverse.transport.session import FabricSettings
 
     fabric = FabricSettings(mode=mode, connect=[connect])  # type: ignore[arg-type]
     node = NodeSettings(
@@ -72,9 +72,9 @@ def busy_loop(stop: Any) -> None:
 
 
 def receiver(connect: str, mode: str, udp_port: int, samples: int, out: Any, ready: Any) -> None:
-    from carlaverse.fabric.clock import MonotonicClock
-    from carlaverse.fabric.node_client import NodeClient
-    from carlaverse.fabric.session import open_session
+    from carlaverse.transport.clock import MonotonicClock
+    from carlaverse.transport.node_client import NodeClient
+    from carlaverse.transport.session import open_session
 
     fabric, node = _settings(connect, mode, "rx", "observer", "")  # it sends no pose
     session = open_session(fabric)
@@ -141,10 +141,10 @@ def sender(
 ) -> None:
     import zenoh
 
-    from carlaverse.fabric.clock import MonotonicClock
-    from carlaverse.fabric.node_client import NodeClient
-    from carlaverse.fabric.session import open_session
     from carlaverse.messages import Pose
+    from carlaverse.transport.clock import MonotonicClock
+    from carlaverse.transport.node_client import NodeClient
+    from carlaverse.transport.session import open_session
 
     fabric, node = _settings(connect, mode, "tx", "scripted", "car")
     session = open_session(fabric)
@@ -172,7 +172,7 @@ def sender(
 
 
 def _router(listen: str, connect: list[str], stop: Any) -> None:
-    from carlaverse.fabric.session import FabricSettings, open_session
+    from carlaverse.transport.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(mode="router", listen=[listen], connect=connect))
     stop.wait()
@@ -182,8 +182,8 @@ def _router(listen: str, connect: list[str], stop: Any) -> None:
 def _authority(connect: str, stop: Any) -> None:
     from carlaverse.authority.domain import EmptyDomain
     from carlaverse.authority.service import Authority, AuthoritySettings
-    from carlaverse.fabric.clock import WallAlignedClock
-    from carlaverse.fabric.session import FabricSettings, open_session
+    from carlaverse.transport.clock import WallAlignedClock
+    from carlaverse.transport.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(connect=[connect]))
     # The authority takes every pose too; give the bare key the same fan-out so the

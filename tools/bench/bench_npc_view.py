@@ -20,8 +20,8 @@ import numpy as np
 from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse import messages as m
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.world_view import WorldView
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.world_view import WorldView
 
 RATE_HZ = 20.0  # the authority's NPC batch rate
 BUDGET = 0.02  # of a core, for receiving and interpolating

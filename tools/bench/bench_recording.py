@@ -36,19 +36,19 @@ import zenoh
 from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse import messages as m
-from carlaverse.fabric.session import FabricSettings, open_session
-from carlaverse.fabric.source import SampleFeed
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import Keys
 from carlaverse.recording.reading import iter_samples, read_metadata
 from carlaverse.recording.recorder import DEFAULT_QUEUE_SIZE
 from carlaverse.recording.sink import McapSink
 from carlaverse.recording.synthetic import ego_pose, npc_rows
+from carlaverse.transport.session import FabricSettings, open_session
 from carlaverse.viz.live import VIEW_ID, viewer_interpolation
 from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import ActorFeed
 from carlaverse.viz.scene import SceneLogger
 from carlaverse.viz.store import SampleStore
+from carlaverse.world.source import SampleFeed
+from carlaverse.world.world_view import WorldView
 
 KEYS = Keys("bench")
 

@@ -54,8 +54,8 @@ class Flock:
     def __init__(self, session: Any, egos: int, rate_hz: float) -> None:
         import zenoh
 
-        from carlaverse.fabric.interest import POSE_QOS
         from carlaverse.keys import Keys
+        from carlaverse.transport.interest import POSE_QOS
 
         keys = Keys(SESSION)
 
@@ -133,7 +133,7 @@ def publisher_main(endpoint: str, egos: int, rate_hz: float, conn: Connection) -
     `pause` switch sending; `mark` asks for the poses sent so far. Each is answered with
     (poses sent, monotonic time), so the orchestrator also learns that the publisher is
     alive."""
-    from carlaverse.fabric.session import FabricSettings, open_session
+    from carlaverse.transport.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(connect=[endpoint]))
     flock = Flock(session, egos, rate_hz)
@@ -251,11 +251,11 @@ def _node(session: Any, egos: int, feed: Feed) -> Receiver:
 
 def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
     """The project's pose path as a `NodeClient` declares it, without the rest of a node."""
-    from carlaverse.fabric.clock import MonotonicClock, SessionClock
-    from carlaverse.fabric.inbound import Inbound
-    from carlaverse.fabric.remote_actor import InterpolationSettings
-    from carlaverse.fabric.world_view import WorldView
     from carlaverse.messages import pose_stamp, pose_stamps
+    from carlaverse.transport.clock import MonotonicClock, SessionClock
+    from carlaverse.transport.inbound import Inbound
+    from carlaverse.world.remote_actor import InterpolationSettings
+    from carlaverse.world.world_view import WorldView
 
     world = WorldView(NODE_ID, InterpolationSettings())
     for i in range(egos):  # as if their tokens had come
@@ -321,7 +321,7 @@ def subscriber_main(
     """A subscriber (a child) of one layer; `publisher` is the publisher's session id, which a
     digest layer trusts as its authority. Commands: `start` opens the measured window, `stop`
     closes it and answers the window's report."""
-    from carlaverse.fabric.session import FabricSettings, open_session
+    from carlaverse.transport.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(mode=mode, connect=[endpoint]))  # type: ignore[arg-type]
     feed = Feed(publisher if layer.endswith(DIGEST) else "")

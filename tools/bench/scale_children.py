@@ -42,8 +42,8 @@ def authority_main(endpoint: str, scenario: str, priority: int, conn: Any) -> No
     """The authority on `scenario`; reports its ticks and stalls per window."""
     from carlaverse.authority.service import Authority, AuthoritySettings
     from carlaverse.authority.traffic_domain import load_domain
-    from carlaverse.fabric.clock import WallAlignedClock
-    from carlaverse.fabric.session import FabricSettings, open_session
+    from carlaverse.transport.clock import WallAlignedClock
+    from carlaverse.transport.session import FabricSettings, open_session
 
     domain = load_domain(scenario)
     session = open_session(FabricSettings(connect=[endpoint]))
@@ -127,10 +127,10 @@ def probe_main(
 ) -> None:
     """A node standing at (x, y) with interest radius `radius_m` (0: hears everything);
     `digest`: it hears the poses through the authority's pose digest."""
-    from carlaverse.fabric.clock import MonotonicClock
-    from carlaverse.fabric.node_client import NodeClient, NodeSettings
-    from carlaverse.fabric.session import FabricSettings, open_session
     from carlaverse.messages import Pose, pose_stamp, pose_stamps
+    from carlaverse.transport.clock import MonotonicClock
+    from carlaverse.transport.node_client import NodeClient, NodeSettings
+    from carlaverse.transport.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(connect=[endpoint]))
     settings = NodeSettings(
@@ -159,7 +159,7 @@ def probe_main(
         push_digest(ids, rows, rx_t)
 
     if digest:  # the digest's timestamp, noted before the node's own handler applies it
-        from carlaverse.fabric.inbound import Inbound
+        from carlaverse.transport.inbound import Inbound
 
         on_digest = Inbound._on_digest
 
@@ -205,8 +205,8 @@ def floor_main(endpoint: str, conn: Any, drain_ms: float = 0.0) -> None:
     import zenoh
 
     from carlaverse.authority.pose_intake import RING_CAPACITY
-    from carlaverse.fabric.session import FabricSettings, open_session
     from carlaverse.keys import Keys
+    from carlaverse.transport.session import FabricSettings, open_session
 
     session = open_session(FabricSettings(connect=[endpoint]))
     count = [0]

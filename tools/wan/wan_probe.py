@@ -33,11 +33,11 @@ from carlaverse_nodes.scripted.trajectories import PathSpec
 
 from carlaverse import messages as m
 from carlaverse.config import load_config
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys, KeySpaceError, parse
 from carlaverse.testing.render_metrics import RENDERERS, RendererSet
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
 
 SCRIPT = Path(__file__).resolve()
 

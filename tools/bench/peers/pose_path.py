@@ -1,6 +1,6 @@
 """This project's pose path: `NodeClient.publish_pose` in the publisher, and in each receiver a
 `NodeClient` whose Zenoh callback parses the key and hands the pose's bytes to the world view
-(`fabric.inbound`), which the receiver's main loop checks, decodes and applies every 20 ms
+(`transport.inbound`), which the receiver's main loop checks, decodes and applies every 20 ms
 (`client.update()`), as a node's loop does.
 
 The arrival is stamped where the fabric hands the pose to the world view, after the key parse,
@@ -28,15 +28,15 @@ JOIN_TIMEOUT_S = 30.0  # [s] a loaded 2-core host can take seconds to start five
 
 
 def _fabric(plan: Plan, lowlatency: bool) -> Any:
-    from carlaverse.fabric.session import FabricSettings
+    from carlaverse.transport.session import FabricSettings
 
     return FabricSettings(mode="peer", connect=[router_endpoint(plan)], lowlatency=lowlatency)
 
 
 def _open_client(plan: Plan, lowlatency: bool, node_id: str, kind: str, actor_kind: str) -> Any:
-    from carlaverse.fabric.clock import MonotonicClock
-    from carlaverse.fabric.node_client import NodeClient, NodeSettings
-    from carlaverse.fabric.session import open_session
+    from carlaverse.transport.clock import MonotonicClock
+    from carlaverse.transport.node_client import NodeClient, NodeSettings
+    from carlaverse.transport.session import open_session
 
     session = open_session(_fabric(plan, lowlatency))
     # The project's low-latency set-up is both settings: the low-latency transport and the
@@ -57,8 +57,8 @@ def run_authority(ready: Any, stop: Any, plan: Plan, lowlatency: bool) -> None:
 
     from carlaverse.authority.domain import EmptyDomain
     from carlaverse.authority.service import Authority, AuthoritySettings
-    from carlaverse.fabric.clock import MonotonicClock
-    from carlaverse.fabric.session import open_session
+    from carlaverse.transport.clock import MonotonicClock
+    from carlaverse.transport.session import open_session
 
     session = open_session(_fabric(plan, lowlatency))
     settings = AuthoritySettings(session=SESSION)
@@ -111,7 +111,7 @@ class PoseReceiver:
         """Note when the fabric's pose callback starts (`Inbound._on_pose`, wrapped in this
         receiver's process before its subscribers exist), so the time from there to the
         hand-over is what the project's callback costs (clock, key parse)."""
-        from carlaverse.fabric.inbound import Inbound
+        from carlaverse.transport.inbound import Inbound
 
         on_pose = Inbound._on_pose
 

@@ -49,10 +49,10 @@ def callback_steps() -> list[tuple[str, float, float]]:
     """(step, seconds per call in a warm loop, seconds per call after 20 ms idle) for each
     step of the pose callback."""
     from carlaverse import messages as m
-    from carlaverse.fabric.clock import MonotonicClock, SessionClock
-    from carlaverse.fabric.remote_actor import InterpolationSettings
-    from carlaverse.fabric.world_view import WorldView
     from carlaverse.keys import Keys, parse_cached
+    from carlaverse.transport.clock import MonotonicClock, SessionClock
+    from carlaverse.world.remote_actor import InterpolationSettings
+    from carlaverse.world.world_view import WorldView
 
     key = Keys("bench").pose("tx", "t0_0")
     payload = m.encode_pose(m.Pose(1, time.monotonic(), 0.0, 0.0, vx=14.0))

@@ -208,7 +208,7 @@ def process_context() -> Any:
     return ctx
 
 
-PRELOAD = ["peers.run", "carlaverse.fabric.node_client", "carlaverse.authority.service"]
+PRELOAD = ["peers.run", "carlaverse.transport.node_client", "carlaverse.authority.service"]
 
 
 class ChildProcess:

@@ -30,7 +30,7 @@ def router_endpoint(plan: Plan) -> str:
 
 def run_router(ready: Any, stop: Any, endpoint: str, lowlatency: bool, runtime: str = "") -> None:
     """The project's router on loopback (as `carlaverse router` opens it) until `stop`."""
-    from carlaverse.fabric.session import FabricSettings, open_session
+    from carlaverse.transport.session import FabricSettings, open_session
 
     use_runtime(runtime)
     settings = FabricSettings(mode="router", listen=[endpoint], lowlatency=lowlatency)
@@ -47,7 +47,7 @@ def zenoh_router(plan: Plan, lowlatency: bool = False, runtime: str = "") -> Chi
 def _open_peer(plan: Plan, lowlatency: bool = False, runtime: str = "") -> Any:
     import zenoh
 
-    from carlaverse.fabric.session import LOWLATENCY_AUTOCONNECT
+    from carlaverse.transport.session import LOWLATENCY_AUTOCONNECT
 
     entries: dict[str, Any] = {
         "mode": "peer",

@@ -10,10 +10,10 @@ import msgspec
 import pytest
 from carlaverse_nodes.scripted.trajectories import CirclePath, PolylinePath
 
-from carlaverse.fabric.remote_actor import InterpolationSettings, Phase, RemoteActor
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose, encode_pose
 from carlaverse.support.stats import percentile
+from carlaverse.world.remote_actor import InterpolationSettings, Phase, RemoteActor
+from carlaverse.world.world_view import WorldView
 
 CIRCLE = CirclePath(radius=30.0, speed_mps=14.0)
 S = InterpolationSettings()
@@ -311,7 +311,7 @@ def test_pose_times_far_from_session_time_are_rejected() -> None:
 
 
 def test_statistics_only_for_present_senders_and_bounded() -> None:
-    from carlaverse.fabric import world_view
+    from carlaverse.world import world_view
 
     world = WorldView("me", S)
     for k in range(world_view.STATS_LIMIT + 50):
@@ -406,7 +406,7 @@ def test_the_despawn_log_keeps_the_newest_within_its_bound(
 ) -> None:
     # With interest areas every ego driving out of a node's tiles is a despawn (`far`): over
     # hours the log would grow without end.
-    from carlaverse.fabric import world_view
+    from carlaverse.world import world_view
 
     monkeypatch.setattr(world_view, "DESPAWN_LIMIT", 50)
     world = WorldView("me", S)

@@ -18,9 +18,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from carlaverse.dead_reckoning import npc_motion, project_many
-from carlaverse.fabric.remote_actor import InterpolationSettings, StreamTiming, hermite
 from carlaverse.messages import ACTOR_KINDS, NPC_DTYPE, NpcBatch
 from carlaverse.support.angles import wrap_angles
+from carlaverse.world.remote_actor import InterpolationSettings, StreamTiming, hermite
 
 KEPT_BATCHES = 8  # at 20 Hz, 400 ms: more than any render delay the view will use
 _KIND_NAMES = np.array([*ACTOR_KINDS, "other"])

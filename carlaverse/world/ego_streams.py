@@ -22,10 +22,10 @@ from collections.abc import Iterator, Mapping
 from itertools import islice
 from typing import NamedTuple
 
-from carlaverse.fabric.remote_actor import InterpolationSettings, RemoteActor
-from carlaverse.fabric.stream_summary import StreamSummary
 from carlaverse.messages import Pose
 from carlaverse.support.stats import percentile
+from carlaverse.world.remote_actor import InterpolationSettings, RemoteActor
+from carlaverse.world.stream_summary import StreamSummary
 
 RING = 64  # samples kept per sender for its actor: 1.28 s at 50 Hz, longer than any delay
 WINDOW = 1024  # samples per sender in its latency statistics: 20 s at 50 Hz

@@ -5,7 +5,8 @@ import threading
 
 import pytest
 
-from carlaverse.fabric.guard import HandlerGuard, Tally
+from carlaverse.support.tally import Tally
+from carlaverse.transport.guard import HandlerGuard
 
 
 class FakeQuery:

@@ -14,10 +14,10 @@ import time
 
 import zenoh
 
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, wait_until
 
 CLOCK_QUERY_TIMEOUT_S = 0.5  # NodeClient._sync_clock's

@@ -11,10 +11,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from carlaverse import messages as m
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys, parse
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, wait_until
 
 K = Keys("t")
@@ -253,7 +253,7 @@ def test_a_step_with_more_poses_than_a_digest_holds_puts_several_in_order() -> N
 
     from carlaverse.authority.pose_digest import PoseDigestRelay
     from carlaverse.authority.pose_intake import RING_CAPACITY, PoseIntake
-    from carlaverse.fabric.guard import Tally
+    from carlaverse.support.tally import Tally
 
     session = open_session(FabricSettings(mode="peer", listen=[], connect=[]))
     try:

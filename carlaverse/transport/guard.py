@@ -1,9 +1,9 @@
-"""Zenoh callbacks that never raise: counted drops, thread-safe tallies, bounded logging.
+"""Zenoh callbacks that never raise: counted drops, bounded logging.
 
 Zenoh runs subscriber and queryable callbacks on its own threads; an exception escaping one
 prints a traceback to stderr and loses the message without a count. Every handler of the
 fabric and the authority is therefore wrapped by a `HandlerGuard`: a bad payload is counted
-on its key by the handler itself (`Tally`), and anything unexpected is counted in
+on its key by the handler itself (`support.tally.Tally`), and anything unexpected is counted in
 `guard.errors`, logged once per interval as one line, and — for a query — answered with an
 error reply, so the asker is never left waiting.
 """
@@ -11,45 +11,13 @@ error reply, so the asker is never left waiting.
 from __future__ import annotations
 
 import logging
-import threading
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable
 
 import zenoh
 
 from carlaverse.support.ratelog import RateLimitedLog
-
-
-class Tally(Mapping[str, int]):
-    """A counter that Zenoh's threads and the owner's thread may all update.
-
-    Reads like a `Counter`: a key never counted reads 0.
-    """
-
-    def __init__(self) -> None:
-        self._counts: dict[str, int] = {}
-        self._lock = threading.Lock()
-
-    def add(self, key: str, n: int = 1) -> None:
-        with self._lock:
-            self._counts[key] = self._counts.get(key, 0) + n
-
-    def __getitem__(self, key: str) -> int:
-        return self._counts.get(key, 0)
-
-    def __contains__(self, key: object) -> bool:
-        return key in self._counts
-
-    def __iter__(self) -> Iterator[str]:
-        return iter(self.snapshot())
-
-    def __len__(self) -> int:
-        return len(self._counts)
-
-    def snapshot(self) -> dict[str, int]:
-        """A consistent copy, sorted by key."""
-        with self._lock:
-            return dict(sorted(self._counts.items()))
+from carlaverse.support.tally import Tally
 
 
 class HandlerGuard:

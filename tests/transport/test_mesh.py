@@ -14,7 +14,7 @@ import time
 
 import zenoh
 
-from carlaverse.fabric.session import FabricSettings, await_mesh, open_session
+from carlaverse.transport.session import FabricSettings, await_mesh, open_session
 from tests.support import Cluster, wait_until
 
 ROUNDS = 10

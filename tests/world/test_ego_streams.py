@@ -1,4 +1,4 @@
-"""The world view's egos (`fabric/ego_streams.py`): poses decoded once and applied a batch at a
+"""The world view's egos (`world/ego_streams.py`): poses decoded once and applied a batch at a
 time, actors fed only when read, statistics per sender."""
 
 from __future__ import annotations
@@ -9,10 +9,10 @@ import pytest
 from carlaverse_nodes.scripted.trajectories import CirclePath
 
 from carlaverse import messages as m
-from carlaverse.fabric import ego_streams, world_view
-from carlaverse.fabric.remote_actor import InterpolationSettings, RemoteActor
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.support.stats import percentile
+from carlaverse.world import ego_streams, world_view
+from carlaverse.world.remote_actor import InterpolationSettings, RemoteActor
+from carlaverse.world.world_view import WorldView
 
 CIRCLE = CirclePath(radius=30.0, speed_mps=14.0)
 

@@ -20,8 +20,8 @@ from collections.abc import Callable
 
 import zenoh
 
-from carlaverse.fabric.session import FabricSettings, reaches_anyone
 from carlaverse.keys import AUTHORITY_ID, Keys
+from carlaverse.transport.session import FabricSettings, reaches_anyone
 
 # open_session has already given a peer ~0.5 s to connect, and on a LAN the router answers
 # within ~100 ms with the authority's liveliness token right after; so half a second more

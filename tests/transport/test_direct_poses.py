@@ -8,10 +8,10 @@ import threading
 import time
 
 from carlaverse import messages as m
-from carlaverse.fabric.clock import MonotonicClock
-from carlaverse.fabric.node_client import NodeClient, NodeSettings
-from carlaverse.fabric.session import FabricSettings, open_session
 from carlaverse.keys import Keys
+from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.node_client import NodeClient, NodeSettings
+from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import Cluster, wait_until
 
 

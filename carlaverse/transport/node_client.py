@@ -8,7 +8,7 @@
     for view in client.world.ego_views(now): draw(view)
     client.close()
 
-Threads: Zenoh's callbacks (`fabric.inbound`) check and hand over to the world view's intake,
+Threads: Zenoh's callbacks (`transport.inbound`) check and hand over to the world view's intake,
 never wait or raise;
 a publisher thread sends the ego pose at the configured rate; a control thread joins (and
 re-joins after an authority restart or a partition), keeps the session clock in sync, and
@@ -31,13 +31,13 @@ import zenoh
 from carlaverse import __version__
 from carlaverse import messages as m
 from carlaverse.config import StrictStruct
-from carlaverse.fabric.clock import Clock, SessionClock
-from carlaverse.fabric.guard import Tally
-from carlaverse.fabric.inbound import Inbound
-from carlaverse.fabric.interest import InterestArea, TiledPublisher
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.world_view import WorldView
 from carlaverse.keys import AUTHORITY_ID, Keys, check_token
+from carlaverse.support.tally import Tally
+from carlaverse.transport.clock import Clock, SessionClock
+from carlaverse.transport.inbound import Inbound
+from carlaverse.transport.interest import InterestArea, TiledPublisher
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.world_view import WorldView
 
 log = logging.getLogger(__name__)
 

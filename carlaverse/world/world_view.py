@@ -1,7 +1,7 @@
 """A node's picture of the world: remote egos and NPCs, lights and weather.
 
-Everything comes in through the view's `intake` (`fabric.intake`), the one writer, from
-whatever source feeds it (`fabric.source`: a live session, a recording, a synthetic feed):
+Everything comes in through the view's `intake` (`world.intake`), the one writer, from
+whatever source feeds it (`world.source`: a live session, a recording, a synthetic feed):
 its methods only append to a deque (atomic under the GIL), so a Zenoh callback never waits,
 and the owner of the view applies what came in `update(now)` on its own thread. That keeps
 every `RemoteActor` single-threaded and the callbacks cheap. Poses come in as they travel, 64
@@ -20,7 +20,7 @@ that samples still in flight cannot resurrect it; its next appearance (token or 
 lifts the tombstone. Poses count only from present ids, never from the reserved `authority`
 id, and only with a time near session time; state per sender is kept for present ids only.
 
-With an interest area (`carlaverse.fabric.interest`) the view holds only what is near: NPCs
+With an interest area (`carlaverse.transport.interest`) the view holds only what is near: NPCs
 by tile, egos whose poses arrive; an ego that is out of the area when it falls silent, or
 when the area moves away from it, is removed as `far` (not a loss), and its stream
 statistics restart when it comes back. `interest` is None for a view of the whole world.
@@ -33,11 +33,6 @@ from collections import Counter, deque
 from collections.abc import Iterator
 from dataclasses import dataclass
 
-from carlaverse.fabric.ego_streams import Applied, EgoActors, EgoStreams, StreamStatsTable
-from carlaverse.fabric.intake import POSE, ROWS, WHOLE_WORLD, Departure, WorldIntake
-from carlaverse.fabric.interest_npcs import NpcTiles
-from carlaverse.fabric.npc_table import NpcFrame
-from carlaverse.fabric.remote_actor import ActorView, DelaySlew, InterpolationSettings, Phase
 from carlaverse.keys import AUTHORITY_ID, tile_of, tile_token
 from carlaverse.messages import (
     EgoInfo,
@@ -51,6 +46,11 @@ from carlaverse.messages import (
     Weather,
     decode_pose_rows,
 )
+from carlaverse.world.ego_streams import Applied, EgoActors, EgoStreams, StreamStatsTable
+from carlaverse.world.intake import POSE, ROWS, WHOLE_WORLD, Departure, WorldIntake
+from carlaverse.world.interest_npcs import NpcTiles
+from carlaverse.world.npc_table import NpcFrame
+from carlaverse.world.remote_actor import ActorView, DelaySlew, InterpolationSettings, Phase
 
 log = logging.getLogger(__name__)
 

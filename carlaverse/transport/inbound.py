@@ -4,7 +4,7 @@ Every subscriber callback of a `NodeClient` lives here. None of them waits or ra
 that does not decode is counted in `dropped` under its channel; a well-formed message that is
 refused (not from the authority, a duplicate impulse, a reserved id) is counted in `rejected`
 under `<channel>/<why>`; anything unexpected is counted by the guard and logged at a bounded
-rate. Accepted input goes to the world view through its intake (`fabric.intake`, the one way
+rate. Accepted input goes to the world view through its intake (`world.intake`, the one way
 in: `Inbound` is the live session's `WorldSource`) or to the node's queues.
 
 Who may speak for the authority. World messages (`world/*`) and impulses must come from the
@@ -29,10 +29,11 @@ from collections.abc import Callable
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.fabric.clock import SessionClock
-from carlaverse.fabric.guard import HandlerGuard, Tally
-from carlaverse.fabric.intake import WorldIntake
 from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse, parse_cached
+from carlaverse.support.tally import Tally
+from carlaverse.transport.clock import SessionClock
+from carlaverse.transport.guard import HandlerGuard
+from carlaverse.world.intake import WorldIntake
 
 log = logging.getLogger(__name__)
 

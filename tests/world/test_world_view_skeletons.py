@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from carlaverse import messages as m
-from carlaverse.fabric.remote_actor import InterpolationSettings
-from carlaverse.fabric.world_view import WorldView
+from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.world.world_view import WorldView
 
 
 def _skeleton(t: float, joints: dict[str, tuple[float, float, float]]) -> m.Skeleton:

@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from carlaverse.fabric.clock import MAX_SLEW, ManualClock, SessionClock
+from carlaverse.transport.clock import MAX_SLEW, ManualClock, SessionClock
 
 RTT_S = 0.001  # [s] a symmetric LAN exchange
 
@@ -91,7 +91,7 @@ def test_an_offset_change_is_slewed_pose_t_strictly_increasing(
     def true_offset(t: float) -> float:  # the authority's timeline moves at local t = 100 s
         return base + (change_s if t >= 100.0 else 0.0)
 
-    with caplog.at_level(logging.INFO, logger="carlaverse.fabric.clock"):
+    with caplog.at_level(logging.INFO, logger="carlaverse.transport.clock"):
         published, offsets, local_times, skews = run_publisher(true_offset, 60.0, clock, local)
     assert all(b > a for a, b in itertools.pairwise(published))
     # beyond the skew it follows, the offset changes at most MAX_SLEW (to float resolution)
@@ -118,7 +118,7 @@ def test_a_large_forward_error_is_stepped_and_logged(caplog: pytest.LogCaptureFi
     clock = SessionClock(local)
     exchange(clock, local, 100.0, 0.0005, 0.0005)
     local.advance(1.0)
-    with caplog.at_level(logging.WARNING, logger="carlaverse.fabric.clock"):
+    with caplog.at_level(logging.WARNING, logger="carlaverse.transport.clock"):
         exchange(clock, local, 101.0, 0.0005, 0.0005)
     assert clock.steps == 2 and clock.now() - local.now() == pytest.approx(101.0)
     assert "stepped by +1.000000 s" in caplog.text

@@ -18,7 +18,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from carlaverse import messages as m
-from tests.fabric.test_messages import POSE, examples
+from tests.transport.test_messages import POSE, examples
 
 STRUCT_EXAMPLES = [(c, msg) for c, msg in examples() if c is not m.POSE]
 IDS = [type(msg).__name__ for _, msg in STRUCT_EXAMPLES]

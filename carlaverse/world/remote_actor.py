@@ -26,9 +26,9 @@ from typing import Literal
 
 from carlaverse.config import StrictStruct
 from carlaverse.dead_reckoning import project
-from carlaverse.fabric.present import Projector
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
 from carlaverse.support.angles import wrap_angle
+from carlaverse.world.present import Projector
 
 _Vec4 = tuple[float, float, float, float]  # x, y, z [m], yaw [rad]
 RenderMode = Literal["past", "present"]

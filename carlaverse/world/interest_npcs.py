@@ -14,10 +14,10 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from carlaverse.fabric.intake import WHOLE_WORLD
-from carlaverse.fabric.npc_table import NpcFrame, NpcTable
-from carlaverse.fabric.remote_actor import InterpolationSettings, StreamTiming
 from carlaverse.messages import NpcBatch
+from carlaverse.world.intake import WHOLE_WORLD
+from carlaverse.world.npc_table import NpcFrame, NpcTable
+from carlaverse.world.remote_actor import InterpolationSettings, StreamTiming
 
 
 class NpcTiles:

@@ -3,7 +3,7 @@
 `WorldSource` is the interface: a source holds the view's `WorldIntake` and `feed(until_t)`
 hands it everything received up to a session time. The sources:
 
-    a live session     `fabric.inbound.Inbound`, as a node hears it: its Zenoh callbacks hand
+    a live session     `transport.inbound.Inbound`, as a node hears it: its Zenoh callbacks hand
                        each sample over as it arrives, once its sender is checked
     a recording        `render.recording.RecordedWorld` (MCAP), `viz.playback`
     a raw observer     `viz.live`: every key of a live session, as a viewer hears it
@@ -21,8 +21,8 @@ from __future__ import annotations
 from typing import Protocol
 
 from carlaverse import messages as m
-from carlaverse.fabric.intake import WorldIntake
 from carlaverse.keys import DIGEST_CHANNEL, KeySpaceError, ParsedKey, parse_cached
+from carlaverse.world.intake import WorldIntake
 
 
 class WorldSource(Protocol):

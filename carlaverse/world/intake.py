@@ -1,8 +1,8 @@
 """The one way into a world view: its `WorldIntake` (docs/architecture.md §7).
 
 Whatever feeds a view writes through its intake and nothing else: a live session (the node
-client's Zenoh callbacks, `fabric.inbound`), a recording or a synthetic feed
-(`fabric.source.SampleFeed`). One representation for all of them: a pose as it travels (its
+client's Zenoh callbacks, `transport.inbound`), a recording or a synthetic feed
+(`world.source.SampleFeed`). One representation for all of them: a pose as it travels (its
 64 bytes, checked and decoded once, by the view's update, with every other pose the update
 drains), every other message decoded, and an actor's departure named by one `Departure`.
 
@@ -15,7 +15,6 @@ from __future__ import annotations
 from collections import deque
 from typing import Any, Literal
 
-from carlaverse.fabric.guard import Tally
 from carlaverse.messages import (
     POSE_SIZE,
     EgoState,
@@ -26,6 +25,7 @@ from carlaverse.messages import (
     Snapshot,
     Weather,
 )
+from carlaverse.support.tally import Tally
 
 INBOX_LIMIT = 100_000  # beyond this the owner is not draining; oldest input is dropped
 WHOLE_WORLD = ""  # the tile name of the `world/npc` stream (NPCs of the whole session)

@@ -13,8 +13,8 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-from carlaverse.fabric.node_client import NodeClient
-from carlaverse.fabric.session import LOWLATENCY_AUTOCONNECT, FabricSettings, build_config
+from carlaverse.transport.node_client import NodeClient
+from carlaverse.transport.session import LOWLATENCY_AUTOCONNECT, FabricSettings, build_config
 from tests.support import Cluster, _accepts, wait_until
 
 JOINERS = 6  # nodes joining one after another: 21 peer pairs dialled in all
