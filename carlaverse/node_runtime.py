@@ -30,7 +30,7 @@ from typing import Any, Protocol
 import msgspec
 
 from carlaverse.config import StrictStruct, to_yaml
-from carlaverse.messages import Notice
+from carlaverse.messages import AudioScene, Notice, Pose
 from carlaverse.redact import redact_yaml
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.node_client import NodeClient, NodeSettings, PoseSource
@@ -51,6 +51,14 @@ class NodeKind(Protocol):
     def step(self, client: NodeClient, now: float) -> None: ...
     def close(self) -> None: ...
     def report(self) -> dict[str, Any]: ...
+
+
+class AudioFeed(Protocol):
+    """A node's audio process (`audio.process.AudioProcess`): the scenes the node's client
+    accepts and the poses it publishes go there, handed over without waiting."""
+
+    def scene(self, scene: AudioScene) -> None: ...
+    def pose(self, pose: Pose) -> None: ...
 
 
 class NodeSummary(msgspec.Struct):
@@ -140,8 +148,11 @@ def run_node(
     loop_hz: float = 50.0,
     on_wait: Callable[[str], None] | None = None,
     on_notice: Callable[[Notice], None] | None = None,
+    audio: AudioFeed | None = None,
 ) -> NodeSummary:
     """Join, run the node's loop until `duration_s` or `stop`, leave cleanly, summarise.
+    `audio`: a process that plays what the node hears (its client subscribes to the node's
+    audio scenes only then: the authority builds scenes only for a node that listens).
 
     Raises FabricUnreachable (client mode: no router before the end), JoinRefused and
     JoinTimeout; a node stopped or out of time before it was admitted returns `joined=False`
@@ -154,11 +165,12 @@ def run_node(
         session = open_session(fabric, stop, limits.wait_ends, say)
         try:
             client = NodeClient(
-                session, node_settings, MonotonicClock(), config_yaml=redact_yaml(to_yaml(config))
-            )
+                session, node_settings, MonotonicClock(), config_yaml=redact_yaml(to_yaml(config)),
+                audio_scenes=audio.scene if audio is not None else None,
+            )  # fmt: skip
             notice = WaitNotice(SessionWait(session, fabric, client.keys), say)
             try:
-                client.start(pose_source=node.pose_source())
+                client.start(pose_source=_heard_by(node.pose_source(), audio))
                 missing = _wait_admitted(client, notice, stop, limits)
                 if not missing:
                     notice.watch()  # an authority that goes mid-session is said, and its return
@@ -192,6 +204,20 @@ def _once(action: Callable[[], None]) -> Callable[[], None]:
             action()
 
     return run_once
+
+
+def _heard_by(source: PoseSource | None, audio: AudioFeed | None) -> PoseSource | None:
+    """The node's pose source, each pose it gives also handed to the audio process."""
+    if source is None or audio is None:
+        return source
+
+    def told(t: float) -> Pose | None:
+        pose = source(t)
+        if pose is not None:
+            audio.pose(pose)
+        return pose
+
+    return told
 
 
 def _wait_admitted(

@@ -95,13 +95,13 @@ def add_audio_argument(parser: argparse.ArgumentParser) -> None:
 
 
 @contextlib.contextmanager
-def node_audio(args: argparse.Namespace, node: Any, node_id: str, session: str,
-               fabric: Any) -> Iterator[Companion]:  # fmt: skip
+def node_audio(args: argparse.Namespace, node: Any, node_id: str) -> Iterator[Companion]:
     """Run the node's audio (when --audio) for the duration of the block; ConfigError (one
-    line) when its config is wrong or its output cannot open."""
+    line) when its config is wrong or its output cannot open. The node's client feeds it
+    (`running` is the `node_runtime.AudioFeed` to give `run_node`)."""
     audio = Companion("audio")
     if args.audio:
-        audio.running = _start_audio(args.audio, node, node_id, session, fabric)
+        audio.running = _start_audio(args.audio, node, node_id)
     try:
         yield audio
     finally:
@@ -113,7 +113,7 @@ def node_audio(args: argparse.Namespace, node: Any, node_id: str, session: str,
                 print(_audio_line(audio.report), file=sys.stderr)
 
 
-def _start_audio(name: str, node: Any, node_id: str, session: str, fabric: Any) -> Any:
+def _start_audio(name: str, node: Any, node_id: str) -> Any:
     from carlaverse.audio.config import AudioConfig
     from carlaverse.audio.ears import BlockSpec
     from carlaverse.audio.output import OutputError
@@ -124,7 +124,7 @@ def _start_audio(name: str, node: Any, node_id: str, session: str, fabric: Any) 
     own = node.own_pose_block() if hasattr(node, "own_pose_block") else None
     block = BlockSpec(own.name, own.dtype) if own is not None else None
     try:
-        return AudioProcess(AudioSpec(node_id, session, fabric, config, block)).start()
+        return AudioProcess(AudioSpec(node_id, config, block)).start()
     except OutputError as exc:
         raise ConfigError("--audio", str(exc)) from exc
 

@@ -136,12 +136,12 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         with (
             node_view(args, node, node_settings, fabric) as view,  # --view: its own process
             node_hmi(args, args.kind, node, say("join")) as hmi,  # --hmi: a thread of its own
-            node_audio(args, node, node_id, node_settings.session, fabric) as audio,  # --audio
+            node_audio(args, node, node_id) as audio,  # --audio: a process the client feeds
         ):
             summary = run_node(
                 node, node_settings, fabric, config, args.duration, stop,
                 join_timeout_s=args.join_timeout, on_wait=say("join"),
-                on_notice=_show_notice(hmi, say("join")),
+                on_notice=_show_notice(hmi, say("join")), audio=audio.running,
             )  # fmt: skip
         summary.extra.update(view.extra | hmi.extra | audio.extra)
     except JoinRefused as exc:

@@ -87,6 +87,7 @@ class Inbound:
         # interest area), and what it is: "poses" (a sample each) or "digest" (`world/@egos`).
         self.pose_feed: zenoh.Subscriber | None = None
         self.pose_feed_kind = ""
+        self._audio: Callable[[m.AudioScene], None] = _nobody
 
     @property
     def intake(self) -> WorldIntake:
@@ -102,12 +103,14 @@ class Inbound:
         spatial: bool = True,
         digest: bool = False,
         skeletons: bool = False,
+        audio: Callable[[m.AudioScene], None] | None = None,
     ) -> list[object]:
         """Declare the node's subscriptions. `spatial=False`: poses and NPCs come through
         an interest area (`spatial_handlers`) instead of from the whole world; `digest`: the
         whole world's poses come through the authority's digest, many to a sample, instead of
         one sample each; `skeletons`: every walker's joints too (`ego/*/skeleton`), for a node
-        that draws bodies."""
+        that draws bodies; `audio`: where this node's audio scenes (`audio/<id>`, the
+        authority's only) go, called on Zenoh's thread, for a node that plays them."""
         g = self.guard
         world = {"lights": self._on_lights, "weather": self._on_weather, "events": self._on_event}
         entities: list[object] = []
@@ -117,6 +120,10 @@ class Inbound:
         if skeletons:
             skeleton = g.sample("skeleton", self._on_skeleton)
             entities.append(session.declare_subscriber(keys.all_ego("skeleton"), skeleton))
+        if audio is not None:
+            self._audio = audio
+            scenes = g.sample("audio", self._on_audio)
+            entities.append(session.declare_subscriber(keys.audio(self.node_id), scenes))
         entities += [
             session.declare_subscriber(keys.all_ego("state"), g.sample("state", self._on_state)),
             session.declare_subscriber(
@@ -319,6 +326,12 @@ class Inbound:
             log.warning("the authority despawned this node (%s): joining again", event.reason)
             self._lost()
 
+    def _on_audio(self, sample: zenoh.Sample) -> None:
+        scene = self._authority_message(sample, m.AUDIO_SCENE, "audio")
+        if scene is not None:
+            self.accepted.add("audio")
+            self._audio(scene)  # type: ignore[arg-type]
+
     def _on_impulse(self, sample: zenoh.Sample) -> None:
         impulse = self._authority_message(sample, m.IMPULSE, "impulse")
         if impulse is None:
@@ -340,3 +353,7 @@ class Inbound:
             self._contacts.append(contact)
             self._contact_set.add(contact)
             return True
+
+
+def _nobody(scene: m.AudioScene) -> None:
+    """Where audio scenes go before a node asks for them (it is not subscribed then)."""

@@ -103,11 +103,14 @@ class NodeClient:
         *,
         own_actor: str = "",
         skeletons: bool = False,
+        audio_scenes: Callable[[m.AudioScene], None] | None = None,
     ) -> None:
         """`own_actor`: the actor this node's world view leaves out, its own (by default its
         own id; a render process that joins as `<node id>.view` names its node, whose actor
         it reads from shared memory: those poses are never decoded). `skeletons`: hear every
-        walker's joints too (`ego/*/skeleton`), for a node that draws bodies."""
+        walker's joints too (`ego/*/skeleton`), for a node that draws bodies. `audio_scenes`:
+        hear this node's audio scenes (`audio/<id>`) and hand each the authority sent to it,
+        on Zenoh's thread (it must not wait), for a node that plays them."""
         check_token(settings.node_id)
         if settings.site:  # the authority refuses any other (authority/join_check.py)
             check_token(settings.site, "site name")
@@ -125,6 +128,7 @@ class NodeClient:
             self._authority_seen, direct_poses=settings.direct_pose_callbacks,
         )  # fmt: skip
         self._skeletons = skeletons
+        self._audio_scenes = audio_scenes
         self._skeleton_pub: zenoh.Publisher | None = None
         self._skeleton_seq = 0
         self.impulses: deque[m.Impulse] = self.inbound.impulses
@@ -195,7 +199,7 @@ class NodeClient:
         spatial = self.interest is None
         self._entities += self.inbound.subscribe(
             self.session, self.keys, spatial=spatial, digest=self.settings.pose_digest,
-            skeletons=self._skeletons,
+            skeletons=self._skeletons, audio=self._audio_scenes,
         )  # fmt: skip
         self._spawn(self._control_loop, "control")
         if self.interest is not None:

@@ -1,6 +1,6 @@
-"""A live node's audio: `join … --audio` in a process of its own, fed over real Zenoh, played
-on the simulated device at real-time pace; the real output's absence in one line; underruns
-counted honestly by the simulated device."""
+"""A live node's audio: `join … --audio` in a process of its own, fed by the node's client over
+real Zenoh (the authority's scenes only), played on the simulated device at real-time pace;
+the real output's absence in one line; underruns counted honestly by the simulated device."""
 
 from __future__ import annotations
 
@@ -20,22 +20,32 @@ from carlaverse.audio.wav import read_wav
 from carlaverse.cli import main
 from carlaverse.keys import Keys
 from carlaverse.transport.session import FabricSettings, open_session
-from tests.support import Cluster
+from tests.support import Cluster, InProcessAuthority
 
 BLOCK_S = 512 / 48_000  # [s] the shipped configs' block
 
 
-def publish_scenes(endpoint: str, node_id: str, stop: threading.Event) -> int:
-    """Speak as the authority: an engine 8 m north of the map origin, 20 scenes a second."""
+def engine(name: str, y: float) -> m.AudioEmitter:
+    return m.AudioEmitter(name, "engine", 0.0, y, 0.5, 0.0, 0.0, 0.0, 85.0, drive_a=2400.0,
+                          drive_b=0.4)  # fmt: skip
+
+
+def publish_scenes(
+    authority: InProcessAuthority, endpoint: str, node_id: str, stop: threading.Event
+) -> int:
+    """20 scenes a second: the authority's (an engine 8 m north of the map origin), and a
+    forger's beside them on the same key (two engines), which the node must not play."""
     session = open_session(FabricSettings(connect=[endpoint]), deadline=time.monotonic() + 30)
-    publisher = session.declare_publisher(Keys("t").audio(node_id))
+    forger = session.declare_publisher(Keys("t").audio(node_id))
+    assert authority.authority is not None
+    outbox = authority.authority.outbox
     seq = 0
     try:
         while not stop.wait(0.05):
-            engine = m.AudioEmitter("npc1.engine", "engine", 0.0, 8.0, 0.5, 0.0, 0.0, 0.0, 85.0,
-                                    drive_a=2400.0, drive_b=0.4)  # fmt: skip
-            publisher.put(m.AUDIO_SCENE.encode(m.AudioScene(seq, float(seq) / 20, node_id,
-                                                            [engine])))  # fmt: skip
+            t = float(seq) / 20
+            outbox.audio(node_id, m.AudioScene(seq, t, node_id, [engine("npc1.engine", 8.0)]))
+            forged = m.AudioScene(seq, t, node_id, [engine("x1", 2.0), engine("x2", -2.0)])
+            forger.put(m.AUDIO_SCENE.encode(forged))
             seq += 1
     finally:
         session.close()
@@ -50,7 +60,9 @@ def test_a_node_plays_what_it_hears_in_real_time(tmp_path: Path) -> None:
     cluster = Cluster(tmp_path)
     authority = cluster.in_process_authority()
     stop = threading.Event()
-    feeder = threading.Thread(target=publish_scenes, args=(cluster.endpoint, "car-1", stop))
+    feeder = threading.Thread(
+        target=publish_scenes, args=(authority, cluster.endpoint, "car-1", stop)
+    )
     try:
         cluster.router()
         authority.start()
@@ -63,9 +75,13 @@ def test_a_node_plays_what_it_hears_in_real_time(tmp_path: Path) -> None:
             feeder.join(timeout=30)
         authority.stop()
         cluster.close()
-    audio = node.json()["extra"]["audio"]
+    summary = node.json()
+    audio = summary["extra"]["audio"]
     assert audio["error"] == "" and audio["device"] == "simulated"
-    assert audio["scenes"] >= 20 and audio["emitters_max"] == 1 and audio["bad_scenes"] == 0
+    # the authority's scenes, one engine each; every forged one refused by the node's client
+    assert audio["scenes"] >= 20 and audio["emitters_max"] == 1, audio
+    assert summary["rejected"].get("audio/not_from_authority", 0) >= 20, summary["rejected"]
+    assert audio["handover_dropped"] == 0
     # The device ran at real-time pace: every period it played a block or counted a miss.
     periods = audio["playing_s"] / BLOCK_S
     assert audio["blocks"] + audio["underruns"] == pytest.approx(periods, rel=0.1)
