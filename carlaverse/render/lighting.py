@@ -15,9 +15,17 @@ map, actors, signal heads — is lit the same way; a node tunes its material wit
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
-from panda3d.core import CullBinManager, NodePath, Shader, TextureAttrib, TextureStage, Vec4
+from panda3d.core import (
+    CullBinManager,
+    GeomNode,
+    NodePath,
+    Shader,
+    TextureAttrib,
+    TextureStage,
+    Vec4,
+)
 
 from carlaverse.messages import MapReply
 from carlaverse.render.frame import SceneFrame
@@ -41,19 +49,32 @@ class Material:
     gloss: float  # 0..1: sky reflected even when dry (paint, glass)
     pools: bool = False  # lit per vertex, it still takes the nearest headlights per pixel
     windows: bool = False  # it carries an emission stage (a facade's lit windows)
+    untextured: bool = False  # no texture to fetch (a pixel's fetch is dear on llvmpipe)
+    fine: bool = False  # vertices a metre or two apart: beams may light it per vertex
 
     def input(self) -> Vec4:
-        flags = (1 if self.pools else 0) | (2 if self.windows else 0)  # shaders.POOLS, WINDOWS
+        # the flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4, FINE 8
+        flags = (1 if self.pools else 0) | (2 if self.windows else 0)
+        flags |= (4 if self.untextured else 0) | (8 if self.fine else 0)
         return Vec4(self.wet_response, self.roughness, float(flags), self.gloss)
+
+    def of(self, node: NodePath) -> Material:
+        """This material with the flags `node`'s own textures set (its first geom's)."""
+        stages = _stages(node)
+        return replace(
+            self,
+            windows=any(s.get_mode() == TextureStage.M_emission for s in stages),
+            untextured=not any(s.get_mode() == TextureStage.M_modulate for s in stages),
+        )
 
 
 DEFAULT_MATERIAL = Material(0.6, 0.85, 0.0)  # ground, walls, roofs: matte, partly puddled
 ROAD_MATERIAL = Material(1.0, 0.7, 0.0, pools=True)  # asphalt: wets all over, beams pool on it
-FACADE_MATERIAL = Material(0.6, 0.85, 0.0, windows=True)
-VEHICLE_MATERIAL = Material(0.2, 0.35, 0.12)  # paint and glass
+VEHICLE_MATERIAL = Material(0.2, 0.35, 0.12, untextured=True, fine=True)  # paint and glass
 # Roads are drawn before the rest of the opaque scene: the ground beneath them then fails the
 # depth test before it is shaded (on llvmpipe a shaded pixel is the frame's cost).
 ROAD_BIN, ROAD_BIN_SORT = "road_first", 15  # Panda3D's "opaque" bin sorts at 20
+FLAT_M = 0.3  # [m] geometry no taller casts no shadow worth a pass (ground, roads, kerbs)
 
 
 class SceneLighting:
@@ -75,16 +96,16 @@ class SceneLighting:
             return
         self._shaders: dict[tuple[bool, bool], Shader] = {}  # by (night, sun up), made on need
         _start_inputs(world)
-        road.set_shader_input("surface", ROAD_MATERIAL.input())
+        _materials(road.get_parent(), road)
         road.set_bin(_road_bin(), 0)
-        for facade in _with_emission(road.get_parent()):
-            facade.set_shader_input("surface", FACADE_MATERIAL.input())
         antialias = graphics.antialias()
         if antialias is not None:
             world.set_attrib(antialias)
         self.dome = SkyDome(world, preset, 0.5 * far_m, SHADOW_MASK)
         if preset.shadow_map_px:
             self.shadow = SunShadow(world, graphics, preset)
+            for flat in _flat_parts(road.get_parent()):  # ground, roads, paint, kerbs
+                flat.hide(SHADOW_MASK)
             if preset.box_shadows:
                 self.boxes = ShadowBoxes(world, SHADOW_MASK)
         self.headlights = Headlights(world, preset)
@@ -139,19 +160,34 @@ class SceneLighting:
             self.shadow.close()
 
 
-def _with_emission(root: NodePath) -> list[NodePath]:
-    """The geometry under `root` carrying a texture in emission mode (lit windows)."""
-    found = []
+def _flat_parts(root: NodePath) -> list[NodePath]:
+    """The geometry under `root` no taller than FLAT_M: its shadow is too short to see, and
+    drawn for the sun's camera each frame it would cost a second pass over the whole map."""
+    flat = []
     for geom_node in root.find_all_matches("**/+GeomNode"):
-        node = geom_node.node()
-        for i in range(node.get_num_geoms()):
-            textures = node.get_geom_state(i).get_attrib(TextureAttrib)
-            stages = [textures.get_on_stage(k) for k in range(textures.get_num_on_stages())
-                      ] if textures else []  # fmt: skip
-            if any(stage.get_mode() == TextureStage.M_emission for stage in stages):
-                found.append(geom_node)
-                break
-    return found
+        bounds = geom_node.get_tight_bounds()
+        if bounds is not None and bounds[1].z - bounds[0].z < FLAT_M:
+            flat.append(geom_node)
+    return flat
+
+
+def _materials(static: NodePath, road: NodePath) -> None:
+    """Each mesh of the map gets its material, flagged by the textures it carries."""
+    for geom_node in static.find_all_matches("**/+GeomNode"):
+        under_road = geom_node == road or road.is_ancestor_of(geom_node)
+        material = (ROAD_MATERIAL if under_road else DEFAULT_MATERIAL).of(geom_node)
+        geom_node.set_shader_input("surface", material.input())
+
+
+def _stages(node: NodePath) -> list[TextureStage]:
+    """The texture stages on a GeomNode's first geom (a builder's mesh has one geom)."""
+    geom_node = node.node()
+    if not isinstance(geom_node, GeomNode) or geom_node.get_num_geoms() == 0:
+        return []
+    textures = geom_node.get_geom_state(0).get_attrib(TextureAttrib)
+    if textures is None:
+        return []
+    return [textures.get_on_stage(k) for k in range(textures.get_num_on_stages())]
 
 
 def _road_bin() -> str:

@@ -5,8 +5,8 @@
 - `cpu`: for a software rasteriser (Mesa llvmpipe), whose cost is per pixel: the same light
   (sky, sun, tone mapping, wet roads, night lights) computed per vertex, the pixel only
   looking up its shadow (a 512² map over a smaller film, one hardware-filtered tap) and its
-  texture; actors cast the shadows of their boxes (`shadow_proxies`), 2 headlight
-  spotlights, sparser rain, no multisampling (which costs llvmpipe 3–4× the frame). Its
+  texture; actors cast the shadows of their boxes (`shadow_proxies`), the nearest
+  vehicle's beams only, sparser rain, no multisampling (llvmpipe: 3–4× the frame). Its
   budget: 1.5× the `flat` frame time at 1920×1080 and 3 × 1920×1080 (docs/benchmarks.md,
   Renderer).
 - `flat`: the fixed-function look the renderer had before (one sky colour, vertex lighting,
@@ -47,7 +47,7 @@ class Preset:
 
 PRESETS: dict[str, Preset] = {
     "full": Preset("full", True, True, True, 2048, 160.0, 4, False, 4, 8, 48, True, True, 4000),
-    "cpu": Preset("cpu", True, True, False, 512, 100.0, 1, True, 0, 2, 24, True, True, 1200),
+    "cpu": Preset("cpu", True, True, False, 512, 100.0, 1, True, 0, 1, 8, True, True, 1200),
     "flat": Preset("flat", False, False, False, 0, 0.0, 1, False, 0, 0, 0, False, False, 0),
 }
 

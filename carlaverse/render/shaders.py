@@ -59,10 +59,11 @@ uniform vec4 fog;             // rgb colour, a = extinction [1/m]
 uniform float exposure;
 uniform float night;
 uniform float wetness;
-uniform vec4 surface;         // x wet response, y roughness, z flags (POOLS, WINDOWS), w gloss
+uniform vec4 surface;         // x wet response, y roughness, z flags (POOLS...), w gloss
 uniform vec4 clouds;          // x cover 0..1, y unused, zw drift of the pattern (sky)
 
-// the surface's flags: headlight pools per pixel (roads), an emission stage (lit windows)
+// the surface's flags: headlight pools per pixel (roads), an emission stage (lit windows), no
+// texture (its fetch skipped: Panda3D would stand in a white one), a fine mesh (vehicles)
 bool flagged(int flag) { return (int(surface.z + 0.5) & flag) != 0; }
 
 vec3 to_linear(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }
@@ -124,6 +125,11 @@ vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float f0, in
         if (p.w <= 0.0 || ahead < 0.3 || d2 > HEAD_REACH_M * HEAD_REACH_M) continue;
         float ndl = dot(N, L);
         if (ndl <= 0.0) continue;
+#if !PER_PIXEL
+        // lit per vertex, a wall or a pole (one quad, metres tall) would glow all over from
+        // its foot: only level ground and fine meshes (vehicles) take a beam per vertex
+        if (N.z < 0.5 && !flagged(FINE)) continue;
+#endif
         float inv = inversesqrt(d2);
         float per = 1.0 / ahead;
         float across = abs(dot(L, vec3(axis.y, -axis.x, 0.0))) * per;  // tan, sideways
@@ -378,7 +384,7 @@ in float v_emissive;
 #endif
 out vec4 frag;
 void main() {
-    vec4 tex = texture(p3d_TextureModulate, v_uv);
+    vec4 tex = flagged(UNTEXTURED) ? vec4(1.0) : texture(p3d_TextureModulate, v_uv);
 #if NIGHT && HEADLIGHTS > 0
     // a road by night: the nearest vehicle's beam pool per pixel, then tone-mapped (γ 2)
     if (flagged(POOLS) && v_emissive < 0.5) {
@@ -584,6 +590,8 @@ def shader_defines(preset: Preset, night: bool, sun_up: bool = True) -> str:
         "RAIN_ALPHA": "0.55",
         "POOLS": "1",
         "WINDOWS": "2",
+        "UNTEXTURED": "4",
+        "FINE": "8",
         "HEAD_REACH_M": f"{HEAD_REACH_M}",
     }
     return "\n".join(f"#define {name} {value}" for name, value in values.items())

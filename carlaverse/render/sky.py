@@ -128,6 +128,17 @@ def warmth(altitude_deg: float) -> float:
     return WARM_HORIZON * (1.0 - u * u * (3 - 2 * u))
 
 
+def on_screen(c: RGB, exposure: float) -> tuple[float, float, float, float]:
+    """A linear colour as the shaders put it on screen: exposed, ACES tone-mapped (Narkowicz's
+    fit), encoded with γ 2.2 — for colours set outside them (a clear colour)."""
+    out = []
+    for x in c:
+        x *= exposure
+        x = (x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14)
+        out.append(min(1.0, max(0.0, x)) ** (1 / 2.2))
+    return (out[0], out[1], out[2], 1.0)
+
+
 def night_level(altitude_deg: float) -> float:
     """0 by day, 1 once street lights are fully on (a smoothstep over NIGHT_ON..FULL)."""
     u = (NIGHT_ON_DEG - altitude_deg) / (NIGHT_ON_DEG - NIGHT_FULL_DEG)

@@ -42,8 +42,9 @@ CLOUD_PX = 256  # side of the cloud texture
 CLOUD_OCTAVES = 6
 CLOUD_SEED = 42
 # The dome's tessellation: per pixel a coarse one does; lit per vertex its clouds need ~4°.
-RINGS, SEGMENTS = 24, 48
-FINE_RINGS, FINE_SEGMENTS = 45, 90
+RINGS, SEGMENTS = 12, 48
+FINE_RINGS, FINE_SEGMENTS = 25, 90
+LOWEST_DEG = -10.0  # [deg] the dome's lower edge
 
 
 class SkyDome:
@@ -88,11 +89,14 @@ class SkyDome:
 
 
 def sphere(name: str, radius: float, rings: int, segments: int) -> GeomNode:
-    """A UV sphere of `radius` [m], positions only."""
+    """A cap of a UV sphere of `radius` [m] from LOWEST_DEG up, positions only: below it the
+    ground covers the view (what shows past the ground's edge is the clear colour, the
+    horizon's), so the dome rasterises half a picture, not a whole one."""
     data = GeomVertexData(name, GeomVertexFormat.get_v3(), Geom.UH_static)
     vertex = GeomVertexWriter(data, "vertex")
+    lowest = math.radians(LOWEST_DEG)
     for i in range(rings + 1):
-        lat = math.pi * (i / rings - 0.5)
+        lat = lowest + (math.pi / 2 - lowest) * i / rings
         for j in range(segments + 1):
             lon = 2 * math.pi * j / segments
             vertex.add_data3(

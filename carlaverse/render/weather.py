@@ -24,7 +24,7 @@ from panda3d.core import AmbientLight, DirectionalLight, Fog, NodePath, Vec3, Ve
 from carlaverse.messages import Weather
 from carlaverse.render import palette
 from carlaverse.render.meshes import Color
-from carlaverse.render.sky import Daylight, daylight
+from carlaverse.render.sky import Daylight, daylight, on_screen
 
 FOG_K_PER_M = 0.06  # [1/m] extinction at fog_density 1: visibility 50 m
 RAIN_K_PER_M = 0.01  # [1/m] extra extinction at full precipitation
@@ -95,6 +95,8 @@ class WeatherLayer:
         self.sky = lit.sky
         if self.shaded:
             self._to_shaders(w, lit)
+            # past the ground's edge, below the sky dome, the view meets the fogged horizon
+            self.sky = on_screen(_fog_colour(self.daylight, w), self.daylight.exposure)
             return True
         self._sun.set_color((lit.sun, lit.sun * 0.97, lit.sun * 0.9, 1.0))
         self._sun_np.look_at(Vec3(*lit.sun_direction))
