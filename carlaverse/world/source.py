@@ -7,13 +7,15 @@ hands it everything received up to a session time. The sources:
                        each sample over as it arrives, once its sender is checked
     a recording        `render.recording.RecordedWorld` (MCAP), `viz.playback`
     a raw observer     `viz.live`: every key of a live session, as a viewer hears it
-    a synthetic feed   `testing.render_metrics`: a known path, sampled
+    a synthetic feed   `testing.render_metrics`: a known path, sampled, each pose written to
+                       the intake as it would have travelled
 
-All but the live session hand over samples as a key space carries them (key, put or delete,
-payload, arrival) through a `SampleFeed`: it decodes each payload once with the message's one
-codec and writes it in the intake's one representation (a pose as its 64 bytes; membership as
-present, gone with a `Departure`, snapshot). A payload that does not decode is counted in the
-intake's `dropped` under its channel (`key` for a key outside the key space) and skipped.
+Recordings and the raw observer hand over samples as a key space carries them (key, put or
+delete, payload, arrival) through a `SampleFeed`: it decodes each payload once with the
+message's one codec and writes it in the intake's one representation (a pose as its 64 bytes;
+membership as present, gone with a `Departure`, snapshot). A payload that does not decode is
+counted in the intake's `dropped` under its channel (`key` for a key outside the key space)
+and skipped.
 """
 
 from __future__ import annotations
