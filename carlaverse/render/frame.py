@@ -1,4 +1,4 @@
-"""What one rendered frame shows, taken from the fabric's world view at one time.
+"""What one rendered frame shows, taken from the world view (`carlaverse.world`) at one time.
 
 The renderer never reads raw samples: `frame_from_view` asks the `WorldView` for every ego and
 NPC at `now` (the view decides the render time), adds each ego's lamps from its `EgoState`,

@@ -1,4 +1,4 @@
-"""The actors of a view in Rerun: every ego and NPC where the fabric's world view draws it.
+"""The actors of a view in Rerun: every ego and NPC where the world view (`world`) draws it.
 
 The view decides one render time per frame (`WorldView.render_time`: now in `present` mode,
 now minus the largest stream delay in `past` mode), so every actor of a frame is logged at

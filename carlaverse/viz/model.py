@@ -4,7 +4,7 @@ Fed by `Batch`es from the `SampleStore` (live) or by recorded samples (playback)
 render thread only. It decodes, validates (bad payloads are counted per key and dropped) and
 marks what changed, so the scene logs only that.
 
-Where actors are drawn is the fabric's `WorldView`'s business (one render time per view), not
+Where actors are drawn is the `WorldView`'s business (one render time per view), not
 this model's: pose and NPC streams go straight into the view (`raw.ActorFeed`). The model hands
 the view what decides membership — presence tokens, spawn and despawn events, snapshots — in
 receive order, through the same `SampleFeed` and decoded once, and keeps what the view does

@@ -13,7 +13,7 @@ Entity layout (what tests and blueprints rely on):
     weather/<quantity>         Scalars, and weather/summary TextDocument
     stats/rate_hz/<node_id>    Scalars: pose rate per node
     stats/latency_ms/<node_id> Scalars: one-way latency per node
-Actors come from the fabric's `WorldView` (one render time per frame, interpolated or
+Actors come from the world model's `WorldView` (one render time per frame, interpolated or
 projected as its settings say), everything else from the `WorldModel`; only what changed is
 logged.
 """
