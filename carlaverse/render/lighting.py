@@ -50,12 +50,11 @@ class Material:
     pools: bool = False  # lit per vertex, it still takes the nearest headlights per pixel
     windows: bool = False  # it carries an emission stage (a facade's lit windows)
     untextured: bool = False  # no texture to fetch (a pixel's fetch is dear on llvmpipe)
-    fine: bool = False  # vertices a metre or two apart: beams may light it per vertex
 
     def input(self) -> Vec4:
-        # the flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4, FINE 8
+        # the flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4
         flags = (1 if self.pools else 0) | (2 if self.windows else 0)
-        flags |= (4 if self.untextured else 0) | (8 if self.fine else 0)
+        flags |= 4 if self.untextured else 0
         return Vec4(self.wet_response, self.roughness, float(flags), self.gloss)
 
     def of(self, node: NodePath) -> Material:
@@ -70,7 +69,7 @@ class Material:
 
 DEFAULT_MATERIAL = Material(0.6, 0.85, 0.0)  # ground, walls, roofs: matte, partly puddled
 ROAD_MATERIAL = Material(1.0, 0.7, 0.0, pools=True)  # asphalt: wets all over, beams pool on it
-VEHICLE_MATERIAL = Material(0.2, 0.35, 0.12, untextured=True, fine=True)  # paint and glass
+VEHICLE_MATERIAL = Material(0.2, 0.35, 0.12, untextured=True)  # paint and glass
 # Roads are drawn before the rest of the opaque scene: the ground beneath them then fails the
 # depth test before it is shaded (on llvmpipe a shaded pixel is the frame's cost).
 ROAD_BIN, ROAD_BIN_SORT = "road_first", 15  # Panda3D's "opaque" bin sorts at 20

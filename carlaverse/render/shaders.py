@@ -63,7 +63,7 @@ uniform vec4 surface;         // x wet response, y roughness, z flags (POOLS...)
 uniform vec4 clouds;          // x cover 0..1, y unused, zw drift of the pattern (sky)
 
 // the surface's flags: headlight pools per pixel (roads), an emission stage (lit windows), no
-// texture (its fetch skipped: Panda3D would stand in a white one), a fine mesh (vehicles)
+// texture (its fetch skipped: Panda3D would stand in a white one)
 bool flagged(int flag) { return (int(surface.z + 0.5) & flag) != 0; }
 
 vec3 to_linear(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }
@@ -115,6 +115,11 @@ uniform vec4 lamp_dir[HEADLIGHTS];  // xyz beam axis (unit, horizontal), w cut-o
 vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float f0, int first,
                 int last) {
     vec3 sum = vec3(0.0);
+#if !PER_PIXEL
+    // lit per vertex, a wall or a pole (one quad, metres tall) would glow all over from its
+    // foot, and every vertex of every car would pay: only level ground takes a beam here
+    if (N.z < 0.5) return sum;
+#endif
     for (int i = first; i < last; ++i) {
         vec4 p = lamp_pos[i];
         vec3 L = p.xyz - pos;
@@ -125,11 +130,6 @@ vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float f0, in
         if (p.w <= 0.0 || ahead < 0.3 || d2 > HEAD_REACH_M * HEAD_REACH_M) continue;
         float ndl = dot(N, L);
         if (ndl <= 0.0) continue;
-#if !PER_PIXEL
-        // lit per vertex, a wall or a pole (one quad, metres tall) would glow all over from
-        // its foot: only level ground and fine meshes (vehicles) take a beam per vertex
-        if (N.z < 0.5 && !flagged(FINE)) continue;
-#endif
         float inv = inversesqrt(d2);
         float per = 1.0 / ahead;
         float across = abs(dot(L, vec3(axis.y, -axis.x, 0.0))) * per;  // tan, sideways
@@ -325,12 +325,9 @@ VERTEX_LIT_VS = """
 out vec3 v_shade;   // the display colour in shadow; a road's by night: linear radiance × fog
 out vec3 v_sun;     // the same in sun
 out float v_alpha;
-#if NIGHT
-out vec3 v_fog_in;  // the fog's own light between the eye and the point
-out vec4 v_albedo;  // what headlights meet: linear albedo, a = fog transmittance
+#if NIGHT && HEADLIGHTS > 0
+out vec4 v_albedo;  // what a road's headlights meet: linear albedo, a = fog transmittance
 out vec3 v_pos;
-out vec3 v_normal;
-out float v_emissive;
 #endif
 void main() {
     vec4 world = p3d_ModelMatrix * p3d_Vertex;
@@ -344,11 +341,8 @@ void main() {
     vec3 V = to_eye / max(dist, 1e-4);
     v_shadow = shadow_coord(world.xyz, N);
     float through = exp(-fog.a * dist);
-#if NIGHT
+#if NIGHT && HEADLIGHTS > 0
     v_pos = world.xyz;
-    v_normal = N;
-    v_emissive = emissive() ? 1.0 : 0.0;
-    v_fog_in = fog.rgb * (1.0 - through);
     v_albedo = vec4(surface_at(N, V, to_linear(base.rgb)).albedo, through);
 #endif
     if (emissive()) {
@@ -357,7 +351,7 @@ void main() {
     }
     vec3 rest, sunlit;
     light(world.xyz, N, V, base.rgb, rest, sunlit);
-#if NIGHT
+#if NIGHT && HEADLIGHTS > 0
     if (flagged(POOLS)) {  // the fragment adds the beam and tone-maps
         v_shade = rest * through;
         v_sun = (rest + sunlit) * through;
@@ -375,22 +369,20 @@ in vec3 v_shade;
 in vec3 v_sun;
 in float v_alpha;
 in vec2 v_uv;
-#if NIGHT
-in vec3 v_fog_in;
+#if NIGHT && HEADLIGHTS > 0
 in vec4 v_albedo;
 in vec3 v_pos;
-in vec3 v_normal;
-in float v_emissive;
 #endif
 out vec4 frag;
 void main() {
     vec4 tex = flagged(UNTEXTURED) ? vec4(1.0) : texture(p3d_TextureModulate, v_uv);
 #if NIGHT && HEADLIGHTS > 0
-    // a road by night: the nearest vehicle's beam pool per pixel, then tone-mapped (γ 2)
-    if (flagged(POOLS) && v_emissive < 0.5) {
+    // a road by night: the nearest vehicle's beam pool per pixel, then tone-mapped (γ 2); a
+    // road is level (N up) and lit, never a lamp (few varyings: each costs every pixel)
+    if (flagged(POOLS)) {
         vec3 t = tex.rgb * tex.rgb;
-        vec3 c = mix(v_shade, v_sun, sun_visible()) * t + v_fog_in;
-        c += headlights(v_pos, v_normal, vec3(0.0), v_albedo.rgb * t, 0.0, 0.0, 0, 1)
+        vec3 c = mix(v_shade, v_sun, sun_visible()) * t + fog.rgb * (1.0 - v_albedo.a);
+        c += headlights(v_pos, vec3(0.0, 0.0, 1.0), vec3(0.0), v_albedo.rgb * t, 0.0, 0.0, 0, 1)
            * v_albedo.a;
         frag = vec4(sqrt(tone_map(c)), v_alpha * tex.a);
         return;
@@ -591,7 +583,6 @@ def shader_defines(preset: Preset, night: bool, sun_up: bool = True) -> str:
         "POOLS": "1",
         "WINDOWS": "2",
         "UNTEXTURED": "4",
-        "FINE": "8",
         "HEAD_REACH_M": f"{HEAD_REACH_M}",
     }
     return "\n".join(f"#define {name} {value}" for name, value in values.items())
