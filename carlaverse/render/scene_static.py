@@ -2,8 +2,9 @@
 
 `Renderer._build_map` attaches `road` under the node wetness darkens and `land` beside it.
 Each entry is one mesh with one texture state, so the map costs a draw call per entry: about
-a dozen, and one per 100 m square that has trees (squares out of view are culled). Everything random is seeded by the map's name, so every node that
-draws the same map draws the same trees and facades.
+a dozen, and one per 100 m square that has trees (squares out of view are culled). Everything
+random is seeded by the map's name, so every node that draws the same map draws the same trees
+and facades.
 """
 
 from __future__ import annotations
