@@ -40,7 +40,8 @@ def test_each_eye_sees_a_car_ahead_where_its_frustum_puts_it(save_shot) -> None:
                 right_eye=RIGHT_EYE, ipd_m=IPD, head=HeadPosition(z=EYE_Z))  # fmt: skip
     me = car("me", 0.0, 0.0, kind="pedestrian", ego=True)  # facing east
     ahead = car("ahead", 20.0, 0.0)
-    with Renderer(RenderConfig(output="offscreen", camera=rig), None) as r:
+    # flat: the camera maths is judged on the silhouette, and a shaded car also shadows the road
+    with Renderer(RenderConfig(output="offscreen", camera=rig, quality="flat"), None) as r:
         r.draw(SceneFrame(0.0, (me, ahead), None, NOON), follow="me")
         with_car = r.camera_images()
         r.draw(SceneFrame(0.0, (me,), None, NOON), follow="me")
@@ -78,7 +79,8 @@ def test_the_headsets_own_frusta_replace_the_rig_files() -> None:
                 right_eye=RIGHT_EYE, ipd_m=0.0, head=HeadPosition(z=EYE_Z))  # fmt: skip
     me = car("me", 0.0, 0.0, kind="pedestrian", ego=True)
     ahead = car("ahead", 20.0, 0.0)
-    with Renderer(RenderConfig(output="offscreen", camera=rig), None) as r:
+    # flat: the camera maths is judged on the silhouette, and a shaded car also shadows the road
+    with Renderer(RenderConfig(output="offscreen", camera=rig, quality="flat"), None) as r:
         mirrored = (RIGHT_EYE.fov(), LEFT_EYE.fov())
         r.rig.set_eye_frusta(mirrored)
         r.draw(SceneFrame(0.0, (me, ahead), None, NOON), follow="me")
