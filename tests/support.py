@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import json
-import os
 import signal
 import socket
 import subprocess
@@ -14,17 +13,13 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from carlaverse import procs
 from carlaverse.authority.domain import EmptyDomain
 from carlaverse.authority.service import Authority, AuthoritySettings
+from carlaverse.procs import free_port
 from carlaverse.transport.clock import MonotonicClock, WallAlignedClock
 from carlaverse.transport.node_client import NodeClient, NodeSettings
 from carlaverse.transport.session import FabricSettings, open_session
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def demo_seen(kind: str, *args: str, timeout: float = 120) -> dict[str, Any]:
@@ -84,50 +79,57 @@ class StallWatch:
 
 
 class Proc:
-    """A `python -m carlaverse ...` child with its output captured."""
+    """A `python -m carlaverse ...` child (`carlaverse.procs`) with its output captured."""
+
+    MAX_LINES = 20000  # per stream: a test reads what a child said, however chatty
 
     def __init__(self, args: list[str], name: str = "") -> None:
         self.args = args
         self.name = name or args[0]
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
-        self.proc = subprocess.Popen(
-            [sys.executable, "-m", "carlaverse", *args],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-            env=env,
-        )
-        self.stdout: list[str] = []
-        self.stderr: list[str] = []
-        self.readers: list[threading.Thread] = []
-        for stream, sink in ((self.proc.stdout, self.stdout), (self.proc.stderr, self.stderr)):
-            reader = threading.Thread(target=_drain, args=(stream, sink), daemon=True)
-            reader.start()
-            self.readers.append(reader)
+        self.child = procs.start(args, name=self.name, max_lines=self.MAX_LINES)
+        self.proc = self.child.proc
+        self.readers = self.child.readers
+
+    @property
+    def stdout(self) -> list[str]:
+        """Its stdout lines so far, each with its newline."""
+        return [line + "\n" for line in self.child.out.lines()]
+
+    @property
+    def stderr(self) -> list[str]:
+        """Its stderr lines so far, each with its newline."""
+        return [line + "\n" for line in self.child.err.lines()]
 
     def alive(self) -> bool:
-        return self.proc.poll() is None
+        return self.child.running
 
     def stop(self, sig: int = signal.SIGINT, timeout: float = 15) -> int:
+        """Send `sig` and wait up to `timeout` for it to exit; then stop its group for sure."""
+        if sig == signal.SIGINT:
+            return self.child.stop(timeout)  # SIGINT, SIGTERM, SIGKILL (procs.stop_children)
         if self.alive():
             self.proc.send_signal(sig)
         try:
             return self.proc.wait(timeout=timeout)
         except subprocess.TimeoutExpired:
-            self.proc.kill()
-            return self.proc.wait()
+            return self.child.stop(0.0)
 
     def wait(self, timeout: float) -> int:
         return self.proc.wait(timeout=timeout)
 
+    def wait_for_line(self, prefix: str, timeout: float, stream: str = "err") -> str:
+        """Its first `stream` line that starts with `prefix`; fails if it exits first."""
+        line = self.child.wait_for_line(prefix, timeout, stream)
+        assert line is not None
+        return line
+
     def json(self) -> dict[str, Any]:
         wait_until(lambda: not self.alive(), 1, f"{self.name} to exit")
-        for reader in self.readers:  # an exited child's last lines may still be in the pipe
-            reader.join(timeout=5)
-        text = "".join(self.stdout)
-        start = text.find("{")
-        assert start >= 0, f"{self.name} printed no JSON; stderr:\n{''.join(self.stderr)[-2000:]}"
-        return json.loads(text[start:])
+        document = self.child.json()
+        assert isinstance(document, dict), (
+            f"{self.name} printed no JSON; stderr:\n{''.join(self.stderr)[-2000:]}"
+        )
+        return document
 
     def output(self) -> str:
         return "".join(self.stdout) + "".join(self.stderr)
@@ -137,11 +139,6 @@ def _accepts(port: int) -> bool:
     with socket.socket() as probe:
         probe.settimeout(0.5)
         return probe.connect_ex(("127.0.0.1", port)) == 0
-
-
-def _drain(stream: Any, sink: list[str]) -> None:
-    for line in stream:
-        sink.append(line)
 
 
 class Cluster:

@@ -10,9 +10,9 @@ import sys
 from pathlib import Path
 
 from carlaverse.cli.common import fail
-from carlaverse.cli.demo import free_port
 from carlaverse.config import ConfigError
 from carlaverse.keys import KeySpaceError, check_token
+from carlaverse.procs import free_port
 
 DEFAULT_PORT = 8470
 

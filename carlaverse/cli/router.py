@@ -7,14 +7,11 @@ import sys
 import time
 
 from carlaverse.cli.common import fail, stop_on_signals
-from carlaverse.config import ConfigError, StrictStruct, load_config
+from carlaverse.config import ConfigError, load_config
+from carlaverse.config_check import RouterConfig
 from carlaverse.transport.session import FabricError, FabricSettings, open_session
 
 DEFAULT_LISTEN = "tcp/127.0.0.1:7447"
-
-
-class RouterConfig(StrictStruct):
-    fabric: FabricSettings = FabricSettings(mode="router")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

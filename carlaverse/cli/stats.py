@@ -27,7 +27,7 @@ from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, check_token
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.node_client import NodeClient, NodeSettings
 from carlaverse.transport.session import FabricError, FabricUnreachable, build_config
-from carlaverse.world.stream_summary import StreamSummary
+from carlaverse.world.stream_summary import StreamSummary, summaries
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -109,15 +109,10 @@ def _observe(
     while not stop.is_set() and time.monotonic() < deadline:
         now = client.update()
         if not args.json and time.monotonic() >= next_print:
-            _print_table(summaries(client, now))
+            _print_table(summaries(client.world.stats, now))
             next_print += args.interval
         stop.wait(0.05)
-    return summaries(client, client.update())
-
-
-def summaries(client: NodeClient, now: float) -> dict[str, StreamSummary]:
-    """Per node, what this observer measured of its poses (the launcher shows the same)."""
-    return {node: stats.summary(now) for node, stats in sorted(client.world.stats.items())}
+    return summaries(client.world.stats, client.update())
 
 
 def _print_table(rows: dict[str, StreamSummary]) -> None:

@@ -1,6 +1,6 @@
 """A config file being edited: its data, checked by the decoder the nodes use, saved only valid.
 
-Validation is `carlaverse config validate`'s own (`config_cmd.validate_file`): the draft is
+Validation is `carlaverse config validate`'s own (`config_check.validate_file`): the draft is
 written to a scratch file beside its target, so references relative to the file (a vehicle, a
 trainer table) resolve as they will for the node, and checked there; saving renames that very
 file into place, so what was checked is what is saved. Errors come back at their field path:
@@ -23,8 +23,8 @@ from typing import Any
 import msgspec
 import yaml
 
-from carlaverse.cli.config_cmd import detect_kind, validate_file
 from carlaverse.config import ConfigError, invalid_at, parse_yaml
+from carlaverse.config_check import detect_kind, validate_file
 from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.schema_tree import FILE_SCHEMAS, Section, describe
 from carlaverse.node_runtime import load_node_kind, node_kinds

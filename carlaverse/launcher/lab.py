@@ -6,26 +6,24 @@ and the authority's scenario are files inside the config dir or shipped ones (`l
 a process started from the page reads nothing else. A node may serve its web HMI; one beyond
 loopback prints a pairing URL, which the lab keeps in memory for the page's QR code
 (`launcher.hmi_pairing`). The demo is the
-one `carlaverse demo` runs — its authority and node arguments come from `cli.demo` — but each
+one `carlaverse demo` runs — its authority and node arguments come from `demo_plan` — but each
 of its processes is a child here, listed, logged and stoppable on its own.
 """
 
 from __future__ import annotations
 
-import argparse
 import tempfile
 from pathlib import Path
 
-from carlaverse.cli import demo
 from carlaverse.config import ConfigError
+from carlaverse.demo_plan import HEADLESS_KINDS, DemoChoices, authority_argv, check_nodes, node_plan
 from carlaverse.keys import check_token
 from carlaverse.launcher.files import ConfigDir
 from carlaverse.launcher.hmi_pairing import LOOPBACK, PairingWatch, hmi_argv
 from carlaverse.launcher.presence import PresenceRow, SessionWatch
-from carlaverse.launcher.processes import Child, LaunchError, Supervisor
+from carlaverse.launcher.processes import LaunchError, Supervisor
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind, node_kinds
-
-HEADLESS_KINDS = ("scripted", "observer")  # kinds that need no devices, sim or real
+from carlaverse.procs import Child
 
 
 class Lab:
@@ -54,10 +52,8 @@ class Lab:
         return child
 
     def start_authority(self, scenario: str = "town") -> Child:
-        args = argparse.Namespace(session=self.session, scenario=self._scenario(scenario))
-        return self.supervisor.start(
-            "authority", "authority", demo.authority_argv(args, self.endpoint)
-        )
+        argv = authority_argv(self.session, self._scenario(scenario), self.endpoint)
+        return self.supervisor.start("authority", "authority", argv)
 
     def start_node(
         self,
@@ -101,15 +97,15 @@ class Lab:
 
     def start_demo(self, kinds: list[str], duration_s: float, scenario: str = "town") -> list[str]:
         """What `carlaverse demo --nodes KINDS` starts, as children here; the node ids."""
-        problem = demo.check_nodes(kinds, [])
+        problem = check_nodes(kinds, [])
         if problem:
             raise LaunchError(problem)
-        args = _demo_args(self.session, kinds, duration_s, self._scenario(scenario))
+        choices = DemoChoices(self.session, self._scenario(scenario), duration_s)
         if not self._running("router"):
             self.start_router()
         if not self._running("authority"):
             self.start_authority(scenario)
-        plan = demo.node_plan(kinds, self.endpoint, args, Path(self._scratch.name))
+        plan = node_plan(kinds, self.endpoint, choices, Path(self._scratch.name))
         for node_id, argv in plan:
             self.supervisor.start(node_id, "node", argv)
         return [node_id for node_id, _argv in plan]
@@ -156,15 +152,3 @@ class Lab:
     def _watch(self) -> None:
         if self.watch is None:
             self.watch = SessionWatch(self.endpoint, self.session).start()
-
-
-def _demo_args(
-    session: str, kinds: list[str], duration_s: float, scenario: str
-) -> argparse.Namespace:
-    """`carlaverse demo`'s own arguments, defaults included, for these choices."""
-    parser = argparse.ArgumentParser()
-    demo.add_arguments(parser)
-    return parser.parse_args(
-        ["--session", session, "--nodes", ",".join(kinds), "--duration", str(duration_s),
-         "--scenario", scenario]
-    )  # fmt: skip

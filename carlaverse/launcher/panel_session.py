@@ -17,7 +17,8 @@ from carlaverse.launcher.hmi_pairing import EVERY_ADDRESS, LOOPBACK
 from carlaverse.launcher.lab import Lab
 from carlaverse.launcher.panel_pairing import pairing_panel
 from carlaverse.launcher.presence import PresenceRow
-from carlaverse.launcher.processes import Child, LaunchError
+from carlaverse.launcher.processes import LaunchError
+from carlaverse.procs import Child
 
 REFRESH_S = 0.5  # [s] tables and logs follow the lab this often
 PROCESS_COLUMNS = [

@@ -16,7 +16,6 @@ import time
 import msgspec
 
 from carlaverse import messages as m
-from carlaverse.cli.stats import summaries
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.node_client import NodeClient, NodeSettings
 from carlaverse.transport.session import (
@@ -26,7 +25,7 @@ from carlaverse.transport.session import (
     reachable,
     reaches_anyone,
 )
-from carlaverse.world.stream_summary import StreamSummary
+from carlaverse.world.stream_summary import StreamSummary, summaries
 
 log = logging.getLogger(__name__)
 
@@ -115,7 +114,9 @@ class SessionWatch:
             if time.monotonic() >= next_roster and client.joined.is_set():
                 self._ask_roster(client)
                 next_roster = time.monotonic() + ROSTER_PERIOD_S
-            rows = presence_rows(client.world.present, summaries(client, now), self._roster)
+            rows = presence_rows(
+                client.world.present, summaries(client.world.stats, now), self._roster
+            )
             with self._lock:
                 self._rows = rows
             self._stop.wait(UPDATE_PERIOD_S)

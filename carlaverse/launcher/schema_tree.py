@@ -19,7 +19,7 @@ LeafKind = Literal["number", "integer", "choice", "bool", "text", "yaml"]
 FILE_SCHEMAS = {
     "scenario": ("carlaverse.traffic.scenario", "ScenarioSpec"),
     "vehicle": ("carlaverse.physics.params", "VehicleParams"),
-    "router": ("carlaverse.cli.router", "RouterConfig"),
+    "router": ("carlaverse.config_check", "RouterConfig"),
     "rig": ("carlaverse.render.rig", "RenderConfig"),
 }
 

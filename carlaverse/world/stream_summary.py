@@ -5,6 +5,9 @@ A world view keeps them per sender as columns (`ego_streams.EgoStreams`); this i
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from typing import Protocol
+
 import msgspec
 
 
@@ -16,3 +19,14 @@ class StreamSummary(msgspec.Struct, frozen=True):
     jitter_ms: float
     loss: float  # fraction of sequence numbers never seen
     last_seen_s: float  # [s] age of the newest sample when summarised
+
+
+class Summarised(Protocol):
+    """A sender's stream statistics (`ego_streams`), summarised on demand."""
+
+    def summary(self, now: float) -> StreamSummary: ...
+
+
+def summaries(stats: Mapping[str, Summarised], now: float) -> dict[str, StreamSummary]:
+    """Per node, what an observer measured of its poses (`stats` and the launcher show these)."""
+    return {node: stream.summary(now) for node, stream in sorted(stats.items())}

@@ -60,11 +60,11 @@ def test_only_the_first_exact_stderr_line_for_the_asked_port_is_taken() -> None:
     child = supervisor.start("cab", "node", ["cab"], on_stderr=watch.feed)
     try:
         wait_until(lambda: not child.running, 20, "the child to finish")
-        wait_until(lambda: child.lines_since(0)[1][-1].startswith("[exited"), 5, "its log")
+        wait_until(lambda: child.log.since(0)[1][-1].startswith("[exited"), 5, "its log")
     finally:
         supervisor.stop_all()
     assert watch.url == GENUINE_URL
-    log = "\n".join(child.lines_since(0)[1])
+    log = "\n".join(child.log.since(0)[1])
     assert GENUINE_TOKEN not in log and FORGED_TOKEN not in log, log
     assert pairing_line(GENUINE_URL.replace(GENUINE_TOKEN, "…")) in log  # shown, redacted
     assert "done" in log  # stdout is logged as before, only never believed

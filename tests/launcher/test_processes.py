@@ -4,15 +4,14 @@ deaf to SIGINT whose own child left its group."""
 from __future__ import annotations
 
 import os
-import subprocess
 import sys
 import textwrap
-from collections import deque
 
 import psutil
 import pytest
 
-from carlaverse.launcher.processes import Child, LaunchError, Supervisor
+from carlaverse.launcher.processes import LaunchError, Supervisor
+from carlaverse.procs import Child
 from tests.support import wait_until
 
 # A stubborn child: ignores SIGINT, starts a grandchild in a session (group) of its own that
@@ -38,7 +37,7 @@ def _python(script: str) -> Supervisor:
 
 def _grandchild(child: Child) -> psutil.Process:
     line = wait_until(
-        lambda: next((ln for ln in child.lines_since(0)[1] if ln.startswith("pids")), None),
+        lambda: next((ln for ln in child.log.since(0)[1] if ln.startswith("pids")), None),
         20,
         "the child to report its grandchild",
     )
@@ -50,7 +49,7 @@ def test_child_runs_in_its_own_group_and_its_log_is_kept() -> None:
     child = supervisor.start("polite", "node", ["polite-1"])
     try:
         wait_until(lambda: "hello from polite-1" in supervisor.lines("polite")[1], 20, "its line")
-        assert child.lines_since(0)[1][0] == "$ carlaverse polite-1"  # the command, first
+        assert child.log.since(0)[1][0] == "$ carlaverse polite-1"  # the command, first
         assert os.getpgid(child.proc.pid) == child.proc.pid  # a group of its own
         next_index, lines = supervisor.lines("polite", 1)
         assert next_index == 2 and lines == ["hello from polite-1"]
@@ -80,13 +79,3 @@ def test_stop_kills_a_deaf_child_and_the_grandchild_that_left_its_group() -> Non
     supervisor.stop("deaf")  # SIGINT ignored by both; killed after the 1 s grace
     assert not child.running
     assert not grandchild.is_running() or grandchild.status() == psutil.STATUS_ZOMBIE
-
-
-def test_log_keeps_the_newest_lines_and_counts_the_rest() -> None:
-    done = subprocess.Popen([sys.executable, "-c", ""], text=True)
-    done.wait()
-    child = Child("quiet", "tool", [], done, log=deque(maxlen=3))
-    for i in range(5):
-        child.add_line(f"line {i}")
-    assert child.lines_since(0) == (5, ["line 2", "line 3", "line 4"])
-    assert child.lines_since(4) == (5, ["line 4"])

@@ -24,8 +24,8 @@ import yaml
 from carlaverse_nodes.drive.config import load_drive_config
 from carlaverse_nodes.drive.node import DriveNode
 
-from carlaverse.cli.config_cmd import validate_file
 from carlaverse.config import ConfigError
+from carlaverse.config_check import validate_file
 from carlaverse.expr import MAX_NODES
 from carlaverse.launcher.config_draft import field_error
 from tests.support import wait_until
