@@ -173,20 +173,29 @@ def main(argv: list[str] | None = None) -> int:
             )
         return 0
     qualities = [args.quality] + ([args.baseline] if args.baseline else [])
-    lines, gl = render_rows(qualities, args.frames)
+    lines, gl, over = render_rows(qualities, args.frames)
     lines += ["", f"GL renderer (as the driver reports it): `{gl}`. {NPCS} NPCs and {EGOS} "
               "egos, synthetic crossing map; by night every vehicle's low beams are on.", "",
               notes(gl, args.baseline)]  # fmt: skip
+    if over is not None:
+        lines += [
+            "",
+            f"`cpu` over its {BUDGET}× budget in this run: {'; '.join(over)}."
+            if over
+            else f"`cpu` within its {BUDGET}× budget in every case of this run.",
+        ]
     if args.write:
         write_section("Renderer", "\n".join(lines), command_line(argv), run)
     return 0
 
 
-def render_rows(qualities: list[str], frames: int) -> tuple[list[str], str]:
-    """The table's rows (one per rig, weather and quality) and the GL renderer."""
+def render_rows(qualities: list[str], frames: int) -> tuple[list[str], str, list[str] | None]:
+    """The table's rows (one per rig, weather and quality), the GL renderer, and the cases
+    where the `cpu` preset costs more than its budget against a `flat` baseline (None when
+    the run did not compare those two)."""
     lines = ["| rig | weather | quality | output | frames | frame p50 [ms] | frame p99 [ms] | "
              "fps at p50 | p50 / baseline |", "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
-    gl = ""
+    gl, over, compared = "", [], False
     for name, rig in RIGS.items():
         for weather_name, weather in WEATHERS.items():
             rows = bench(rig, weather, qualities, frames)
@@ -194,11 +203,15 @@ def render_rows(qualities: list[str], frames: int) -> tuple[list[str], str]:
             for r in rows:
                 gl = r["gl"]
                 ratio = f"{r['p50'] / base:.2f}" if len(rows) > 1 else "–"
+                if r["quality"] == "cpu" and rows[-1]["quality"] == "flat":
+                    compared = True
+                    if r["p50"] > BUDGET * base:
+                        over.append(f"{name}, {weather_name} ({ratio}×)")
                 lines.append(f"| {name} | {weather_name} | {r['quality']} | {r['size']} | "
                              f"{r['frames']} | {r['p50']:.1f} | {r['p99']:.1f} | "
                              f"{1e3 / r['p50']:.1f} | {ratio} |")  # fmt: skip
                 print(lines[-1], flush=True)
-    return lines, gl
+    return lines, gl, over if compared else None
 
 
 def notes(gl_renderer: str, baseline: str) -> str:
