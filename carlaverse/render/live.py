@@ -76,7 +76,10 @@ EDGES = ("left", "right", "up", "down")
 
 
 class OwnPose:
-    """Reads the node's own pose from its block; attaches once the node has created it."""
+    """Reads the node's own pose from its block; attaches once the node has created it.
+
+    A block with `written_ns` (the host's monotonic clock when the loop wrote the record)
+    lets a view measure motion-to-photon from there (`render.process`)."""
 
     def __init__(self, spec: OwnPoseBlock, actor_id: str) -> None:
         missing = [f for f in OWN_POSE_FIELDS if f not in (spec.dtype.names or ())]
@@ -88,6 +91,7 @@ class OwnPose:
         self.torn_reads = 0
         self.eyes: tuple[EyeFov, EyeFov] | None = None  # a headset's, from the last read
         self.dash: Dashboard | None = None  # the instruments, from the last read
+        self.written_ns = 0  # the drawn record's `written_ns`; 0: the block has no stamp
 
     def actor(self) -> ActorDraw | None:
         """The node's actor now, or None before its loop runs."""
@@ -98,6 +102,7 @@ class OwnPose:
         if "running" in names and not record["running"]:
             return None
         self.eyes = _eye_fovs(record) if "eyes" in names else None
+        self.written_ns = int(record["written_ns"]) if "written_ns" in names else 0
         size = self.spec.extent
         lights = int(record["lights"]) if "lights" in names else 0
         pitch, roll = (float(record[f]) if f in names else 0.0 for f in ("pitch", "roll"))

@@ -211,6 +211,7 @@ class _Runner:
             self.impulses,
         )
         r["running"] = 1
+        r["written_ns"] = time.monotonic_ns()  # last: the stamp is the moment it is published
         self.state.write(r)
 
     def summary(self) -> dict[str, Any]:

@@ -28,6 +28,7 @@ STATE = np.dtype(
         ("ticks", "<u8"), ("period_error_us", "<f8"), ("max_period_error_us", "<f8"),
         ("ffb_sent", "<u8"), ("motion_sent", "<u8"), ("impulses_applied", "<u8"),
         ("running", "u1"),
+        ("written_ns", "<u8"),  # [ns] host monotonic clock at the write (a view's latency)
     ]
 )  # fmt: skip
 
