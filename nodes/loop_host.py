@@ -4,33 +4,23 @@ The node (fabric side) creates two shared blocks, `state` (the loop writes, the 
 publisher and views read) and `control` (the node writes: clock offset, spawn, ...), starts
 the loop process with a queue for events and one for its final report, and at the end stops
 it, takes the report and frees the blocks. The loop side drains its event queue without
-waiting (`drain`).
+waiting (`loop_events.drain`), importing nothing of this module.
 """
 
 from __future__ import annotations
 
 import multiprocessing as mp
-import queue
 import threading
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Any
 
 from carlaverse.messages import Pose
 from carlaverse.realtime import stop_loop_process
-from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import SharedBlock, block_name
+from carlaverse.shm_layouts import OwnPoseBlock
 from carlaverse.transport.node_client import NodeClient, PoseSource
 
 PLANAR = ("t", "x", "y", "yaw", "vx", "vy", "ax", "ay")  # pose fields every loop's state has
-
-
-def drain(events: Any) -> Iterator[Any]:
-    """Every event waiting on the queue now, without blocking (the loop's tick must not wait)."""
-    while True:
-        try:
-            yield events.get_nowait()
-        except queue.Empty:
-            return
 
 
 class LoopHost:

@@ -6,9 +6,9 @@ Everyone else comes through an observer `NodeClient` of the render process's own
 has: the session clock, the snapshot for late joiners, presence, validation of every sample,
 and, asked for, every walker's skeleton, of which the world view keeps the newest valid one
 per present node; frames get them as joint-angle maps. The node's own actor is read from its
-shared-memory state block (`OwnPoseBlock`) each frame, so the driver's view of their own car
-has no network delay; the client's world view leaves that actor out (`own_actor`), so the
-copy of its pose that comes back over the fabric is never decoded.
+shared-memory state block (`shm_layouts.OwnPoseBlock`) each frame, so the driver's view of
+their own car has no network delay; the client's world view leaves that actor out
+(`own_actor`), so the copy of its pose that comes back over the fabric is never decoded.
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ from __future__ import annotations
 import logging
 import threading
 import time
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 import zenoh
@@ -33,6 +33,7 @@ from carlaverse.render.frame import (
     with_skeletons,
 )
 from carlaverse.shm import SharedBlock, TornRead
+from carlaverse.shm_layouts import EDGES, EYES, OWN_POSE_FIELDS, OwnPoseBlock
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.node_client import JoinRefused, NodeClient, NodeSettings
 from carlaverse.world.world_view import WorldView
@@ -40,39 +41,12 @@ from carlaverse.world.world_view import WorldView
 log = logging.getLogger(__name__)
 
 VIEW_SUFFIX = ".view"  # the render process joins as `<node id>.view`
-OWN_POSE_FIELDS = ("t", "x", "y", "yaw")  # an own-pose block must have these (session s, m, rad)
-CAR_EXTENT = m.Extent()
 MAP_QUERY_S = 5.0  # [s] the map is large: give its query time
 ARRIVAL_POLL_S = 0.05  # [s] between looks for the first actors
 
 
 class WorldMissing(Exception):
     """Part of a live session did not arrive in time; the message names which part."""
-
-
-@dataclass(frozen=True, slots=True)
-class OwnPoseBlock:
-    """Where a node exports its own pose: a seqlock block (`carlaverse.shm`) of `dtype`.
-
-    The dtype needs the fields `t, x, y, yaw`; `lights` (LIGHT_* bits), `pitch` and `roll`
-    (a walker's head: the first-person camera nods and tilts with it), `speed_mps`,
-    `yaw_rate` and `steer_rad` (the wheels' roll and steer; the speed, with `gear` and
-    `blink_on`, the HUD's dashboard: `frame.Dashboard`), `eyes` with
-    `<left|right>_eye_<left|right|up|down>` (a headset's eye frusta [rad], which an `xr` rig
-    draws with) and `running` (0 until the loop's first tick) are used when present. The node
-    kind names the block and its dtype, so this library never imports a node kind.
-    `eye_images` names the block a headset shows the rendered eyes from (`hal.xr.eye_images`).
-    """
-
-    name: str
-    dtype: np.dtype
-    kind: str = "car"
-    extent: m.Extent = CAR_EXTENT
-    eye_images: str = ""
-
-
-EYES = ("left_eye", "right_eye")  # a walker's block: `eyes` set, then <eye>_<edge> [rad]
-EDGES = ("left", "right", "up", "down")
 
 
 class OwnPose:

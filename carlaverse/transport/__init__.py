@@ -1,5 +1,6 @@
 """The transport: how a node takes part in a session over Zenoh (docs/architecture.md §2, §7).
 
+    settings      the `node:` and `fabric:` settings of a config (no Zenoh imported)
     session       opening Zenoh sessions from typed settings
     node_client   NodeClient: everything a node does on the fabric, behind one object
     inbound       the node's subscriptions: decode, check the sender, count, hand over

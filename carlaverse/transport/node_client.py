@@ -23,20 +23,18 @@ import threading
 import uuid
 from collections import deque
 from collections.abc import Callable
-from typing import Annotated
 
 import msgspec
 import zenoh
 
 from carlaverse import __version__
 from carlaverse import messages as m
-from carlaverse.config import StrictStruct
 from carlaverse.keys import AUTHORITY_ID, Keys, check_token
 from carlaverse.support.tally import Tally
 from carlaverse.transport.clock import Clock, SessionClock
 from carlaverse.transport.inbound import Inbound
 from carlaverse.transport.interest import InterestArea, TiledPublisher
-from carlaverse.world.remote_actor import InterpolationSettings
+from carlaverse.transport.settings import NodeSettings
 from carlaverse.world.world_view import WorldView
 
 log = logging.getLogger(__name__)
@@ -58,39 +56,6 @@ class FabricCounters(msgspec.Struct, frozen=True):
     handler_errors: dict[str, int]  # unexpected exceptions in callbacks, by handler
     impulses_accepted: int  # impulses handed to the node after de-duplication
     before_join: dict[str, int] = {}  # world messages ignored while no authority was joined
-
-
-class NodeSettings(StrictStruct):
-    node_id: str = ""  # required; may come from --id instead of the file
-    session: str = "default"
-    kind: str = "scripted"
-    actor_kind: str = "car"
-    extent: m.Extent = m.Extent()
-    mass_kg: float = 1500.0
-    site: str = ""
-    pose_rate_hz: float = 50.0
-    join_retry_s: float = 0.5
-    join_timeout_s: float = 2.0
-    clock_sync_period_s: float = 2.0
-    interpolation: InterpolationSettings = InterpolationSettings()
-    # [m] hear the egos and NPCs within this distance (at least; whole tiles are heard).
-    # 0 hears the whole session; a node without an actor (observer) always does.
-    interest_radius_m: Annotated[float, msgspec.Meta(ge=0)] = 200.0
-    # Run the pose callbacks on Zenoh's network thread: ~0.1 ms less per pose on an idle
-    # host, more CPU per pose (see `Inbound.pose_handler`); part of the low-latency set-up
-    # with `fabric: {lowlatency: true}`.
-    direct_pose_callbacks: bool = False
-    # Hear the whole session's poses through the authority's digest (`world/@egos`): dozens
-    # of poses per sample instead of one each, for about 1 ms more delay; for a node that
-    # hears the whole session (interest radius 0, or no actor). See docs/benchmarks.md.
-    pose_digest: bool = False
-
-    def __post_init__(self) -> None:
-        if self.pose_digest and self.interest_radius_m > 0 and self.actor_kind:
-            raise ValueError(
-                "pose_digest carries the whole session's poses: set interest_radius_m: 0 "
-                f"to use it (it is {self.interest_radius_m:g})"
-            )
 
 
 class NodeClient:

@@ -16,15 +16,13 @@ import socket
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, Literal
+from typing import Any
 
 import msgspec
 import zenoh
 
-from carlaverse.config import StrictStruct
 from carlaverse.patterns import whole_ascii
-
-Mode = Literal["peer", "client", "router"]
+from carlaverse.transport.settings import FabricSettings, Mode
 
 
 class FabricError(RuntimeError):
@@ -56,26 +54,6 @@ _HOST_PORT = whole_ascii(r"(?P<host>\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9_.-]+):(?P<port
 # What an endpoint may hold at all, whatever its protocol: printable ASCII, no space. A
 # newline, a NUL or a look-alike letter in a path or a `?meta` part is refused, not passed on.
 _ENDPOINT_TEXT = whole_ascii(r"[!-~]+")
-
-
-class FabricSettings(StrictStruct):
-    """How a process attaches to the fabric; the `fabric:` section of any config."""
-
-    mode: Mode = "peer"
-    listen: list[str] = []
-    connect: list[str] = []
-    multicast_scouting: bool = False
-    # A crashed peer is declared gone after `lease_ms` without traffic; keep it well under the
-    # despawn timeout (default 3 s). Keep-alives are sent `keep_alive` times per lease.
-    lease_ms: int = msgspec.field(default=2000)
-    keep_alive: int = 4
-    # Zenoh's low-latency transport: saves ~20-60 µs a hop; must be on for every process of
-    # a path, and disables QoS priorities. It does not fragment: a message over Zenoh's batch
-    # size (64 KiB; a large map or snapshot reply) is lost and the link to that peer closed.
-    lowlatency: bool = False
-    # Raw Zenoh config entries (json5 path -> value) for what has no field here: TLS files,
-    # authentication, access control. Applied last.
-    zenoh: dict[str, Any] = {}
 
 
 def default_listen(mode: Mode) -> list[str]:

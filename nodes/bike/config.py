@@ -33,8 +33,7 @@ from carlaverse.hal.trainer.resistance_table import ResistanceTable, load_table
 from carlaverse.messages import Extent
 from carlaverse.physics.bicycle import BicycleParams
 from carlaverse.physics.resistance import ResistanceParams
-from carlaverse.transport.node_client import NodeSettings
-from carlaverse.transport.session import FabricSettings
+from carlaverse.transport.settings import FabricSettings, NodeSettings
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 DEFAULT_TABLE = "bike-trainer-table.yaml"

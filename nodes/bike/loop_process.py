@@ -15,7 +15,7 @@ from typing import Any
 from carlaverse_nodes.bike.bike_loop import BikeLoop, BikeOutput
 from carlaverse_nodes.bike.config import BikeNodeConfig
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
-from carlaverse_nodes.loop_host import drain
+from carlaverse_nodes.loop_events import drain
 from carlaverse_nodes.map_route import DriverRoute
 
 from carlaverse.hal import open_ffb, open_input, open_speed_sensor, open_trainer

@@ -35,8 +35,7 @@ from carlaverse.physics.motion_cueing import MotionCueingParams
 from carlaverse.physics.params import VehicleParams, load_vehicle
 from carlaverse.physics.roughness import RoughnessClass
 from carlaverse.physics.steering_feel import SteeringFeelParams
-from carlaverse.transport.node_client import NodeSettings
-from carlaverse.transport.session import FabricSettings
+from carlaverse.transport.settings import FabricSettings, NodeSettings
 
 Positive = Annotated[float, msgspec.Meta(gt=0)]
 DEFAULT_VEHICLE = "vehicles/compact-car.yaml"

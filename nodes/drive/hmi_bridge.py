@@ -18,7 +18,7 @@ from typing import Any
 from carlaverse_nodes.drive.controls import ACTIONS
 from carlaverse_nodes.drive.shared_state import INDICATORS
 from carlaverse_nodes.drive.touch import TouchPress
-from carlaverse_nodes.loop_host import drain
+from carlaverse_nodes.loop_events import drain
 
 from carlaverse.hmi.bridge import StateBridge
 from carlaverse.hmi.wire import Command, Cruise, Press

@@ -22,7 +22,7 @@ from carlaverse_nodes.drive.config import DriveNodeConfig, input_configs
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 from carlaverse_nodes.drive.touch import TouchButtons, TouchPress
 from carlaverse_nodes.drive.vehicle_loop import DriveLoop, LoopOutput
-from carlaverse_nodes.loop_host import drain
+from carlaverse_nodes.loop_events import drain
 from carlaverse_nodes.map_route import DriverRoute
 
 from carlaverse.hal import FfbCommand, MotionFrame, open_ffb, open_input, open_motion

@@ -23,8 +23,7 @@ from carlaverse_nodes.walk.walkable import LaneSettings
 from carlaverse.config import StrictStruct
 from carlaverse.hal import InputConfig, XrConfig
 from carlaverse.messages import Extent
-from carlaverse.transport.node_client import NodeSettings
-from carlaverse.transport.session import FabricSettings
+from carlaverse.transport.settings import FabricSettings, NodeSettings
 
 PEDESTRIAN = Extent(0.5, 0.6, 1.75)  # [m] length (depth), width (shoulders), height
 

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from carlaverse_nodes.loop_host import drain
+from carlaverse_nodes.loop_events import drain
 from carlaverse_nodes.walk.config import WalkNodeConfig
 from carlaverse_nodes.walk.shared_state import CONTROL, STATE
 from carlaverse_nodes.walk.walk_control import WalkControl, WalkOutput
@@ -25,8 +25,8 @@ from carlaverse.hal import open_input, open_xr
 from carlaverse.hal.xr.eye_images import EyeImageBlock
 from carlaverse.messages import Impulse
 from carlaverse.realtime import Pacer, raise_priority
-from carlaverse.render.live import EDGES, EYES
 from carlaverse.shm import SharedBlock, new_record
+from carlaverse.shm_layouts import EDGES, EYES
 
 log = logging.getLogger(__name__)
 

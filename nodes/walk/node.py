@@ -30,8 +30,8 @@ from carlaverse import messages as m
 from carlaverse.body.skeleton import SkeletonSource
 from carlaverse.hal import XrConfig, xr
 from carlaverse.hal.errors import HalError
-from carlaverse.render.live import OwnPoseBlock
 from carlaverse.shm import block_name
+from carlaverse.shm_layouts import OwnPoseBlock
 from carlaverse.transport.node_client import NodeClient
 
 log = logging.getLogger(__name__)

@@ -22,7 +22,7 @@ STATE = np.dtype(
         ("running_pace", "u1"), ("interact", "u1"), ("tracked", "u1"),
         ("ticks", "<u8"), ("snaps", "<u8"),
         ("running", "u1"),
-        # the headset's eyes as it reports them [rad] (names: `render.live.EYES, EDGES`)
+        # the headset's eyes as it reports them [rad] (names: `shm_layouts.EYES, EDGES`)
         ("eyes", "u1"),
         ("left_eye_left", "<f8"), ("left_eye_right", "<f8"),
         ("left_eye_up", "<f8"), ("left_eye_down", "<f8"),

@@ -48,9 +48,9 @@ def _empty_scene() -> np.ndarray:
 def test_view_process_shows_the_scripted_node_and_reports(tmp_path: Path) -> None:
     from carlaverse_nodes.drive.shared_state import STATE
 
-    from carlaverse.render.live import OwnPoseBlock
     from carlaverse.render.process import ViewProcess, ViewSpec
     from carlaverse.shm import block_name
+    from carlaverse.shm_layouts import OwnPoseBlock
     from carlaverse.transport.node_client import NodeSettings
     from carlaverse.transport.session import FabricSettings
 

@@ -18,7 +18,8 @@ from carlaverse.cli import main
 from carlaverse.config import ConfigError
 from carlaverse.hal.xr import XrActions, XrHeadset
 from carlaverse.hal.xr.fov import EyeFov
-from carlaverse.render.live import OwnPose, OwnPoseBlock
+from carlaverse.render.live import OwnPose
+from carlaverse.shm_layouts import OwnPoseBlock
 from tests.hal.helpers import ManualClock
 
 SCRIPT = [
