@@ -30,8 +30,9 @@ from panda3d.core import (
 
 from carlaverse.messages import Weather
 from carlaverse.render.quality import Preset
-from carlaverse.render.shaders import RAIN_FS, RAIN_VS, program
+from carlaverse.render.shaders import program
 from carlaverse.render.shadows import SHADOW_MASK
+from carlaverse.render.sky_shaders import RAIN_FS, RAIN_VS
 
 FALL_MPS = 6.5  # [m/s] terminal speed of a ~2 mm raindrop
 EXPOSURE_S = 1 / 30  # [s] a frame's motion blur: a streak's length is the fall in it
