@@ -204,7 +204,8 @@ def _config(args: argparse.Namespace):  # -> RenderConfig
 
 def _render_recording(args: argparse.Namespace, stop: threading.Event) -> Shown:
     from carlaverse.recording.reading import recorded_map
-    from carlaverse.render.recording import RecordedWorld, first_pose_time, recording_start_time
+    from carlaverse.recording.timeline import first_pose_time, recording_start_time
+    from carlaverse.render.recording import RecordedWorld
     from carlaverse.render.renderer import Renderer
 
     world = RecordedWorld(args.source)

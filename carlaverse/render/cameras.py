@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 from panda3d.core import BitMask32, Camera, DisplayRegion, NodePath, PerspectiveLens
 
-from carlaverse.hal.xr.fov import EyeFov
+from carlaverse.fov import EyeFov
 from carlaverse.render.frame import ActorDraw
 from carlaverse.render.graphics import Graphics
 from carlaverse.render.meshes import Color

@@ -22,7 +22,7 @@ import numpy as np
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.hal.xr.fov import EyeFov
+from carlaverse.fov import EyeFov
 from carlaverse.render.frame import (
     ActorDraw,
     Dashboard,

@@ -29,7 +29,7 @@ from typing import Annotated, Literal
 import msgspec
 
 from carlaverse.config import StrictStruct
-from carlaverse.hal.xr.fov import EyeAngles, EyeFov
+from carlaverse.fov import EyeAngles, EyeFov
 from carlaverse.render.own_config import OwnView
 
 Degrees = Annotated[float, msgspec.Meta(gt=0.0, lt=180.0)]

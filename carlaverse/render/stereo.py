@@ -4,7 +4,7 @@ A Panda3D perspective lens images the film, a rectangle at the focal length ahea
 camera; with the focal length 1 the film is the image plane one unit ahead, where an eye's
 frustum spans tan(left)..tan(right) across and tan(down)..tan(up) up. So the film is that
 rectangle's size and its centre, offset from the optical axis, is the film offset: the lens
-draws exactly the OpenXR frustum, no symmetric render and no crop (`hal/xr/fov.py` has those
+draws exactly the OpenXR frustum, no symmetric render and no crop (`fov.py` has those
 for renderers that take one symmetric FOV, like CARLA's cameras).
 """
 
@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from panda3d.core import PerspectiveLens
 
-from carlaverse.hal.xr.fov import EyeFov
+from carlaverse.fov import EyeFov
 
 
 def off_axis_lens(fov: EyeFov, near_m: float, far_m: float) -> PerspectiveLens:

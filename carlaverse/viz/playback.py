@@ -20,7 +20,7 @@ from pathlib import Path
 
 from carlaverse.keys import KeySpaceError, parse_cached
 from carlaverse.recording.reading import iter_samples
-from carlaverse.render.recording import first_pose
+from carlaverse.recording.timeline import first_pose
 from carlaverse.viz.live import VIEW_ID, viewer_interpolation
 from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import ActorFeed

@@ -16,8 +16,8 @@ from carlaverse_nodes.walk.shared_state import STATE
 from carlaverse import hal
 from carlaverse.cli import main
 from carlaverse.config import ConfigError
+from carlaverse.fov import EyeFov
 from carlaverse.hal.xr import XrActions, XrHeadset
-from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.render.live import OwnPose
 from carlaverse.shm_layouts import OwnPoseBlock
 from tests.hal.helpers import ManualClock

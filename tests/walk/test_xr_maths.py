@@ -7,7 +7,7 @@ import math
 
 import pytest
 
-from carlaverse.hal.xr.fov import EyeFov, symmetric_fov, symmetric_render
+from carlaverse.fov import EyeFov, symmetric_fov, symmetric_render
 from carlaverse.hal.xr.frames import (
     StageAnchor,
     openxr_to_world,

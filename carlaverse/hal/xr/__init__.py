@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import msgspec
 
+from carlaverse.fov import EyeFov
 from carlaverse.hal.device import Device, DeviceConfig
 from carlaverse.hal.registry import BackendSpec, Registry
 from carlaverse.hal.xr.eye_images import EyeFrame
-from carlaverse.hal.xr.fov import EyeFov
 
 BACKENDS = {
     "sim": BackendSpec("carlaverse.hal.xr.sim", "SimHeadset"),

@@ -35,11 +35,11 @@ from xr.utils.gl import OpenGLGraphics
 from xr.utils.gl.glfw_util import GLFWOffscreenContextProvider
 
 from carlaverse.config import StrictStruct
+from carlaverse.fov import EyeFov
 from carlaverse.hal.device import Clock
 from carlaverse.hal.errors import DeviceError
 from carlaverse.hal.xr import XrActions, XrHeadset
 from carlaverse.hal.xr.eye_images import EyeFrame
-from carlaverse.hal.xr.fov import EyeFov
 from carlaverse.hal.xr.frames import quaternion_matrix
 from carlaverse.hal.xr.openxr_bindings import ACTIONS, ActionSpec, suggest_bindings
 from carlaverse.hal.xr.openxr_present import EyeSwapchain, layer_list, projection_layer

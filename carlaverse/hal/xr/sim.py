@@ -30,12 +30,12 @@ import msgspec
 import numpy as np
 
 from carlaverse.config import ConfigError, StrictStruct
+from carlaverse.fov import EyeAngles, EyeFov
 from carlaverse.hal.device import Clock
 from carlaverse.hal.input.profile import Keyframe, profile_time, sample_axis, sample_button
 from carlaverse.hal.noise import OrnsteinUhlenbeck
 from carlaverse.hal.xr import XrActions, XrHeadset
 from carlaverse.hal.xr.eye_images import EyeFrame
-from carlaverse.hal.xr.fov import EyeAngles, EyeFov
 
 NonNegative = Annotated[float, msgspec.Meta(ge=0)]
 Positive = Annotated[float, msgspec.Meta(gt=0)]
