@@ -47,9 +47,11 @@ class ChildFailed(RuntimeError):
     """A child exited, or stayed silent past its deadline, before the line it was waited for."""
 
 
-def free_port(host: str = "127.0.0.1") -> int:
-    """A TCP port free on `host` now (the kernel's pick; another program may take it later)."""
-    with socket.socket() as s:
+def free_port(host: str = "127.0.0.1", udp: bool = False) -> int:
+    """A TCP (or UDP) port free on `host` now (the kernel's pick; another program may take
+    it before the caller binds it)."""
+    kind = socket.SOCK_DGRAM if udp else socket.SOCK_STREAM
+    with socket.socket(socket.AF_INET, kind) as s:
         s.bind((host, 0))
         return int(s.getsockname()[1])
 

@@ -136,3 +136,9 @@ def test_free_port_can_be_bound() -> None:
     assert 1024 <= port <= 65535  # the kernel picks from the ephemeral range, never a low port
     with socket.socket() as s:
         s.bind(("127.0.0.1", port))
+
+
+def test_free_udp_port_can_be_bound() -> None:
+    port = free_port(udp=True)
+    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
+        s.bind(("127.0.0.1", port))

@@ -14,7 +14,6 @@ adds the wait until its next step polls the source.
 from __future__ import annotations
 
 import argparse
-import socket
 import statistics
 import threading
 import time
@@ -29,6 +28,7 @@ from carlaverse.body.pose_process import CameraBodySource
 from carlaverse.body.skeleton import BodyConfig
 from carlaverse.hal.camera import CameraConfig
 from carlaverse.keys import Keys
+from carlaverse.procs import free_port
 from carlaverse.support.stats import percentile
 from carlaverse.transport.session import FabricSettings, open_session
 
@@ -57,12 +57,6 @@ class Receiver:
         if skeleton.t >= self.since:
             with self._lock:
                 self.latencies_s.append(time.monotonic() - skeleton.t)
-
-
-def free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def measure(seconds: float, width: int, height: int, port: int,

@@ -23,6 +23,7 @@ from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse.hal import ffb_packet, open_ffb
 from carlaverse.hal.ffb_packet import FfbCommand
+from carlaverse.procs import free_port
 
 COMMAND = FfbCommand(
     spring_stiffness=4000, spring_offset=-120, spring_deadband=50, spring_saturation=9000,
@@ -31,12 +32,6 @@ COMMAND = FfbCommand(
 )  # fmt: skip
 HAPTICS_RATE_HZ = 1000  # [packets/s] the drive node's haptics loop
 CLIENT_TARGET_US = 10.0  # [µs] encode + send, so the 1 kHz loop barely notices
-
-
-def free_port() -> int:
-    with socket.socket(socket.AF_INET, socket.SOCK_DGRAM) as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def per_call_us(fn, calls: int) -> float:
@@ -77,7 +72,7 @@ def drain(sock: socket.socket, stop: threading.Event) -> None:
 
 def server_trial(rate_hz: float | None, seconds: float) -> tuple[int, int, int]:
     """(sent, received, applied) with the real server in a child process; None = flood."""
-    port = free_port()
+    port = free_port(udp=True)
     proc = subprocess.Popen(
         [sys.executable, "-m", "carlaverse", "ffb-server", "--backend", "log", "--port",
          str(port), "--watchdog-ms", "1000", "-o", "history=1"],

@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import itertools
 import re
-import socket
 import statistics
 import subprocess
 import sys
@@ -31,6 +30,7 @@ from typing import Any
 
 from benchdoc import RunInfo, command_line, write_section
 
+from carlaverse.procs import free_port
 from carlaverse.support.stats import percentile
 from carlaverse.testing.chromium import launch_chromium
 
@@ -68,7 +68,7 @@ def measure(pages: int, seconds: float) -> dict[str, Any]:
     """One run: a session, a drive node with its HMI, `pages` dashboards; their figures."""
     from playwright.sync_api import sync_playwright
 
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     cli = [sys.executable, "-m", "carlaverse"]
     procs = [
         subprocess.Popen([*cli, "router", "--listen", endpoint], stdout=subprocess.DEVNULL),
@@ -160,12 +160,6 @@ def _keep_tail(node: subprocess.Popen[str]) -> None:
     for line in node.stderr:
         NODE_TAIL.append(line)
         del NODE_TAIL[:-20]
-
-
-def _free_port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _intro(seconds: float) -> str:

@@ -37,6 +37,7 @@ from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse import messages as m
 from carlaverse.keys import Keys
+from carlaverse.procs import free_port
 from carlaverse.recording.reading import iter_samples, read_metadata
 from carlaverse.recording.recorder import DEFAULT_QUEUE_SIZE
 from carlaverse.recording.sink import McapSink
@@ -84,17 +85,9 @@ def bench_sink(kind: str, n: int) -> dict[str, float]:
 # --------------------------------------------------------------------------- 2. live
 
 
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def bench_live(kind: str, rate: float, seconds: float) -> dict[str, float]:
     """Publish `rate` msg/s for `seconds` into a recorder process; what did it keep?"""
-    endpoint = f"tcp/127.0.0.1:{_free_port()}"
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
     session = open_session(FabricSettings(listen=[endpoint]))
     key, payloads = _payloads(kind, 500)
     pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)

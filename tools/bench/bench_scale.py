@@ -70,6 +70,7 @@ from scale_report import section
 
 from carlaverse.authority.pose_digest import DIGEST_PERIOD_S
 from carlaverse.authority.service import AuthoritySettings
+from carlaverse.procs import free_port
 
 # ---------------------------------------------------------------- orchestration
 
@@ -86,7 +87,7 @@ class Bench:
         self.tmp = tmp
         self.seconds = seconds
         self.fill_s = fill_s
-        self.port = _free_port()
+        self.port = free_port()
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.ctx = mp.get_context("spawn")
         self.children: list[Any] = []
@@ -269,14 +270,6 @@ def _py_spy(pid: int, seconds: float, out: Path) -> subprocess.Popen | None:
            "raw", "--output", str(out), "--nonblocking", "--subprocesses", "--idle",
            "--rate", str(scale_profile.SAMPLE_RATE_HZ)]  # fmt: skip
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-
-
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
 
 
 def _profile(raw: Path, egos: int, args: argparse.Namespace) -> str:

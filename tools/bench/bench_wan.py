@@ -31,6 +31,7 @@ from typing import Any
 
 from benchdoc import RunInfo, command_line, write_section
 
+from carlaverse.procs import free_port
 from carlaverse.testing.linkemu import LinkProfile
 from carlaverse.testing.render_metrics import RENDERERS, Metrics
 from carlaverse.testing.stream_sim import SimRun, simulate
@@ -112,7 +113,7 @@ def run_live(seconds: float, workdir: Path) -> list[tuple[tuple[int, int, float]
     from carlaverse.testing.linkemu import LinkEmulator
     from carlaverse.testing.render_metrics import probe_metrics, window
 
-    port = _free_port()
+    port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
     procs = [_spawn(["-m", "carlaverse", "router", "--listen", endpoint])]
     link = LinkEmulator(("127.0.0.1", 0), ("127.0.0.1", port), LinkProfile()).start()
@@ -151,14 +152,6 @@ def run_live(seconds: float, workdir: Path) -> list[tuple[tuple[int, int, float]
         link.close()
     circle = CirclePath(radius=20.0, speed_mps=14.0)
     return [(row, probe_metrics(window(report, "bike", a, b), circle)) for row, a, b in windows]
-
-
-def _free_port() -> int:
-    import socket
-
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
 
 
 def _spawn(args: list[str], stdout: bool = False) -> subprocess.Popen:  # type: ignore[type-arg]
