@@ -108,13 +108,16 @@ class StopSignal(threading.Event):
         return Exit.stopped_by(self.signum or signal.SIGINT)
 
 
-def stop_on_signals() -> StopSignal:
-    """An event set by SIGINT or SIGTERM, so loops end cleanly and leave the session."""
+def stop_on_signals(then: Callable[[], None] | None = None) -> StopSignal:
+    """An event set by SIGINT or SIGTERM, so loops end cleanly and leave the session; `then`
+    is also called from the handler (it must not wait: a server's stop flag)."""
     stop = StopSignal()
 
     def handler(signum: int, frame: object) -> None:
         stop.signum = signum
         stop.set()
+        if then is not None:
+            then()
 
     if threading.current_thread() is threading.main_thread():  # tests call main() off it
         signal.signal(signal.SIGINT, handler)

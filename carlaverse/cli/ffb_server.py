@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 
 from carlaverse.cli import hal_common
+from carlaverse.cli.common import fail
 from carlaverse.config import ConfigError
 from carlaverse.hal.errors import HalError
 from carlaverse.hal.ffb_packet import DEFAULT_FFB_PORT
@@ -34,12 +35,12 @@ def run(args: argparse.Namespace) -> int:
             options["device"] = args.device
         actuator = hal_common.open_backend(registry(), backend, options)
     except (ConfigError, HalError) as exc:
-        return hal_common.fail("ffb-server", exc)
+        return fail("ffb-server", str(exc))
     try:
         server = FfbServer(actuator, args.bind, args.port, watchdog_s=args.watchdog_ms / 1000)
     except OSError as exc:
         actuator.close()
-        return hal_common.fail("ffb-server", f"cannot listen on {args.bind}:{args.port}: {exc}")
+        return fail("ffb-server", f"cannot listen on {args.bind}:{args.port}: {exc}")
     return hal_common.serve("ffb-server", server, backend, args, lambda: summary(server))
 
 

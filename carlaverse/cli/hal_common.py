@@ -4,7 +4,6 @@ backend table, and stopping cleanly on SIGINT/SIGTERM."""
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import threading
 from collections.abc import Callable
@@ -12,7 +11,7 @@ from typing import Any
 
 import yaml
 
-from carlaverse.cli.exit_codes import Exit
+from carlaverse.cli.common import stop_on_signals
 from carlaverse.config import ConfigError
 from carlaverse.hal.device import DeviceConfig, open_device
 from carlaverse.hal.registry import Registry
@@ -66,18 +65,6 @@ def list_backends(registry: Registry) -> int:
     return 0
 
 
-def stop_on_signals(stop: Callable[[], None]) -> None:
-    """Call `stop` on SIGINT/SIGTERM (only possible from the main thread)."""
-    if threading.current_thread() is not threading.main_thread():
-        return
-
-    def handler(signum: int, frame: object) -> None:
-        stop()
-
-    signal.signal(signal.SIGINT, handler)
-    signal.signal(signal.SIGTERM, handler)
-
-
 def stop_after(seconds: float | None, stop: Callable[[], None]) -> None:
     if seconds is not None:
         timer = threading.Timer(seconds, stop)
@@ -88,7 +75,7 @@ def stop_after(seconds: float | None, stop: Callable[[], None]) -> None:
 def serve(command: str, server: Any, backend: str, args: argparse.Namespace,
           summary: Callable[[], str]) -> int:  # fmt: skip
     """Run `server` in this thread until a signal or `--duration`, then print `summary()`."""
-    stop_on_signals(server.stop)
+    stop_on_signals(then=server.stop)
     stop_after(args.duration, server.stop)
     host, port = server.address
     print(
@@ -100,8 +87,3 @@ def serve(command: str, server: Any, backend: str, args: argparse.Namespace,
     server.serve_forever()
     print(f"{command} stopped: {summary()}", file=sys.stderr)
     return 0
-
-
-def fail(command: str, exc: object) -> int:
-    print(f"carlaverse {command}: {exc}", file=sys.stderr)
-    return Exit.USAGE  # a backend, an option or a port the user chose

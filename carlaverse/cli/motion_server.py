@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 
 from carlaverse.cli import hal_common
+from carlaverse.cli.common import fail
 from carlaverse.config import ConfigError
 from carlaverse.hal.errors import HalError
 from carlaverse.hal.motion_packet import DEFAULT_MOTION_PORT
@@ -31,12 +32,12 @@ def run(args: argparse.Namespace) -> int:
         options = hal_common.parse_options(args.option)
         platform = hal_common.open_backend(registry(), backend, options)
     except (ConfigError, HalError) as exc:
-        return hal_common.fail("motion-server", exc)
+        return fail("motion-server", str(exc))
     try:
         server = MotionServer(platform, args.bind, args.port, watchdog_s=args.watchdog_ms / 1000)
     except OSError as exc:
         platform.close()
-        return hal_common.fail("motion-server", f"cannot listen on {args.bind}:{args.port}: {exc}")
+        return fail("motion-server", f"cannot listen on {args.bind}:{args.port}: {exc}")
     return hal_common.serve("motion-server", server, backend, args, lambda: summary(server))
 
 
