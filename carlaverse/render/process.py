@@ -19,7 +19,8 @@ writing (a PNG and its line in `frames.jsonl`, on frames that write one).
 Motion-to-photon: the node's loop stamps each state it writes with the host's monotonic clock
 (`written_ns`, CLOCK_MONOTONIC is one clock for every process of the host). A frame drawn
 from a state not drawn before counts from that stamp to the end of its read-back (offscreen),
-or to the end of its render, the buffer swap (a window). Writing a PNG comes after and is
+or to the end of its render (a window: Panda3D swaps the buffers when the next frame starts,
+so there the figure is a lower bound by up to a frame). Writing a PNG comes after and is
 reported apart (`write_ms`).
 
 Cameras: `own` rides in the node's actor at the rig's head position (an observer without an
@@ -90,7 +91,7 @@ class ViewSummary:
     write_ms_p50: float = float("nan")  # PNG and its log line, frames that wrote one
     write_ms_p99: float = float("nan")
     readback_frames: int = 0
-    photon_at: str = ""  # "read-back" (offscreen) or "swap" (a window): where latency ends
+    photon_at: str = ""  # "read-back" (offscreen) or "render" (a window): where latency ends
     motion_to_photon_ms_p50: float = float("nan")
     motion_to_photon_ms_p99: float = float("nan")
     motion_to_photon_frames: int = 0  # frames drawn from a stamped state not drawn before
@@ -214,7 +215,7 @@ def _loop(spec: ViewSpec, stop: Any, world: Any, renderer: Any, summary: ViewSum
     dump = FrameDump(spec.out_dir, spec.out_every_s)
     headset = _eye_writer(spec)
     offscreen = spec.render.output == "offscreen"
-    summary.photon_at = "read-back" if offscreen else "swap"
+    summary.photon_at = "read-back" if offscreen else "render"
     drawn_ns = 0  # the stamp of the last state drawn: a state drawn again is no new motion
     parent = mp.parent_process()
     next_t = time.monotonic()
