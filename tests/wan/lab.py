@@ -17,10 +17,7 @@ outage without dropping the far site's presence; the authority's despawn timeout
 
 from __future__ import annotations
 
-import json
 import os
-import signal
-import subprocess
 import sys
 import threading
 import time
@@ -31,6 +28,7 @@ from typing import Any
 
 import yaml
 
+from carlaverse import procs
 from carlaverse.testing.linkemu import LinkEmulator, LinkProfile
 from tests.wan.netns import (
     NamespaceSet,
@@ -60,55 +58,49 @@ class SitePlan:
 
 
 class SiteProcess:
-    """A child process inside a site's namespace, output captured line by line."""
+    """A child process inside a site's namespace (`carlaverse.procs`), output kept per stream."""
+
+    MAX_LINES = 20000  # per stream: probes print a presence line per change
 
     def __init__(self, name: str, argv: list[str], log_dir: Path) -> None:
         self.name = name
-        self.lines: list[str] = []
-        self.stdout: list[str] = []
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
-        self.proc = subprocess.Popen(
-            argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env
-        )
-        self._drains = [
-            threading.Thread(target=_drain, args=(stream, sink), daemon=True)
-            for stream, sink in ((self.proc.stdout, self.stdout), (self.proc.stderr, self.lines))
-        ]
-        for drain in self._drains:
-            drain.start()
+        self.child = procs.start([], name=name, command=argv, max_lines=self.MAX_LINES)
+        self.proc = self.child.proc
         self.log = log_dir / f"{name}.log"
 
+    @property
+    def lines(self) -> list[str]:
+        """Its stderr lines so far."""
+        return self.child.err.lines()
+
+    @property
+    def stdout(self) -> list[str]:
+        """Its stdout lines so far."""
+        return self.child.out.lines()
+
     def alive(self) -> bool:
-        return self.proc.poll() is None
+        return self.child.running
 
     def said(self, text: str) -> bool:
         return any(text in line for line in self.lines + self.stdout)
 
     def stop(self, timeout: float = 15.0) -> int:
-        if self.alive():
-            self.proc.send_signal(signal.SIGINT)
-        try:
-            code = self.proc.wait(timeout=timeout)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            code = self.proc.wait()
+        code = self.child.stop(timeout)  # SIGINT, then SIGTERM and SIGKILL to its group
         # The process has exited, but its last lines (the exit summary) may still sit in the
         # pipes: read them to the end before anyone looks at the output.
-        for drain in self._drains:
-            drain.join(timeout)
-        self.log.write_text("".join(self.lines) + "".join(self.stdout), encoding="utf-8")
+        self.child.finish_reading(timeout)
+        self.log.write_text("\n".join(self.lines + self.stdout) + "\n", encoding="utf-8")
         return code
 
     def output(self) -> str:
-        return "".join(self.stdout)
+        return "\n".join(self.stdout)
 
     def json(self) -> Any:
-        """The JSON document the process printed last on stdout (its exit summary)."""
-        text = self.output()
-        start = text.find("{")
-        if start < 0:
-            raise ValueError(f"{self.name} printed no JSON; stderr:\n{''.join(self.lines)[-2000:]}")
-        return json.loads(text[start:])
+        """The JSON document the process printed on stdout (its exit summary)."""
+        document = procs.parse_json(self.stdout)
+        if document is None:
+            raise ValueError(f"{self.name} printed no JSON; stderr:\n{self.lines[-20:]}")
+        return document
 
     def presence(self, target: str) -> list[tuple[bool, float]]:
         """A probe's presence changes of `target`: (present, monotonic time)."""
@@ -118,11 +110,6 @@ class SiteProcess:
             if len(parts) == 4 and parts[0] == "presence" and parts[1] == target:
                 out.append((parts[2] == "1", float(parts[3])))
         return out
-
-
-def _drain(stream: Any, sink: list[str]) -> None:
-    for line in stream:
-        sink.append(line)
 
 
 class WanLab:
