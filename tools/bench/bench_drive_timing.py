@@ -11,16 +11,15 @@ The loop reports its own period error (actual wake-up minus deadline). A measure
 from __future__ import annotations
 
 import argparse
-import json
 import logging
 import multiprocessing as mp
-import subprocess
 import sys
 import time
 from collections.abc import Sequence
 
-from bench_fabric import _port
 from benchdoc import RunInfo, command_line, write_section
+
+from carlaverse import procs
 
 PEER_LOADS = (0, 32)  # scripted peers on the fabric, in processes of PEERS_PER_PROCESS
 PEERS_PER_PROCESS = 8
@@ -60,12 +59,11 @@ def run(
     kind: str = "drive",
 ) -> dict:
     """A node's loop timing summary (and its view's, when `node_args` ask for one)."""
-    endpoint = f"tcp/127.0.0.1:{_port()}"
-    cli = [sys.executable, "-m", "carlaverse"]
-    router = subprocess.Popen([*cli, "router", "--listen", endpoint], stdout=subprocess.DEVNULL)
-    authority = subprocess.Popen(
-        [*cli, "authority", "--scenario", scenario, "--session", "bench", "--connect", endpoint],
-        stderr=subprocess.DEVNULL,
+    endpoint = f"tcp/127.0.0.1:{procs.free_port()}"
+    router = procs.start(["router", "--listen", endpoint], name="router")
+    authority = procs.start(
+        ["authority", "--scenario", scenario, "--session", "bench", "--connect", endpoint],
+        name="authority",
     )
     ctx = mp.get_context("spawn")
     stop = ctx.Event()
@@ -76,23 +74,23 @@ def run(
     for w in workers:
         w.start()
     time.sleep(2.0 if workers else 0.5)
-    node = subprocess.run(
-        [*cli, "join", kind, "--id", f"{kind}-1", "--session", "bench", "--connect", endpoint,
+    node = procs.start(
+        ["join", kind, "--id", f"{kind}-1", "--session", "bench", "--connect", endpoint,
          "--backend", "sim", "--duration", str(duration), "--json", *node_args],
-        capture_output=True, text=True,
+        name=f"{kind} node",
     )  # fmt: skip
+    node.proc.wait()
     stop.set()
     for w in workers:
         w.join(10)
         if w.is_alive():  # a Zenoh close that hangs on a loaded machine must not hang us
             w.terminate()
-    for p in (authority, router):
-        p.terminate()
-        p.wait(10)
-    if node.returncode != 0 or not node.stdout.strip():
-        tail = "\n".join(node.stderr.strip().splitlines()[-40:])
-        raise RuntimeError(f"the {kind} node failed (exit {node.returncode}):\n{tail}")
-    summary = json.loads(node.stdout)
+    procs.stop_children([authority])  # the authority before the router that carries it
+    procs.stop_children([router])
+    summary = node.json()
+    if node.exit_code != 0 or summary is None:
+        tail = "\n".join(node.err.lines()[-40:])
+        raise RuntimeError(f"the {kind} node failed (exit {node.exit_code}):\n{tail}")
     loop = summary["extra"]["loop"]
     loop["peers_seen"] = len(summary["actors_seen"])
     if "view" in summary["extra"]:

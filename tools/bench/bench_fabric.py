@@ -30,6 +30,7 @@ from typing import Any
 
 from benchdoc import RunInfo, command_line, write_section
 
+from carlaverse.procs import free_port
 from carlaverse.support.stats import percentile
 
 STAMP = struct.Struct("<d56x")  # padded to the pose's 64 bytes: same payload size everywhere
@@ -200,17 +201,11 @@ def _authority(connect: str, stop: Any) -> None:
     session.close()
 
 
-def _port() -> int:
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return int(s.getsockname()[1])
-
-
 def run_topology(name: str, samples: int, rate: float, busy: bool) -> dict[str, Any]:
     ctx = mp.get_context("spawn")
     stop = ctx.Event()
     procs = []
-    r1, r2 = f"tcp/127.0.0.1:{_port()}", f"tcp/127.0.0.1:{_port()}"
+    r1, r2 = f"tcp/127.0.0.1:{free_port()}", f"tcp/127.0.0.1:{free_port()}"
     procs.append(ctx.Process(target=_router, args=(r1, [], stop)))
     tx_ep = rx_ep = r1
     mode = "peer" if name == "peer" else "client"
@@ -224,7 +219,7 @@ def run_topology(name: str, samples: int, rate: float, busy: bool) -> dict[str, 
         p.daemon = True  # a failed run must not leave us waiting on them at exit
         p.start()
     out, ready = ctx.Queue(), ctx.Event()
-    udp_port = _port()
+    udp_port = free_port()
     rx = ctx.Process(target=receiver, args=(rx_ep, mode, udp_port, samples, out, ready))
     tx = ctx.Process(
         target=sender, args=(tx_ep, mode, udp_port, samples, rate, ready, name == "peer")
