@@ -70,6 +70,10 @@ class Material:
 DEFAULT_MATERIAL = Material(0.6, 0.85, 0.0)  # ground, walls, roofs: matte, partly puddled
 ROAD_MATERIAL = Material(1.0, 0.7, 0.0, pools=True)  # asphalt: wets all over, beams pool on it
 VEHICLE_MATERIAL = Material(0.2, 0.35, 0.12, untextured=True)  # paint and glass
+# The own vehicle seen from inside: its dashboard faces up under the roof, where no rain falls,
+# and wetness acts on every upward face, so the cabin takes none (the bonnet stays dry too: one
+# mesh, and a dry bonnet is the smaller error than a dashboard mirroring the sky).
+OWN_VEHICLE_MATERIAL = Material(0.0, 0.35, 0.12, untextured=True)
 # Roads are drawn before the rest of the opaque scene: the ground beneath them then fails the
 # depth test before it is shaded (on llvmpipe a shaded pixel is the frame's cost).
 ROAD_BIN, ROAD_BIN_SORT = "road_first", 15  # Panda3D's "opaque" bin sorts at 20

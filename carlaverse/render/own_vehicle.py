@@ -25,6 +25,7 @@ from carlaverse.render.cockpit import cockpit_mesh, handlebar_mesh, panda
 from carlaverse.render.frame import ActorDraw, Dashboard
 from carlaverse.render.graphics import Graphics
 from carlaverse.render.hud import HeadUpDisplay
+from carlaverse.render.lighting import OWN_VEHICLE_MATERIAL
 from carlaverse.render.mirrors import MIRROR_MASK, MirrorView
 from carlaverse.render.own_config import COCKPIT_KINDS, HANDLEBAR_KINDS, TWO_WHEELERS, OwnView
 
@@ -44,6 +45,7 @@ class OwnVehicle:
         self.config = config
         self.rig = rig
         self.root = rig.anchor.attach_new_node("own")
+        self.root.set_shader_input("surface", OWN_VEHICLE_MATERIAL.input())
         view = BitMask32()
         for region in rig.regions:
             camera = region.get_camera().node()

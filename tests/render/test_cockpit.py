@@ -53,9 +53,10 @@ def me(kind: str = "car", roll: float = 0.0) -> ActorDraw:
                      ego=True)  # fmt: skip
 
 
-def riding(cfg: RenderConfig, actor: ActorDraw, dash: Dashboard | None = None) -> np.ndarray:
+def riding(cfg: RenderConfig, actor: ActorDraw, dash: Dashboard | None = None,
+           weather: m.Weather = NOON) -> np.ndarray:  # fmt: skip
     with Renderer(cfg, None) as r:
-        r.draw(SceneFrame(0.0, (actor,), None, NOON), follow=actor.actor_id, dash=dash)
+        r.draw(SceneFrame(0.0, (actor,), None, weather), follow=actor.actor_id, dash=dash)
         return r.images()[0]
 
 
@@ -213,3 +214,15 @@ def test_the_hud_arrow_is_on_the_side_of_the_indicator() -> None:
         cols = np.nonzero(changed(_hud(dash), plain))[1]
         assert cols.size > 3, side
         assert (cols.mean() < W / 2) == (side == "left"), (side, cols.mean())
+
+
+def test_rain_wets_the_road_not_the_dashboard() -> None:
+    """Wetness darkens and mirrors the sky on upward faces out in the weather; the dashboard
+    is under the car's roof and stays as dry as on a dry day. (Found in docs/images' rain
+    frame: the dashboard's top went from grey 8 to 31, mirroring the sky.)"""
+    cfg = msgspec.structs.replace(config(OwnView(cockpit=Cockpit())), quality="cpu")
+    dry = riding(cfg, me())
+    wet = riding(cfg, me(), weather=msgspec.structs.replace(NOON, wetness=0.9))
+    dash = (slice(H - 34, H - 22), slice(W - 90, W - 10))  # the dash top below the bonnet
+    assert dry[dash].mean() < 60  # the dark dashboard, not the bonnet or the road
+    assert np.abs(wet[dash].astype(int) - dry[dash].astype(int)).mean() < 2.0
