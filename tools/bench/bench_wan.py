@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import signal
-import subprocess
 import sys
 import tempfile
 import time
@@ -31,7 +29,7 @@ from typing import Any
 
 from benchdoc import RunInfo, command_line, write_section
 
-from carlaverse.procs import free_port
+from carlaverse.procs import Child, free_port, start, stop_children
 from carlaverse.testing.linkemu import LinkProfile
 from carlaverse.testing.render_metrics import RENDERERS, Metrics
 from carlaverse.testing.stream_sim import SimRun, simulate
@@ -44,6 +42,8 @@ LOSSES = (0.0, 0.01, 0.05)
 TARGET = (25, 10, 0.01)  # the issue's target link: 25 ± 10 ms, 1 % loss
 TARGET_NOW_P95_M, TARGET_JUMP_M = 0.25, 0.2
 LIVE_ROWS = ((25, 10, 0.0), (25, 10, 0.01), (100, 10, 0.01))
+READY_TIMEOUT_S = 60.0  # [s] for the probe to draw the bike (it prints `ready`)
+REPORT_TIMEOUT_S = 60.0  # [s] for the probe to print its report after SIGINT
 
 
 def links() -> list[tuple[int, int, float]]:
@@ -115,11 +115,11 @@ def run_live(seconds: float, workdir: Path) -> list[tuple[tuple[int, int, float]
 
     port = free_port()
     endpoint = f"tcp/127.0.0.1:{port}"
-    procs = [_spawn(["-m", "carlaverse", "router", "--listen", endpoint])]
+    children = [_spawn(["-m", "carlaverse", "router", "--listen", endpoint])]
     link = LinkEmulator(("127.0.0.1", 0), ("127.0.0.1", port), LinkProfile()).start()
     try:
-        procs.append(_spawn(["-m", "carlaverse", "authority", "--scenario", "none",
-                             "--session", "bench", "--connect", endpoint]))  # fmt: skip
+        children.append(_spawn(["-m", "carlaverse", "authority", "--scenario", "none",
+                                "--session", "bench", "--connect", endpoint]))  # fmt: skip
         path = {"type": "circle", "radius": 20.0, "speed_mps": 14.0}
         config = workdir / "bike.yaml"
         relay = f"tcp/127.0.0.1:{link.address[1]}"
@@ -127,12 +127,12 @@ def run_live(seconds: float, workdir: Path) -> list[tuple[tuple[int, int, float]
             "node: {node_id: bike, session: bench, kind: scripted, actor_kind: bicycle}\n"
             f"fabric: {{mode: client, connect: ['{relay}']}}\npath: {path}\n"
         )
-        procs.append(_spawn(["-m", "carlaverse", "join", "scripted", "--config", str(config)]))
+        children.append(_spawn(["-m", "carlaverse", "join", "scripted", "--config", str(config)]))
         probe = _spawn([str(ROOT / "tools/wan/wan_probe.py"), "--id", "probe", "--session",
                         "bench", "--connect", endpoint, "--duration", "3600",
-                        "--target", f"bike={config}"], stdout=True)  # fmt: skip
-        procs.append(probe)
-        _wait_ready(probe)
+                        "--target", f"bike={config}"])  # fmt: skip
+        children.append(probe)
+        probe.wait_for_line(lambda line: line.strip() == "ready", READY_TIMEOUT_S)
         windows = []
         for d, j, loss in LIVE_ROWS:
             link.set_profile(LinkProfile(d / 1e3, j / 1e3, loss))
@@ -140,34 +140,20 @@ def run_live(seconds: float, workdir: Path) -> list[tuple[tuple[int, int, float]
             time.sleep(3.0 + seconds)  # the row is a fixed-length experiment
             windows.append(((d, j, loss), start, start + seconds))
             print(f"live {d} ± {j} ms, {loss:.0%}", file=sys.stderr, flush=True)
-        probe.send_signal(signal.SIGINT)
-        import json
-
-        report = json.loads(probe.communicate(timeout=60)[0])
+        stop_children([probe], grace_s=REPORT_TIMEOUT_S)  # it prints its report on SIGINT
+        report = probe.json()
     finally:
-        for proc in reversed(procs):
-            if proc.poll() is None:
-                proc.send_signal(signal.SIGINT)
-                proc.wait(timeout=15)
+        for child in reversed(children):
+            stop_children([child])
         link.close()
     circle = CirclePath(radius=20.0, speed_mps=14.0)
     return [(row, probe_metrics(window(report, "bike", a, b), circle)) for row, a, b in windows]
 
 
-def _spawn(args: list[str], stdout: bool = False) -> subprocess.Popen:  # type: ignore[type-arg]
-    return subprocess.Popen([sys.executable, *args], stderr=subprocess.PIPE, text=True,
-                            stdout=subprocess.PIPE if stdout else subprocess.DEVNULL)  # fmt: skip
-
-
-def _wait_ready(probe: subprocess.Popen, timeout: float = 60.0) -> None:  # type: ignore[type-arg]
-    deadline = time.monotonic() + timeout
-    assert probe.stderr is not None
-    for line in probe.stderr:
-        if line.strip() == "ready":
-            return
-        if time.monotonic() > deadline:
-            break
-    raise TimeoutError("the probe never drew the bike")
+def _spawn(args: list[str]) -> Child:
+    """`python ARGS…` as a child (`carlaverse.procs`): its own group, both streams drained."""
+    name = args[2] if args[0] == "-m" else Path(args[0]).stem
+    return start(args, name=name, command=[sys.executable])
 
 
 def live_table(rows: list) -> str:  # type: ignore[type-arg]
