@@ -22,21 +22,20 @@ import argparse
 import itertools
 import re
 import statistics
-import subprocess
 import sys
-import threading
 import time
 from typing import Any
 
 from benchdoc import RunInfo, command_line, write_section
 
-from carlaverse.procs import free_port
+from carlaverse.procs import Child, free_port, start, stop_children
 from carlaverse.support.stats import percentile
 from carlaverse.testing.chromium import launch_chromium
 
 TARGET_RATE_HZ = 30.0  # the dashboard's floor
 HMI_URL = re.compile(r"HMI at (http://127\.0\.0\.1:\d+/)")
 WARMUP_S = 3.0  # [s] the clock offset settles and the car pulls away before measuring
+HMI_TIMEOUT_S = 60.0  # [s] for the node to serve its HMI and print where
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -69,29 +68,26 @@ def measure(pages: int, seconds: float) -> dict[str, Any]:
     from playwright.sync_api import sync_playwright
 
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    cli = [sys.executable, "-m", "carlaverse"]
-    procs = [
-        subprocess.Popen([*cli, "router", "--listen", endpoint], stdout=subprocess.DEVNULL),
-        subprocess.Popen(
-            [*cli, "authority", "--scenario", "none", "--session", "bench", "--connect", endpoint],
-            stderr=subprocess.DEVNULL,
-        ),
-    ]
-    node = subprocess.Popen(
-        [*cli, "join", "drive", "--id", "car", "--session", "bench", "--connect", endpoint,
+    children = [
+        start(["router", "--listen", endpoint], name="router"),
+        start(["authority", "--scenario", "none", "--session", "bench", "--connect", endpoint],
+              name="authority"),
+    ]  # fmt: skip
+    node = start(
+        ["join", "drive", "--id", "car", "--session", "bench", "--connect", endpoint,
          "--backend", "sim", "--hmi", "0"],  # runs until stopped
-        stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+        name="drive node",
     )  # fmt: skip
-    procs.append(node)
+    children.append(node)
     try:
         url = _hmi_url(node)
-        NODE_TAIL.clear()
         with sync_playwright() as playwright:
             browser = launch_chromium(playwright)
             tabs = [browser.new_page() for _ in range(pages)]
             for tab in tabs:
-                if node.poll() is not None:
-                    raise RuntimeError(f"the drive node exited ({node.returncode}): {NODE_TAIL}")
+                if not node.running:
+                    raise RuntimeError(f"the drive node exited ({node.exit_code}): "
+                                       f"{node.err.lines()[-20:]}")  # fmt: skip
                 tab.goto(url + "dashboard")
             for tab in tabs:
                 tab.wait_for_function("window.hmi && hmi.offsetS !== null && hmi.frames > 0",
@@ -102,9 +98,8 @@ def measure(pages: int, seconds: float) -> dict[str, Any]:
             figures = [_page_figures(tab, mark) for tab, mark in zip(tabs, marks, strict=True)]
             browser.close()
     finally:
-        for proc in reversed(procs):
-            proc.terminate()
-            proc.wait(15)
+        for child in reversed(children):  # the node, then the authority, then the router
+            stop_children([child])
     return _combine(figures)
 
 
@@ -138,28 +133,13 @@ def _combine(figures: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
-def _hmi_url(node: subprocess.Popen[str]) -> str:
-    """The URL the node prints once its HMI serves (it prints little else on stderr)."""
-    assert node.stderr is not None
-    deadline = time.monotonic() + 60
-    for line in node.stderr:
-        found = HMI_URL.search(line)
-        if found:  # keep reading what follows, so the node never blocks on a full pipe
-            threading.Thread(target=_keep_tail, args=(node,), daemon=True).start()
-            return found.group(1)
-        if time.monotonic() > deadline:
-            break
-    raise RuntimeError(f"the drive node printed no HMI URL (exit {node.poll()})")
-
-
-NODE_TAIL: list[str] = []  # the node's last stderr lines, for a failure's message
-
-
-def _keep_tail(node: subprocess.Popen[str]) -> None:
-    assert node.stderr is not None
-    for line in node.stderr:
-        NODE_TAIL.append(line)
-        del NODE_TAIL[:-20]
+def _hmi_url(node: Child) -> str:
+    """The URL the node prints on stderr once its HMI serves."""
+    line = node.wait_for_line(lambda text: HMI_URL.search(text) is not None, HMI_TIMEOUT_S)
+    found = HMI_URL.search(line or "")
+    if found is None:
+        raise RuntimeError("stopped before the drive node printed its HMI URL")
+    return found.group(1)
 
 
 def _intro(seconds: float) -> str:
