@@ -88,6 +88,7 @@ def format_summary(summary: dict[str, Any], as_json: bool) -> str:
     ]
     for node_id, row in summary["nodes"].items():
         lines.append(_table_line(node_id, row))
+    lines += LEGEND
     lines += _problems(summary)
     tick = (summary.get("authority") or {}).get("tick") or {}
     if tick:
@@ -95,14 +96,32 @@ def format_summary(summary: dict[str, Any], as_json: bool) -> str:
             f"authority: {tick.get('ticks')} ticks, p50 {tick.get('tick_p50_ms')} ms, "
             f"p99 {tick.get('tick_p99_ms')} ms"
         )
-    lines.append(
-        "every node saw every other node"
-        if summary["all_seen"]
-        else "NOT every node saw every other node"
-    )
+    lines.append(_seen_sentence(summary))
     if summary.get("interrupted"):
         lines.append(f"interrupted ({summary['interrupted']}): the run was cut short")
     return "\n".join(lines)
+
+
+# Under the table, so that a reader meets the columns' meaning where they read them.
+LEGEND = [
+    "  saw: other actors the node saw; NPCs: NPCs in its world at exit; p50/p99: worst peer's "
+    "one-way pose latency",
+    "  left: actors it saw leave on purpose (they stopped); lost: actors it lost to a lease, "
+    "silence or the authority",
+    "  dropped/rejected: its undecodable/refused input messages; missing: actors it never saw",
+]
+
+
+def _seen_sentence(summary: dict[str, Any]) -> str:
+    """The closing verdict; with one actor there is no other to see, so it says that instead."""
+    actors = [n for n in summary["nodes"] if not n.startswith("observer")]
+    if not actors:
+        return "no actor node ran: nothing to see"
+    if len(actors) == 1:
+        return f"only one node ran ({actors[0]}): there was no other node for it to see"
+    if summary["all_seen"]:
+        return "every node saw every other node"
+    return "NOT every node saw every other node"
 
 
 def _table_line(node_id: str, row: dict[str, Any]) -> str:
