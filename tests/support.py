@@ -117,9 +117,12 @@ class Proc:
     def wait(self, timeout: float) -> int:
         return self.proc.wait(timeout=timeout)
 
-    def wait_for_line(self, prefix: str, timeout: float, stream: str = "err") -> str:
-        """Its first `stream` line that starts with `prefix`; fails if it exits first."""
-        line = self.child.wait_for_line(prefix, timeout, stream)
+    def wait_for_line(
+        self, match: str | Callable[[str], bool], timeout: float, stream: str = "err"
+    ) -> str:
+        """Its first `stream` line that starts with `match` (or that `match` accepts); fails
+        naming it if it exits first or `timeout` passes (`procs.Child.wait_for_line`)."""
+        line = self.child.wait_for_line(match, timeout, stream)
         assert line is not None
         return line
 

@@ -21,7 +21,7 @@ EXIT_WITHIN_S = 2.0  # [s] the acceptance bound from the signal to the exit
 
 def _line(proc: Proc, text: str, started: float, within: float = LINE_WITHIN_S) -> float:
     """Seconds from `started` until `text` appears on stderr; fails after `within`."""
-    wait_until(lambda: text in "".join(proc.stderr), within + 1, repr(text), poll=0.01)
+    proc.wait_for_line(lambda line: text in line, within + 1)
     elapsed = time.monotonic() - started
     assert elapsed < within, f"{text!r} after {elapsed:.2f} s"
     return elapsed

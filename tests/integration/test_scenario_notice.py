@@ -32,8 +32,7 @@ def test_a_notice_reaches_the_node_it_names_and_the_firing_is_recorded(tmp_path:
         cluster.router()
         recorder = cluster.start("record", "--session", "t", "--connect", cluster.endpoint,
                                  "-o", str(mcap), name="recorder")  # fmt: skip
-        wait_until(lambda: any(x.startswith("recording session") for x in recorder.stderr), 30,
-                   "the recorder to subscribe")  # fmt: skip
+        recorder.wait_for_line("recording session", 30)  # the recorder has subscribed
         scenario = write_scenario(tmp_path, SCENARIO)
         cluster.start("authority", "--scenario", str(scenario), "--session", "t",
                       "--connect", cluster.endpoint, "--json", name="authority")  # fmt: skip

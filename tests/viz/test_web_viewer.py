@@ -47,7 +47,7 @@ def test_served_web_viewer_shows_the_scene(world: World, tmp_path: Path) -> None
     traffic = threading.Thread(target=world.synthetic.run, args=(stop,))
     browser = None
     try:
-        url = wait_until(lambda: _url(view), 30, "the web viewer URL")
+        url = _url(view.wait_for_line(lambda line: _url(line) is not None, 30))
         assert url.startswith("http://127.0.0.1:")
         children = psutil.Process(view.proc.pid).children(recursive=True)
         listening = _listening(children)
@@ -76,12 +76,10 @@ def _shot_with_scene(browser: Chromium) -> bytes | None:
     return shot if _scene_pixels(shot) > 200 else None
 
 
-def _url(view: Proc) -> str | None:
-    for line in view.stderr:
-        match = re.search(r"web viewer: (\S+)", line)
-        if match:
-            return match.group(1)
-    return None
+def _url(line: str) -> str | None:
+    """The web viewer's URL, if `line` is the view's line that says it."""
+    match = re.search(r"web viewer: (\S+)", line)
+    return match.group(1) if match else None
 
 
 def _listening(children: list[psutil.Process]) -> list[tuple[str, int]]:
