@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import re
+import shlex
 from pathlib import Path
 
 import pytest
@@ -70,3 +71,21 @@ def test_the_key_space_section_names_every_key() -> None:
 
 def test_the_schema_version_in_the_readme_is_the_code_s() -> None:
     assert f"`SCHEMA_VERSION` (now {m.SCHEMA_VERSION})" in section("Message schemas")
+
+
+def test_the_web_hmi_example_is_a_complete_join() -> None:
+    """The Web HMI section's example is what a newcomer copies first (issue 43.8): it must parse
+    as `carlaverse join` does, name the node (`--id`, unique in a session), say which session and
+    router to reach, and say before it that a router and an authority must be running (a node
+    is admitted by the authority, docs/architecture.md), else the node waits forever."""
+    text = README.split("### Web HMI\n", 1)[1].split("\n### ", 1)[0]
+    found = re.search(r"(?:^|`)(carlaverse join [^`\n]*)", text, re.M)
+    assert found, "the Web HMI section has no `carlaverse join` example"
+    argv = shlex.split(found[1])[2:]
+    parser = argparse.ArgumentParser(exit_on_error=False)
+    importlib.import_module(COMMANDS["join"][0]).add_arguments(parser)
+    args = parser.parse_args(argv)  # raises on an unknown flag or a bad value
+    assert args.node_id, f"the example lacks --id: {found[1]}"
+    assert args.hmi and args.session and args.connect, found[1]
+    before = text[: found.start()]
+    assert "router" in before and "authority" in before, "say what must run before the node"
