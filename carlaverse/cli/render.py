@@ -36,6 +36,7 @@ from carlaverse.cli.common import (
     say,
     stop_on_signals,
 )
+from carlaverse.cli.exit_codes import Exit
 
 DEFAULT_RIG = "rigs/rig-desktop"
 FREE = "free"
@@ -120,20 +121,24 @@ def run(args: argparse.Namespace) -> int:
     stop = stop_on_signals() if live else threading.Event()  # Ctrl-C leaves a session cleanly
     render = _render_live if live else _render_recording
     try:
-        shown = render(args, stop)
+        config = _config(args)  # a bad rig is said before any wait for a session
+        shown = render(args, config, stop)
     except (FabricUnreachable, WorldMissing) as exc:  # no router, authority or world in time
         waited = f" (waited --join-timeout {args.join_timeout:g} s)"
-        return fail("render", f"{exc}{waited}", stop.exit_code() if stop.is_set() else 5)
+        return fail("render", f"{exc}{waited}",
+                    stop.exit_code() if stop.is_set() else Exit.NOT_ADMITTED)  # fmt: skip
     except FabricError as exc:
-        return fail("render", str(exc), 3)
-    except (ConfigError, RecordingError, RenderError, FollowError, ValueError) as exc:
-        return fail("render", str(exc), 1)
+        return fail("render", str(exc), Exit.FABRIC)
+    except ConfigError as exc:  # a rig file that does not decode: nothing was drawn
+        return fail("render", str(exc), Exit.USAGE)
+    except (RecordingError, RenderError, FollowError, ValueError) as exc:
+        return fail("render", str(exc), Exit.FAILED)
     if args.json:
         print_json({"out": str(args.out), "frames": shown.frames, "t": shown.first_t,
                     "recording_start": shown.recording_start})  # fmt: skip
     else:
         print(f"render: {shown.frames} frame(s) -> {args.out}")
-    return 0
+    return Exit.OK
 
 
 @dataclass
@@ -202,7 +207,7 @@ def _config(args: argparse.Namespace):  # -> RenderConfig
     return config
 
 
-def _render_recording(args: argparse.Namespace, stop: threading.Event) -> Shown:
+def _render_recording(args: argparse.Namespace, config: Any, stop: threading.Event) -> Shown:
     from carlaverse.recording.reading import recorded_map
     from carlaverse.recording.timeline import first_pose_time, recording_start_time
     from carlaverse.render.recording import RecordedWorld
@@ -223,7 +228,7 @@ def _render_recording(args: argparse.Namespace, stop: threading.Event) -> Shown:
             f"{args.source} has no map and no actors at t = {start:.3f} s: nothing for "
             "--camera free to show (was anything recorded? try a later --at)"
         )
-    with Renderer(_config(args), road_map) as renderer:  # the world reads forward only
+    with Renderer(config, road_map) as renderer:  # the world reads forward only
         shown.frames = _capture(
             args, renderer, lambda k: first if k == 0 else world.frame(start + k / args.fps), stop
         )
@@ -233,7 +238,7 @@ def _render_recording(args: argparse.Namespace, stop: threading.Event) -> Shown:
     return shown
 
 
-def _render_live(args: argparse.Namespace, stop: threading.Event) -> Shown:
+def _render_live(args: argparse.Namespace, config: Any, stop: threading.Event) -> Shown:
     from carlaverse.keys import Keys
     from carlaverse.transport.node_client import NodeSettings
 
@@ -242,14 +247,14 @@ def _render_live(args: argparse.Namespace, stop: threading.Event) -> Shown:
     session, notice = attend("render", fabric, Keys(args.source), stop, deadline)
     try:
         node = NodeSettings(node_id=args.node_id, session=args.source)
-        return _draw_live(args, session, node, deadline, stop)
+        return _draw_live(args, config, session, node, deadline, stop)
     finally:
         notice.close()
         session.close()
 
 
-def _draw_live(args: argparse.Namespace, session: Any, node: Any, deadline: float,
-               stop: threading.Event) -> Shown:  # fmt: skip
+def _draw_live(args: argparse.Namespace, config: Any, session: Any, node: Any,
+               deadline: float, stop: threading.Event) -> Shown:  # fmt: skip
     from carlaverse.render.live import LiveWorld
     from carlaverse.render.renderer import Renderer
 
@@ -259,7 +264,7 @@ def _draw_live(args: argparse.Namespace, session: Any, node: Any, deadline: floa
         follow = None if args.camera == FREE else args.camera
         world.wait_for_actors(deadline, stop, actor_id=follow)
         pace = RealTime(world.frame, args.fps)
-        with Renderer(_config(args), road_map) as renderer:
+        with Renderer(config, road_map) as renderer:
             frames = _capture(args, renderer, pace, stop)
         if pace.repeated:
             slow = "drawing is slower than --fps; the clip keeps the session's pace"

@@ -112,6 +112,7 @@ BROKEN_CONFIG = {
     ],
     "certs": ["certs", "--roster", "{broken}"],
     "roster": ["roster", "check", "{broken}"],
+    "render": ["render", "lab", "--rig", "{broken}", "--out", "{tmp}/x.png"],
 }
 
 
