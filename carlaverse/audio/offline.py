@@ -107,9 +107,12 @@ def play_scenes(
     progress: Callable[[float], None] | None = None,
 ) -> None:
     """Render from the first scene's time to `end` [s], each scene taken at its own time
-    and the ears placed by `listener_at(t)` every block; blocks go to `write`."""
+    and the ears placed by `listener_at(t)` every block; blocks go to `write`. `progress`
+    hears the fraction rendered: 0.0 first, then every `PROGRESS_BLOCKS` blocks, 1.0 last."""
     start = renderer.t = scenes[0].t
     next_scene = 0
+    if progress is not None:
+        progress(0.0)
     while renderer.t < end:
         while next_scene < len(scenes) and scenes[next_scene].t <= renderer.t:
             renderer.hear(scenes[next_scene].emitters, scenes[next_scene].t)
@@ -118,7 +121,9 @@ def play_scenes(
             renderer.place(listener_at(renderer.t))
         write(renderer.render_block())
         if progress is not None and renderer.blocks % PROGRESS_BLOCKS == 0:
-            progress((renderer.t - start) / (end - start))
+            progress(min(1.0, (renderer.t - start) / (end - start)))
+    if progress is not None:
+        progress(1.0)
 
 
 def _check(recorded: RecordedAudio, listener: str, path: str | Path) -> PoseTrack:

@@ -73,10 +73,11 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
 
 
 def _progress() -> Callable[[float], None]:
+    """Prints the start (0 %), the end (100 %) and, in between, a line every few seconds."""
     last = [time.monotonic()]
 
     def report(fraction: float) -> None:
-        if time.monotonic() - last[0] >= PROGRESS_EVERY_S:
+        if fraction in (0.0, 1.0) or time.monotonic() - last[0] >= PROGRESS_EVERY_S:
             last[0] = time.monotonic()
             print(f"carlaverse audio: {fraction:5.1%} rendered", file=sys.stderr, flush=True)
 

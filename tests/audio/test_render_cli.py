@@ -3,6 +3,7 @@ process through the CLI into 16-bit multi-channel WAVs; user errors in one line.
 
 from __future__ import annotations
 
+import re
 import wave
 from pathlib import Path
 
@@ -92,3 +93,16 @@ def test_a_wrong_listener_or_file_is_one_clear_line(
                  "--out", out, "--layout", "ring2"]) == 2  # fmt: skip
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "ring2" in err
+
+
+def test_progress_runs_from_0_to_100_percent(tmp_path: Path, capsys: pytest.CaptureFixture) -> None:
+    """Progress is the fraction of the output rendered: nothing when the render starts, all of
+    it when the WAV is complete, never going back (issue 43.8: it began at 58.2 % and never said
+    100 %). A render shorter than the reporting period still shows both ends."""
+    recording = write_recording(tmp_path / "tiny.mcap", scenes(crowd(2, seed=5), 0.3))
+    assert main(["audio", "render", str(recording), "--listener", LISTENER,
+                 "--out", str(tmp_path / "tiny.wav")]) == 0  # fmt: skip
+    err = capsys.readouterr().err
+    percents = [float(p) for p in re.findall(r"carlaverse audio: +([\d.]+)% rendered", err)]
+    assert percents[0] == 0.0 and percents[-1] == 100.0, err
+    assert percents == sorted(percents), err
