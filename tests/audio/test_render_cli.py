@@ -106,3 +106,19 @@ def test_progress_runs_from_0_to_100_percent(tmp_path: Path, capsys: pytest.Capt
     percents = [float(p) for p in re.findall(r"carlaverse audio: +([\d.]+)% rendered", err)]
     assert percents[0] == 0.0 and percents[-1] == 100.0, err
     assert percents == sorted(percents), err
+
+
+@pytest.mark.parametrize("layout", ["7.1", "ring2", "ring65"])
+def test_an_unknown_layout_is_one_line_naming_the_accepted_ones(
+    crowd_recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture, layout: str
+) -> None:
+    """The layouts the README and --help document: binaural, stereo, quad, 5.1 and a ring of
+    3 to 64 speakers. A wrong one is a usage error (exit 2) said in words, not as the
+    validator's regular expression (issue 43.8)."""
+    assert main(["audio", "render", str(crowd_recording), "--listener", LISTENER,
+                 "--out", str(tmp_path / "x.wav"), "--layout", layout]) == 2  # fmt: skip
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"--layout {layout!r}" in err, err
+    for name in ("binaural", "stereo", "quad", "5.1", "ringN", "3 to 64"):
+        assert name in err, err
+    assert "regex" not in err and "(?" not in err and "$." not in err, err
