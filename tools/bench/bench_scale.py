@@ -38,7 +38,6 @@ import contextlib
 import json
 import multiprocessing as mp
 import shutil
-import signal
 import subprocess
 import sys
 import tempfile
@@ -68,10 +67,13 @@ from scale_layout import (
 )
 from scale_report import section
 
+from carlaverse import procs
 from carlaverse.authority.pose_digest import DIGEST_PERIOD_S
 from carlaverse.authority.service import AuthoritySettings
 from carlaverse.procs import free_port
 
+SWARM_JOIN_TIMEOUT_S = 300.0  # [s] for a swarm of 256 egos to be admitted on a loaded host
+SWARM_REPORT_S = 60.0  # [s] for the swarm to print its report after SIGINT
 # ---------------------------------------------------------------- orchestration
 
 
@@ -91,13 +93,11 @@ class Bench:
         self.endpoint = f"tcp/127.0.0.1:{self.port}"
         self.ctx = mp.get_context("spawn")
         self.children: list[Any] = []
-        self.router: subprocess.Popen | None = None
+        self.router: procs.Child | None = None
         self.conns: dict[str, Any] = {}  # child name -> its end of the pipe
 
     def start(self) -> None:
-        cli = [sys.executable, "-m", "carlaverse"]
-        self.router = subprocess.Popen([*cli, "router", "--listen", self.endpoint],
-                                       stderr=subprocess.DEVNULL)  # fmt: skip
+        self.router = procs.start(["router", "--listen", self.endpoint], name="router")
         scenario = self.tmp / "scale.yaml"
         scenario.write_text(SCENARIO)
         self.conns["authority"], _ = self._child(authority_main, str(scenario), self.priority)
@@ -162,7 +162,7 @@ class Bench:
     def window(self, swarm_pid: int | None, profile_to: Path | None = None) -> dict[str, Any]:
         """One measured window: every child's report and the CPU of the router, the
         authority and the swarm."""
-        pids = {"router": self.router.pid, "authority": self.authority_pid}  # type: ignore[union-attr]
+        pids = {"router": self.router.proc.pid, "authority": self.authority_pid}  # type: ignore[union-attr]
         if swarm_pid is not None:
             pids["swarm"] = swarm_pid
         if self.sumo_pid is not None:
@@ -213,41 +213,36 @@ class Bench:
         `rounds` > 1: the hear-everything and digest windows that many times, alternating
         (`rounds` in the result), so the two ways of hearing everything are compared on
         medians rather than on one window each; `floors`: the floors' window too."""
-        cmd = [sys.executable, "-m", "carlaverse", "swarm", "--egos", str(egos), "--session",
-               SESSION, "--connect", self.endpoint, "--spread", f"{SPREAD_M:g}", "--block",
-               f"{BLOCK_M:g}", "--origin", f"{ATTACH_M:g}", f"{ATTACH_M:g}", "--json",
-               *(["--express"] if express else [])]  # fmt: skip
-        swarm = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        argv = ["swarm", "--egos", str(egos), "--session", SESSION, "--connect", self.endpoint,
+                "--spread", f"{SPREAD_M:g}", "--block", f"{BLOCK_M:g}", "--origin",
+                f"{ATTACH_M:g}", f"{ATTACH_M:g}", "--json",
+                *(["--express"] if express else [])]  # fmt: skip
+        swarm = procs.start(argv, name="swarm")
         try:
-            result = self._swarm_windows(swarm, profile_to, rounds, floors)
-            swarm.send_signal(signal.SIGINT)
-            out, _ = swarm.communicate(timeout=60)
+            swarm.wait_for_line(lambda line: "egos joined" in line, SWARM_JOIN_TIMEOUT_S)
+            result = self._swarm_windows(swarm.proc.pid, profile_to, rounds, floors)
+            procs.stop_children([swarm], grace_s=SWARM_REPORT_S)  # it reports on SIGINT
         finally:  # a window that failed must not leave 256 egos sending into the next run
-            if swarm.poll() is None:
-                swarm.kill()
-                swarm.wait(15)
-        result["swarm"] = json.loads(out)
+            procs.stop_children([swarm], grace_s=0.0)
+        result["swarm"] = swarm.json()
         time.sleep(2.0)  # the egos leave; the next N starts from an empty roster
         return result
 
     def _swarm_windows(
-        self, swarm: subprocess.Popen[str], profile_to: Path | None, rounds: int, floors: bool
+        self, swarm_pid: int, profile_to: Path | None, rounds: int, floors: bool
     ) -> dict[str, Any]:
-        for line in swarm.stderr:  # type: ignore[union-attr]
-            if "egos joined" in line:
-                break
         time.sleep(SETTLE_S)
-        result = self.both_windows(swarm.pid, profile_to)
+        result = self.both_windows(swarm_pid, profile_to)
         result["rounds"] = [{"hearing": result["hearing"], "digest": result["digest"]}]
         for _ in range(rounds - 1):
             again = {}
             with self.hearing():
-                again["hearing"] = self.window(swarm.pid)
+                again["hearing"] = self.window(swarm_pid)
             with self.hearing(digest=True):
-                again["digest"] = self.window(swarm.pid)
+                again["digest"] = self.window(swarm_pid)
             result["rounds"].append(again)
         if floors:
-            result["floors"] = self.floors(swarm.pid)
+            result["floors"] = self.floors(swarm_pid)
         return result
 
     def close(self) -> None:
@@ -257,8 +252,7 @@ class Bench:
         for proc in self.children:
             proc.join(15)
         if self.router is not None:
-            self.router.send_signal(signal.SIGINT)
-            self.router.wait(15)
+            procs.stop_children([self.router])
 
 
 def _py_spy(pid: int, seconds: float, out: Path) -> subprocess.Popen | None:
