@@ -42,6 +42,7 @@ log = logging.getLogger(__name__)
 PoseSource = Callable[[float], m.Pose | None]
 
 LEAVE_EVENT_WAIT_S = 1.5  # [s] longest a leaving node waits to see its own `left` event
+CLOCK_QUERY_TIMEOUT_S = 0.5  # [s] one clock exchange at most (its error bound is RTT / 2)
 
 
 class JoinRefused(RuntimeError):
@@ -105,6 +106,7 @@ class NodeClient:
         # What the join waits for when the authority is there but its answer is not: a query
         # that times out (a loaded authority or link) is asked again, never a refusal.
         self.unanswered = ""
+        self._clock_unanswered = False  # said once per run of unanswered clock queries
         self._settled = threading.Event()  # the first join was answered, yes or no
         self.join_reply: m.JoinReply | None = None
         self.snapshot: m.Snapshot | None = None
@@ -433,10 +435,12 @@ class NodeClient:
         local = self.clock.local
         payload = m.CLOCK_REQUEST.encode(m.ClockRequest(self.node_id))
         t0 = local.now()
-        raw = self._query(self.keys.authority("clock"), payload, 0.5)
+        raw = self._query(self.keys.authority("clock"), payload, CLOCK_QUERY_TIMEOUT_S)
         t1 = local.now()
         if raw is None:
+            self._say_clock_unanswered()
             return
+        self._clock_unanswered = False
         try:
             reply = m.CLOCK_REPLY.decode(raw)
         except m.MessageError:
@@ -446,6 +450,18 @@ class NodeClient:
         if not reply.known and self.joined.is_set() and self.refused is None:
             self.joined.clear()  # the authority lost us (restart, partition): join again
             self._wake.set()
+
+    def _say_clock_unanswered(self) -> None:
+        """A loaded authority or link leaves a clock query unanswered now and then; that is
+        normal, not an alarm: said once, in words, until an answer comes again."""
+        if self._clock_unanswered:
+            return
+        self._clock_unanswered = True
+        log.info(
+            "the authority of session %r did not answer a clock query within %g s; asking "
+            "again, session time runs on its last estimate meanwhile",
+            self.settings.session, CLOCK_QUERY_TIMEOUT_S,
+        )  # fmt: skip
 
 
 def timed_out(reply: zenoh.Reply) -> bool:
