@@ -151,6 +151,31 @@ vec3 headlights(vec3 pos, vec3 N, vec3 V, vec3 albedo, float rough, float f0, in
 }
 #endif
 
+#if NIGHT && HEADLIGHTS > 0 && !PER_PIXEL
+// Lamp 0 (the nearest vehicle's) seen from a point: metres ahead along its beam, sideways and
+// how far the lamp stands above it. All three are linear in the point, so a vertex's values,
+// interpolated, are a pixel's own exactly: the pixel pays only for the beam's shape.
+vec3 beam_coords(vec3 pos) {
+    vec3 L = lamp_pos[0].xyz - pos;
+    vec3 axis = lamp_dir[0].xyz;
+    return vec3(-dot(L, axis), dot(L, vec3(axis.y, -axis.x, 0.0)), L.z);
+}
+// The irradiance lamp 0 puts on level ground at beam coordinates b: headlights() for N up,
+// without branches (a software rasteriser runs both sides of one for every pixel)
+vec3 own_beam(vec3 b) {
+    float per = 1.0 / max(b.x, 0.3);
+    float across = abs(b.y) * per;
+    float below = lamp_dir[0].w + b.z * per;
+    float d2 = dot(b, b);
+    float inv = inversesqrt(d2);
+    float on = lamp_pos[0].w * step(0.3, b.x) * step(d2, HEAD_REACH_M * HEAD_REACH_M);
+    float beam = clamp((0.85 - across) * 1.8, 0.0, 1.0)
+               * clamp(below * 60.0 + 0.5, 0.0, 1.0)
+               * exp2(-max(below, 0.0) * (1.4427 / 0.06));
+    return HEAD_RGB * (max(on, 0.0) * beam * max(b.z, 0.0) * inv * inv * inv);
+}
+#endif
+
 #if NIGHT && STREET_LIGHTS
 uniform sampler2D street_map;  // irradiance on the ground from every street light
 uniform vec4 street_rect;      // x0, y0 [m], 1/width, 1/height [1/m]
@@ -258,11 +283,13 @@ float sun_visible() {
                     + texture(shadow_map, p + vec3(t.x, -t.y, 0.0))
                     + texture(shadow_map, p + vec3(-t.x, t.y, 0.0))
                     + texture(shadow_map, p + vec3(t.x, t.y, 0.0)));
-#else
-    float s = texture(shadow_map, p);
-#endif
     vec2 edge = min(p.xy, 1.0 - p.xy);  // fade out at the film's border
     return mix(1.0, s, shadow_on * smoothstep(0.0, 0.05, min(edge.x, edge.y)));
+#else
+    // one tap, lit past the film's border (the map's border colour): no fade there, whose
+    // arithmetic would cost every pixel as much as the lookup
+    return mix(1.0, texture(shadow_map, p), shadow_on);
+#endif
 #else
     return 1.0;
 #endif
@@ -330,7 +357,7 @@ out vec3 v_sun;     // the same in sun
 out float v_alpha;
 #if NIGHT && HEADLIGHTS > 0
 out vec4 v_albedo;  // what a road's headlights meet: linear albedo, a = fog transmittance
-out vec3 v_pos;
+out vec3 v_beam;    // the nearest vehicle's beam coordinates (beam_coords)
 #endif
 void main() {
     vec4 world = p3d_ModelMatrix * p3d_Vertex;
@@ -345,7 +372,7 @@ void main() {
     v_shadow = shadow_coord(world.xyz, N);
     float through = exp(-fog.a * dist);
 #if NIGHT && HEADLIGHTS > 0
-    v_pos = world.xyz;
+    v_beam = beam_coords(world.xyz);
     v_albedo = vec4(surface_at(N, V, to_linear(base.rgb)).albedo, through);
 #endif
     if (emissive()) {
@@ -374,7 +401,7 @@ in float v_alpha;
 in vec2 v_uv;
 #if NIGHT && HEADLIGHTS > 0
 in vec4 v_albedo;
-in vec3 v_pos;
+in vec3 v_beam;
 #endif
 out vec4 frag;
 void main() {
@@ -385,8 +412,7 @@ void main() {
     if (flagged(POOLS)) {
         vec3 t = tex.rgb * tex.rgb;
         vec3 c = mix(v_shade, v_sun, sun_visible()) * t + fog.rgb * (1.0 - v_albedo.a);
-        c += headlights(v_pos, vec3(0.0, 0.0, 1.0), vec3(0.0), v_albedo.rgb * t, 0.0, 0.0, 0, 1)
-           * v_albedo.a;
+        c += own_beam(v_beam) * (v_albedo.rgb * t * v_albedo.a);
         frag = vec4(sqrt(tone_map(c)), v_alpha * tex.a);
         return;
     }
