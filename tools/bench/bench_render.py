@@ -238,8 +238,9 @@ def drive_notes() -> str:
         f"else through its own observer connection; the {VIEW_SCENARIO} scenario with its "
         f"generated buildings and parks, {traffic.vehicles.count} cars and "
         f"{traffic.pedestrians.count} pedestrians), capped at {TARGET_FPS} fps. Its frame time "
-        "is the world update and the draw (no read-back: no --view-out) on the machine's GL "
-        "renderer (see the Renderer section), which shares the cores with the loop; the "
+        "is the world update, the draw and reading the pixels back (an offscreen view reads "
+        "every frame back, as its fps counts) on the machine's GL renderer (see the Renderer "
+        "section), which shares the cores with the loop; the "
         "loop's own process is not touched."
     )
 
