@@ -73,6 +73,8 @@ class ConfigDraft:
         self.target = target  # inside `files`: absolute, or relative to the config dir
         self.files = files
         self.data: dict[str, Any] = data or {}
+        self.errors: list[FieldError] = []  # the last check's, by field path
+        self.saved: bool | None = None  # the last save since an edit: done, refused, not tried
         self.tree: Section = describe(kinds[kind], kind)
         self._paths = {s.path for s in self.tree.walk()} | {
             leaf.path for s in self.tree.walk() for leaf in s.leaves
@@ -108,6 +110,7 @@ class ConfigDraft:
                 child = node[key] = {}
             node = child
         node[last] = value
+        self.saved = None
 
     def unset(self, path: str) -> None:
         """Remove the field at `path`, so the schema's default applies again."""
@@ -117,6 +120,7 @@ class ConfigDraft:
             node = node.get(key) if isinstance(node, dict) else None
         if isinstance(node, dict):
             node.pop(last, None)
+        self.saved = None
 
     def yaml_text(self) -> str:
         return yaml.safe_dump(copy.deepcopy(self.data), sort_keys=False)
@@ -129,6 +133,18 @@ class ConfigDraft:
         """Write the file if it is valid ([]); otherwise leave it untouched and say why."""
         return self._checked(save=True)
 
+    def status(self) -> tuple[str, bool]:
+        """The editor's status line for the draft as it is now, and whether it is good news.
+
+        Said from the current edit and check, never kept from an earlier one: after a refused
+        save, a field set right again must not leave "not saved: <old error>" standing."""
+        if self.errors:
+            verb = "not saved" if self.saved is False else "not valid"
+            return f"{verb}: {self.errors[0]}", False
+        if self.saved:
+            return f"saved {self.files.shown(self.target)}", True
+        return "valid, not saved yet", True
+
     def _checked(self, save: bool) -> list[FieldError]:
         try:
             with self.files.scratch(self.target, self.yaml_text()) as scratch:
@@ -136,7 +152,10 @@ class ConfigDraft:
                 if save and not errors:
                     scratch.commit()
         except ConfigError as exc:  # the target itself: outside, through a symlink, …
-            return [FieldError("", str(exc))]
+            errors = [FieldError("", str(exc))]
+        self.errors = errors
+        if save:
+            self.saved = not errors
         return errors
 
     def _check(self, scratch: Path) -> list[FieldError]:

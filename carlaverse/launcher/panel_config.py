@@ -74,8 +74,8 @@ class ConfigEditor:
         self.tree.props["nodes"] = [_tree_nodes(draft.tree, set())]
         self.tree.update()
         self.tree.expand()
-        self._say(f"{draft.kind}: {what}", ok=True)
         self._revalidate()
+        self._say(f"{draft.kind}: {what}", ok=True)
         self._show_section("")
 
     def save(self) -> None:
@@ -85,10 +85,7 @@ class ConfigEditor:
         self.draft.target = Path(self.target.value)
         self.errors = self.draft.save()
         self._show_errors()
-        if self.errors:
-            self._say(f"not saved: {self.errors[0]}", ok=False)
-        else:
-            self._say(f"saved {self.files.shown(self.draft.target)}", ok=True)
+        self._say(*self.draft.status())
 
     def _on_select(self, event: Any) -> None:
         if event.value is not None:
@@ -134,6 +131,7 @@ class ConfigEditor:
             except yaml.YAMLError:
                 self.errors = [FieldError(leaf.path, f"not YAML: {value!r}")]
                 self._show_errors()
+                self._say(f"not valid: {self.errors[0]}", ok=False)
                 return
         self._revalidate()
 
@@ -141,6 +139,7 @@ class ConfigEditor:
         assert self.draft is not None
         self.errors = self.draft.validate()
         self._show_errors()
+        self._say(*self.draft.status())  # an earlier save's verdict no longer holds
 
     def _show_errors(self) -> None:
         if self.draft is not None:  # a mark on every section above an error

@@ -80,3 +80,25 @@ def test_cross_field_error_lands_on_its_section() -> None:
 def test_unknown_kind_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ConfigError, match="unknown config kind 'bicycle'"):
         ConfigDraft("bicycle", Path("x.yaml"), ConfigDir(tmp_path))
+
+
+def test_status_follows_the_edits_and_never_keeps_a_stale_error(tmp_path: Path) -> None:
+    """The editor's status line (issue 43.8): after a refused save it said "not saved: <error>"
+    and kept saying it once the field was set right. The bike schema bounds road.grade_percent
+    to ≤ 40 (the node's own decoder): 99 is refused, 5.5 is fine."""
+    target = tmp_path / "bike.yaml"
+    draft = ConfigDraft.open(ConfigDir(tmp_path), "bike-sim", target)
+    draft.set("road.grade_percent", 99)
+    assert draft.save() != []
+    text, ok = draft.status()
+    assert not ok and text.startswith("not saved: road.grade_percent: Expected `float` <= 40")
+    draft.set("road.grade_percent", 5.5)
+    draft.validate()
+    text, ok = draft.status()
+    assert ok and "grade_percent" not in text and "not saved:" not in text, text
+    draft.set("loop.rate_hz", "fast")  # another field wrong: its error, not the old one
+    draft.validate()
+    assert draft.status() == ("not valid: loop.rate_hz: Expected `float`, got `str`", False)
+    draft.unset("loop.rate_hz")
+    assert draft.save() == []
+    assert draft.status() == (f"saved {target}", True)

@@ -132,6 +132,9 @@ def test_config_editor_rejects_then_saves(
     grade.fill("5.5")
     shows(page.get_by_test_id("config-errors"), "valid")
     expect(page.get_by_test_id("config-tree")).not_to_contain_text("⚠")
+    # The status line follows the edit: the refused save's error no longer holds (issue 43.8).
+    shows(page.get_by_test_id("config-status"), "valid, not saved yet")
+    expect(page.get_by_test_id("config-status")).not_to_contain_text("grade_percent")
     page.get_by_test_id("config-save").click()
     shows(page.get_by_test_id("config-status"), f"saved {target}")
     assert yaml.safe_load(target.read_text())["road"]["grade_percent"] == 5.5
