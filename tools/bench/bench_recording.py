@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import argparse
 import re
-import signal
-import subprocess
 import sys
 import tempfile
 import threading
@@ -37,7 +35,7 @@ from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse import messages as m
 from carlaverse.keys import Keys
-from carlaverse.procs import free_port
+from carlaverse.procs import Child, free_port, start, stop_children
 from carlaverse.recording.reading import iter_samples, read_metadata
 from carlaverse.recording.recorder import DEFAULT_QUEUE_SIZE
 from carlaverse.recording.sink import McapSink
@@ -93,19 +91,17 @@ def bench_live(kind: str, rate: float, seconds: float) -> dict[str, float]:
     pub = session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "live.mcap"
-        rec = subprocess.Popen(
-            [sys.executable, "-m", "carlaverse", "record", "--session", "bench",
-             "--connect", endpoint, "-o", str(out), "--progress-s", str(PROGRESS_S)],
-            stderr=subprocess.PIPE, text=True,
+        rec = start(
+            ["record", "--session", "bench", "--connect", endpoint, "-o", str(out),
+             "--progress-s", str(PROGRESS_S)],
+            name="recorder",
         )  # fmt: skip
-        progress = RecorderProgress(rec)
         try:
             _wait(lambda: pub.matching_status.matching, 20)
             sent, achieved = _publish(pub, payloads, rate, seconds)
-            progress.wait_settled(timeout_s=DRAIN_TIMEOUT_S)
+            wait_settled(rec, timeout_s=DRAIN_TIMEOUT_S)
         finally:
-            rec.send_signal(signal.SIGINT)
-            rec.wait(timeout=DRAIN_TIMEOUT_S)
+            stop_children([rec], grace_s=DRAIN_TIMEOUT_S)
         kept = sum(1 for s in iter_samples(out) if s.key == key)
         summary = read_metadata(out)["carlaverse.summary"]
         dropped, backlog = int(summary["dropped"]), int(summary["max_queued"])
@@ -120,30 +116,22 @@ PROGRESS_S = 0.5  # [s] the recorder's progress interval
 DRAIN_TIMEOUT_S = 120.0  # [s] at most this long for the recorder to write its backlog
 
 
-class RecorderProgress:
-    """Follows `carlaverse record`'s progress lines (and keeps its stderr pipe drained)."""
+PROGRESS_LINE = re.compile(r"recording: (\d+) messages")  # `record --progress-s`'s line
 
-    def __init__(self, proc: subprocess.Popen) -> None:
-        self.written = -1
-        self._changed = threading.Event()
-        threading.Thread(target=self._read, args=(proc,), daemon=True).start()
 
-    def _read(self, proc: subprocess.Popen) -> None:
-        assert proc.stderr is not None
-        for line in proc.stderr:
-            match = re.match(r"recording: (\d+) messages", line)
-            if match and int(match[1]) != self.written:
-                self.written = int(match[1])
-                self._changed.set()
-
-    def wait_settled(self, timeout_s: float) -> None:
-        """Until two progress intervals pass with nothing new written: the backlog is in."""
-        deadline = time.monotonic() + timeout_s
-        while time.monotonic() < deadline:
-            self._changed.clear()
-            if not self._changed.wait(2.5 * PROGRESS_S):
-                return
-        raise TimeoutError(f"the recorder was still writing after {timeout_s:g} s")
+def wait_settled(rec: Child, timeout_s: float) -> None:
+    """Until two progress intervals pass with nothing new written: the backlog is in."""
+    deadline = time.monotonic() + timeout_s
+    index, written, changed = 0, -1, time.monotonic()
+    while time.monotonic() < deadline:
+        index, lines = rec.err.since(index)
+        counts = [int(found[1]) for line in lines if (found := PROGRESS_LINE.match(line))]
+        if counts and counts[-1] != written:
+            written, changed = counts[-1], time.monotonic()
+        elif time.monotonic() - changed > 2.5 * PROGRESS_S:
+            return
+        rec.err.wait_past(index, PROGRESS_S / 5)
+    raise TimeoutError(f"the recorder was still writing after {timeout_s:g} s")
 
 
 def _publish(
