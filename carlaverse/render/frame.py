@@ -15,6 +15,8 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
 
+import numpy as np
+
 from carlaverse.messages import (
     KIND_EXTENTS,
     LIGHT_LEFT_BLINKER,
@@ -23,6 +25,7 @@ from carlaverse.messages import (
     Extent,
     LightsState,
     NpcBatch,
+    Skeleton,
     Weather,
 )
 from carlaverse.world.world_view import WorldView
@@ -195,3 +198,15 @@ def npc_attributes(batch: NpcBatch) -> tuple[dict[str, Extent], dict[str, int]]:
             extents[npc_id] = Extent(length, width, height)
         lights[npc_id] = int(row["lights"])
     return extents, lights
+
+
+def skeleton_angles(view: WorldView) -> dict[str, JointAngles]:
+    """Joint angles per walker the view keeps a skeleton of."""
+    return {node_id: joint_angles(s) for node_id, s in view.skeletons.items()}
+
+
+def joint_angles(skeleton: Skeleton) -> JointAngles:
+    """(roll, pitch, yaw) [rad] per joint name, from the float32 triplets."""
+    values = np.frombuffer(skeleton.angles, dtype="<f4").reshape(-1, 3)
+    return {name: (float(r), float(p), float(y)) for name, (r, p, y) in zip(
+        skeleton.joints, values, strict=True)}  # fmt: skip

@@ -26,17 +26,16 @@ from carlaverse.fov import EyeFov
 from carlaverse.render.frame import (
     ActorDraw,
     Dashboard,
-    JointAngles,
     SceneFrame,
     blink_on,
     frame_from_view,
+    skeleton_angles,
     with_skeletons,
 )
 from carlaverse.shm import SharedBlock, TornRead
 from carlaverse.shm_layouts import EDGES, EYES, OWN_POSE_FIELDS, OwnPoseBlock
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.node_client import JoinRefused, NodeClient, NodeSettings
-from carlaverse.world.world_view import WorldView
 
 log = logging.getLogger(__name__)
 
@@ -105,18 +104,6 @@ class OwnPose:
         if self._block is not None:
             self._block.close()
             self._block = None
-
-
-def skeleton_angles(view: WorldView) -> dict[str, JointAngles]:
-    """Joint angles per walker the view keeps a skeleton of."""
-    return {node_id: joint_angles(s) for node_id, s in view.skeletons.items()}
-
-
-def joint_angles(skeleton: m.Skeleton) -> JointAngles:
-    """(roll, pitch, yaw) [rad] per joint name, from the float32 triplets."""
-    values = np.frombuffer(skeleton.angles, dtype="<f4").reshape(-1, 3)
-    return {name: (float(r), float(p), float(y)) for name, (r, p, y) in zip(
-        skeleton.joints, values, strict=True)}  # fmt: skip
 
 
 def _dashboard(record: np.void, names: tuple[str, ...], lights: int) -> Dashboard:

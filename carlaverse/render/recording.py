@@ -19,8 +19,13 @@ from pathlib import Path
 from carlaverse import messages as m
 from carlaverse.recording.reading import RecordedSample, iter_samples
 from carlaverse.recording.timeline import receive_offset_ns
-from carlaverse.render.frame import SceneFrame, frame_from_view, npc_attributes, with_skeletons
-from carlaverse.render.live import skeleton_angles
+from carlaverse.render.frame import (
+    SceneFrame,
+    frame_from_view,
+    npc_attributes,
+    skeleton_angles,
+    with_skeletons,
+)
 from carlaverse.world.intake import WorldIntake
 from carlaverse.world.remote_actor import InterpolationSettings
 from carlaverse.world.source import SampleFeed

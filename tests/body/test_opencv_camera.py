@@ -13,7 +13,7 @@ from carlaverse.body.skeleton import BodyConfig
 from carlaverse.hal.camera import CameraConfig
 from carlaverse.hal.device import open_device
 from carlaverse.hal.errors import DeviceError
-from carlaverse.render.live import joint_angles
+from carlaverse.render.frame import joint_angles
 from tests.support import wait_until
 
 cv2 = pytest.importorskip("cv2")

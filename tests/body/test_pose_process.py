@@ -15,7 +15,7 @@ from carlaverse.body.pose_process import CameraBodySource
 from carlaverse.body.skeleton import BodyConfig
 from carlaverse.body.sources import SyntheticBodySource
 from carlaverse.hal.camera import CameraConfig
-from carlaverse.render.live import joint_angles
+from carlaverse.render.frame import joint_angles
 from tests.support import wait_until
 
 

@@ -9,8 +9,7 @@ import pytest
 
 from carlaverse import messages as m
 from carlaverse.render.figure import LIMBS, SHOULDER_Z
-from carlaverse.render.frame import ActorDraw, SceneFrame
-from carlaverse.render.live import joint_angles
+from carlaverse.render.frame import ActorDraw, SceneFrame, joint_angles
 from carlaverse.render.renderer import Renderer
 from carlaverse.render.rig import (
     HeadPosition,
