@@ -5,11 +5,8 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import signal
-import subprocess
 import sys
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -17,6 +14,7 @@ from typing import Any
 import pytest
 
 from carlaverse import messages as m
+from carlaverse import procs
 from tests.support import Cluster, wait_until
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "thirdparty_client.py"
@@ -29,18 +27,14 @@ class Example:
     """The example as a subprocess; it prints one JSON status line a second."""
 
     def __init__(self, endpoint: str, node_id: str) -> None:
-        argv = [sys.executable, str(EXAMPLE), "--connect", endpoint, "--session", "t", "--id",
-                node_id]  # fmt: skip
-        env = dict(os.environ, PYTHONUNBUFFERED="1")
-        self.proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                     text=True, env=env)  # fmt: skip
-        self.lines: list[str] = []
-        threading.Thread(target=self._read, daemon=True).start()
+        argv = ["--connect", endpoint, "--session", "t", "--id", node_id]
+        self.child = procs.start(argv, name=node_id, command=[sys.executable, str(EXAMPLE)])
+        self.proc = self.child.proc
 
-    def _read(self) -> None:
-        assert self.proc.stdout is not None
-        for line in self.proc.stdout:
-            self.lines.append(line)
+    @property
+    def lines(self) -> list[str]:
+        """What it printed so far, stdout and stderr together."""
+        return self.child.log.lines()
 
     def status(self) -> dict[str, Any]:
         for line in reversed(self.lines):
@@ -53,12 +47,12 @@ class Example:
         try:
             return wait_until(lambda: condition(self.status()) and self.status(), timeout, what)
         except AssertionError as exc:
-            raise AssertionError(
-                f"{exc}; the example printed:\n{''.join(self.lines[-5:])}"
-            ) from None
+            printed = "\n".join(self.lines[-5:])
+            raise AssertionError(f"{exc}; the example printed:\n{printed}") from None
 
     def kill(self) -> None:
-        if self.proc.poll() is None:
+        """SIGKILL: a crash, no clean leave."""
+        if self.child.running:
             self.proc.kill()
         self.proc.wait(timeout=10)
 
