@@ -12,9 +12,7 @@ from __future__ import annotations
 
 import argparse
 import re
-import signal
 import socket
-import subprocess
 import sys
 import threading
 import time
@@ -23,7 +21,7 @@ from benchdoc import RunInfo, command_line, write_section
 
 from carlaverse.hal import ffb_packet, open_ffb
 from carlaverse.hal.ffb_packet import FfbCommand
-from carlaverse.procs import free_port
+from carlaverse.procs import free_port, start, stop_children
 
 COMMAND = FfbCommand(
     spring_stiffness=4000, spring_offset=-120, spring_deadband=50, spring_saturation=9000,
@@ -31,6 +29,7 @@ COMMAND = FfbCommand(
     vibration_frequency_hz=35,
 )  # fmt: skip
 HAPTICS_RATE_HZ = 1000  # [packets/s] the drive node's haptics loop
+READY_TIMEOUT_S = 30.0  # [s] for the server to say it listens
 CLIENT_TARGET_US = 10.0  # [µs] encode + send, so the 1 kHz loop barely notices
 
 
@@ -73,18 +72,17 @@ def drain(sock: socket.socket, stop: threading.Event) -> None:
 def server_trial(rate_hz: float | None, seconds: float) -> tuple[int, int, int]:
     """(sent, received, applied) with the real server in a child process; None = flood."""
     port = free_port(udp=True)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "carlaverse", "ffb-server", "--backend", "log", "--port",
-         str(port), "--watchdog-ms", "1000", "-o", "history=1"],
-        stderr=subprocess.PIPE, text=True,
+    server = start(
+        ["ffb-server", "--backend", "log", "--port", str(port), "--watchdog-ms", "1000",
+         "-o", "history=1"],
+        name="ffb-server",
     )  # fmt: skip
-    assert proc.stderr is not None
-    proc.stderr.readline()  # "listening ..."
+    server.wait_for_line("ffb-server listening", READY_TIMEOUT_S)
     sent = blast(port, rate_hz, seconds)
     time.sleep(0.3)  # let the server drain what is queued before it stops
-    proc.send_signal(signal.SIGINT)
-    summary = proc.stderr.read()
-    proc.wait(10)
+    stop_children([server])  # SIGINT: it prints its summary and exits
+    server.finish_reading()
+    summary = "\n".join(server.err.lines())
     match = re.search(r"(\d+) packets, (\d+) applied", summary)
     if not match:
         raise RuntimeError(f"no summary from ffb-server: {summary!r}")
