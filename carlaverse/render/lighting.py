@@ -10,7 +10,9 @@
 
 The surface shader (`shaders.SURFACE_*`) goes on the world node, so everything under it —
 map, actors, signal heads — is lit the same way; a node tunes its material with the
-`surface` input (wet response, roughness, flags, gloss).
+`surface` input (wet response, roughness, flags, gloss). Lit per vertex (`cpu`), a node whose
+material has flags also gets a program with them compiled in (llvmpipe would run a flag's
+branch for every pixel of the frame): `flagged` keeps those nodes and their flags.
 """
 
 from __future__ import annotations
@@ -51,11 +53,13 @@ class Material:
     windows: bool = False  # it carries an emission stage (a facade's lit windows)
     untextured: bool = False  # no texture to fetch (a pixel's fetch is dear on llvmpipe)
 
-    def input(self) -> Vec4:
-        # the flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4
+    def flags(self) -> int:
+        """The flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4."""
         flags = (1 if self.pools else 0) | (2 if self.windows else 0)
-        flags |= 4 if self.untextured else 0
-        return Vec4(self.wet_response, self.roughness, float(flags), self.gloss)
+        return flags | (4 if self.untextured else 0)
+
+    def input(self) -> Vec4:
+        return Vec4(self.wet_response, self.roughness, float(self.flags()), self.gloss)
 
     def of(self, node: NodePath) -> Material:
         """This material with the flags `node`'s own textures set (its first geom's)."""
@@ -97,9 +101,12 @@ class SceneLighting:
         self.rain: Rain | None = None
         if not preset.shaded:
             return
-        self._shaders: dict[tuple[bool, bool], Shader] = {}  # by (night, sun up), made on need
+        # by (night, sun up, flags compiled in), made on need
+        self._shaders: dict[tuple[bool, bool, int | None], Shader] = {}
+        self._flagged: list[tuple[NodePath, int]] = []  # nodes with a program of their own
         _start_inputs(world)
-        _materials(road.get_parent(), road)
+        for node, material in _materials(road.get_parent(), road):
+            self._flag(node, material)
         road.set_bin(_road_bin(), 0)
         antialias = graphics.antialias()
         if antialias is not None:
@@ -123,6 +130,8 @@ class SceneLighting:
         shadows, hide the actors themselves from the sun's camera."""
         if self.preset.shaded:
             root.set_shader_input("surface", VEHICLE_MATERIAL.input())
+            self._flag(root, VEHICLE_MATERIAL)
+            self._aim_sun()
         if self.boxes is not None:
             root.hide(SHADOW_MASK)
 
@@ -149,14 +158,26 @@ class SceneLighting:
         day = self.weather.daylight
         if self.dome is not None:
             self.dome.aim(day.towards_sun)
-        key = (day.night > 0.0, day.towards_sun[2] > SUN_UP_Z)
-        if key not in self._shaders:
-            self._shaders[key] = Shader.make(Shader.SL_GLSL, *surface_sources(self.preset, *key))
-        self.world.set_shader(self._shaders[key])
+        night, sun_up = day.night > 0.0, day.towards_sun[2] > SUN_UP_Z
+        compiled = None if self.preset.per_pixel else 0
+        self.world.set_shader(self._shader(night, sun_up, compiled))
+        for node, flags in self._flagged:
+            node.set_shader(self._shader(night, sun_up, flags))
         if self.shadow is not None:
             self.shadow.aim(day.towards_sun)
         if self.street is not None:
             self.street.night(day.night)
+
+    def _shader(self, night: bool, sun_up: bool, flags: int | None) -> Shader:
+        key = (night, sun_up, flags)
+        if key not in self._shaders:
+            self._shaders[key] = Shader.make(Shader.SL_GLSL, *surface_sources(self.preset, *key))
+        return self._shaders[key]
+
+    def _flag(self, node: NodePath, material: Material) -> None:
+        """Give `node` a program with its material's flags compiled in (lit per vertex)."""
+        if not self.preset.per_pixel and material.flags():
+            self._flagged.append((node, material.flags()))
 
     def close(self) -> None:
         if self.shadow is not None:
@@ -174,12 +195,15 @@ def _flat_parts(root: NodePath) -> list[NodePath]:
     return flat
 
 
-def _materials(static: NodePath, road: NodePath) -> None:
+def _materials(static: NodePath, road: NodePath) -> list[tuple[NodePath, Material]]:
     """Each mesh of the map gets its material, flagged by the textures it carries."""
+    out = []
     for geom_node in static.find_all_matches("**/+GeomNode"):
         under_road = geom_node == road or road.is_ancestor_of(geom_node)
         material = (ROAD_MATERIAL if under_road else DEFAULT_MATERIAL).of(geom_node)
         geom_node.set_shader_input("surface", material.input())
+        out.append((geom_node, material))
+    return out
 
 
 def _stages(node: NodePath) -> list[TextureStage]:

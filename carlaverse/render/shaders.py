@@ -64,8 +64,15 @@ uniform vec4 surface;         // x wet response, y roughness, z flags (POOLS...)
 uniform vec4 clouds;          // x cover 0..1, y unused, zw drift of the pattern (sky)
 
 // the surface's flags: headlight pools per pixel (roads), an emission stage (lit windows), no
-// texture (its fetch skipped: Panda3D would stand in a white one)
+// texture (its fetch skipped: Panda3D would stand in a white one). Lit per vertex, a program
+// per set of flags has them compiled in (FLAGS): a software rasteriser runs both sides of a
+// branch for every pixel, so a flag read from the input would make every pixel pay for the
+// road's beam and the windows' glow.
+#ifdef FLAGS
+bool flagged(int flag) { return (FLAGS & flag) != 0; }
+#else
 bool flagged(int flag) { return (int(surface.z + 0.5) & flag) != 0; }
+#endif
 
 vec3 to_linear(vec3 c) { return pow(max(c, vec3(0.0)), vec3(2.2)); }
 vec3 to_display(vec3 c) { return pow(clamp(c, 0.0, 1.0), vec3(1.0 / 2.2)); }
@@ -428,9 +435,10 @@ void main() {
 """
 
 
-def shader_defines(preset: Preset, night: bool, sun_up: bool = True) -> str:
-    """The `#define`s that switch a program's features for one preset: by day or night, and
-    with shadows only while the sun is up."""
+def shader_defines(preset: Preset, night: bool, sun_up: bool = True,
+                   flags: int | None = None) -> str:  # fmt: skip
+    """The `#define`s that switch a program's features for one preset: by day or night, with
+    shadows only while the sun is up, and with the surface's flags compiled in when given."""
     values = {
         "PER_PIXEL": int(preset.per_pixel),
         "NIGHT": int(night),
@@ -454,19 +462,24 @@ def shader_defines(preset: Preset, night: bool, sun_up: bool = True) -> str:
         "UNTEXTURED": "4",
         "HEAD_REACH_M": f"{HEAD_REACH_M}",
     }
+    if flags is not None:
+        values["FLAGS"] = str(flags)
     return "\n".join(f"#define {name} {value}" for name, value in values.items())
 
 
-def program(preset: Preset, *stages: str, night: bool = False, sun_up: bool = True) -> str:
+def program(preset: Preset, *stages: str, night: bool = False, sun_up: bool = True,
+            flags: int | None = None) -> str:  # fmt: skip
     """One stage's full source: version, the preset's switches, the common part, the stage."""
-    defines = shader_defines(preset, night, sun_up)
+    defines = shader_defines(preset, night, sun_up, flags)
     return "\n".join(("#version 330", defines, COMMON, *stages))
 
 
-def surface_sources(preset: Preset, night: bool, sun_up: bool) -> tuple[str, str]:
-    """Vertex and fragment source of the surface shader for this preset and time of day."""
+def surface_sources(preset: Preset, night: bool, sun_up: bool,
+                    flags: int | None = None) -> tuple[str, str]:  # fmt: skip
+    """Vertex and fragment source of the surface shader for this preset and time of day;
+    `flags` (POOLS 1, WINDOWS 2, UNTEXTURED 4) compiled in, else read from `surface.z`."""
     vs_body, fs_body = (PIXEL_VS, PIXEL_FS) if preset.per_pixel else (VERTEX_LIT_VS, VERTEX_LIT_FS)
-    key = {"night": night, "sun_up": sun_up}
+    key = {"night": night, "sun_up": sun_up, "flags": flags}
     vs = program(preset, SURFACE_HEAD, VERTEX_IN, vs_body, **key)
     fs = program(preset, SURFACE_HEAD, SHADOW_LOOKUP, EMISSION, fs_body, **key)
     return vs, fs
