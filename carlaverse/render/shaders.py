@@ -290,14 +290,11 @@ float sun_visible() {
                     + texture(shadow_map, p + vec3(t.x, -t.y, 0.0))
                     + texture(shadow_map, p + vec3(-t.x, t.y, 0.0))
                     + texture(shadow_map, p + vec3(t.x, t.y, 0.0)));
+#else
+    float s = texture(shadow_map, p);
+#endif
     vec2 edge = min(p.xy, 1.0 - p.xy);  // fade out at the film's border
     return mix(1.0, s, shadow_on * smoothstep(0.0, 0.05, min(edge.x, edge.y)));
-#else
-    // one tap, lit past the film's border (the map's border colour): no fade there, whose
-    // arithmetic would cost every pixel as much as the lookup; nor `shadow_on`, which is 1
-    // wherever this program draws (the sun is up: SHADOW_TAPS is 0 otherwise)
-    return texture(shadow_map, p);
-#endif
 #else
     return 1.0;
 #endif
