@@ -156,7 +156,7 @@ class WebGuard:
         elif self._pairs(scope):
             await _http_reply(send, 200, _pairing_page(scope), self._cookie_header())
         else:
-            await self.app(scope, receive, _with_frame_headers(send))
+            await self.app(scope, receive, with_frame_headers(send))
 
     # ------------------------------------------------------------ the checks
 
@@ -273,7 +273,9 @@ def _pairing_page(scope: Scope) -> bytes:
             f"<p>Paired. <a href='{target}'>Continue</a></p>").encode()  # fmt: skip
 
 
-def _with_frame_headers(send: Send) -> Send:
+def with_frame_headers(send: Send) -> Send:
+    """`send` with the headers that forbid framing added to every HTTP response."""
+
     async def send_framed(message: Message) -> None:
         if message["type"] == "http.response.start":
             message = {**message, "headers": [*message.get("headers", []), *FRAME_HEADERS]}

@@ -75,9 +75,9 @@ def run(args: argparse.Namespace) -> int:
         check_token(args.session, "session name")  # before the web stack's seconds of import
         from carlaverse.launcher import token_file
         from carlaverse.launcher.app import serve
-        from carlaverse.launcher.door import new_token
         from carlaverse.launcher.files import ConfigDir
         from carlaverse.launcher.lab import Lab
+        from carlaverse.web_guard import new_token
 
         files = ConfigDir(args.config_dir)
     except (KeySpaceError, ConfigError) as exc:

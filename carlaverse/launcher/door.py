@@ -33,10 +33,11 @@ import hmac
 import html
 import ipaddress
 import logging
-import secrets
 import urllib.parse
 from collections.abc import Awaitable, Callable, Iterable, MutableMapping
 from typing import Any
+
+from carlaverse.web_guard import FRAME_HEADERS, with_frame_headers
 
 Scope = MutableMapping[str, Any]
 Message = MutableMapping[str, Any]
@@ -46,23 +47,12 @@ ASGIApp = Callable[[Scope, Receive, Send], Awaitable[None]]
 
 log = logging.getLogger(__name__)
 
-TOKEN_BYTES = 32  # 256 bit of randomness; Jupyter's token carries 192
 LOOPBACK_NAMES = ("127.0.0.1", "localhost", "::1")
 QUERY_KEY = "token"
-FRAMING_HEADERS = [
-    (b"x-frame-options", b"DENY"),
-    (b"content-security-policy", b"frame-ancestors 'none'"),
-    (b"referrer-policy", b"no-referrer"),
-]
 # Paths the web app's own scripts fetch (socket.io polling, static files): a `?token=` there is
 # a script's credential, answered in place, never redirected.
 APP_PATHS = ("/_nicegui",)
 WS_POLICY_VIOLATION = 1008  # RFC 6455 close code; before accept, servers answer HTTP 403
-
-
-def new_token() -> str:
-    """A fresh launch token, URL-safe."""
-    return secrets.token_urlsafe(TOKEN_BYTES)
 
 
 def cookie_name(port: int) -> str:
@@ -150,7 +140,7 @@ class Door:
         if in_query is not None and scope["type"] == "http" and _is_page(scope):
             await self._set_cookie_and_redirect(scope, send, in_query)
             return
-        await self.app(scope, receive, _framed(send))
+        await self.app(scope, receive, with_frame_headers(send))
 
     def _refusal(self, scope: Scope) -> tuple[str, int, str] | None:
         """(what, HTTP status, reason) of a refusal, or None to let the request in."""
@@ -196,7 +186,7 @@ class Door:
         else:
             status, body = 200, _refresh_page(clean)
             headers.append((b"content-type", b"text/html; charset=utf-8"))
-        headers += [(b"content-length", str(len(body)).encode()), *FRAMING_HEADERS]
+        headers += [(b"content-length", str(len(body)).encode()), *FRAME_HEADERS]
         await send({"type": "http.response.start", "status": status, "headers": headers})
         await send({"type": "http.response.body", "body": body})
 
@@ -265,15 +255,6 @@ def _refresh_page(url: str) -> bytes:
     ).encode()
 
 
-def _framed(send: Send) -> Send:
-    async def send_framed(message: Message) -> None:
-        if message["type"] == "http.response.start":
-            message["headers"] = [*message.get("headers", []), *FRAMING_HEADERS]
-        await send(message)
-
-    return send_framed
-
-
 async def _refuse(scope: Scope, send: Send, status: int, reason: str) -> None:
     if scope["type"] == "websocket":
         await send({"type": "websocket.close", "code": WS_POLICY_VIOLATION, "reason": reason})
@@ -287,7 +268,7 @@ async def _refuse(scope: Scope, send: Send, status: int, reason: str) -> None:
                 (b"content-type", b"text/plain; charset=utf-8"),
                 (b"content-length", str(len(body)).encode()),
                 (b"cache-control", b"no-store"),
-                *FRAMING_HEADERS,
+                *FRAME_HEADERS,
             ],
         }
     )

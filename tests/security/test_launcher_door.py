@@ -17,7 +17,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from carlaverse.launcher.door import Door, HostPolicy, cookie_name, host_name, new_token
+from carlaverse.launcher.door import Door, HostPolicy, cookie_name, host_name
+from carlaverse.web_guard import new_token
 
 TOKEN = new_token()
 PORT = 8470
