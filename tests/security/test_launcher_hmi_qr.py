@@ -95,7 +95,15 @@ def test_a_tablet_pairs_by_the_qr_code_and_the_log_keeps_no_token(
 
     code = page.get_by_test_id("hmi-qr-cab")
     expect(code).to_be_visible(timeout=UI_TIMEOUT_MS)
-    scanned = decode_qr(code.screenshot())
+    # An <img> with alt text is "visible" before its picture is decoded (a CI run screenshot the
+    # empty box and read ''); decode() settles once the pixels are there. Centred, so the fixed
+    # header never lies over the code in the element's screenshot.
+    code.evaluate("img => img.decode()")
+    code.evaluate("img => img.scrollIntoView({block: 'center'})")
+    png = code.screenshot()
+    scanned = decode_qr(png)
+    if not scanned:
+        (screenshot_dir / "launcher-hmi-qr-unread.png").write_bytes(png)
     page.evaluate("window.scrollTo(0, 0)")  # the fixed header is drawn mid-picture otherwise
     save_screenshot(page, screenshot_dir, "launcher-hmi-qr")
     found = PAIRING_URL.fullmatch(scanned)
