@@ -15,7 +15,7 @@ from __future__ import annotations
 import re
 from importlib import resources
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, TypeVar, dataclass_transform
 
 import msgspec
 import yaml
@@ -53,6 +53,11 @@ def invalid_at(message: str) -> tuple[str, str]:
     return (match["path"], match["message"]) if match else ("", message)
 
 
+# msgspec hands `frozen` and `kw_only` down to subclasses, but a type checker reads a subclass
+# that does not repeat `frozen=True` as a mutable dataclass under a frozen one (msgspec issue
+# 657): saying here that StrictStruct's subclasses default to frozen and keyword-only lets
+# every config type stay `class X(StrictStruct):`.
+@dataclass_transform(frozen_default=True, kw_only_default=True, field_specifiers=(msgspec.field,))
 class StrictStruct(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Base for config types: immutable, keyword-only, unknown fields rejected."""
 
