@@ -12,6 +12,7 @@ else's (see `carlaverse.transport.inbound` for what that does and does not prove
 from __future__ import annotations
 
 import itertools
+from typing import Any
 
 import zenoh
 
@@ -27,7 +28,7 @@ class ZenohOutbox:
         self._seq = itertools.count(1)
         self.sent: dict[str, int] = {}
         self.npc_tile_batches = 0  # batches put on `world/npc/<tile>`
-        reliable = {
+        reliable: dict[str, Any] = {
             "congestion_control": zenoh.CongestionControl.BLOCK,
             "reliability": zenoh.Reliability.RELIABLE,
         }
@@ -105,7 +106,8 @@ class ZenohOutbox:
 
         # Listen first, then read: a subscriber that appears in between is seen either way.
         listener = publisher.declare_matching_listener(on_matching)
-        if publisher.matching_status.matching:
+        # zenoh 1.10's stub types `matching_status` as bool; it is a MatchingStatus at run time.
+        if publisher.matching_status.matching:  # type: ignore[attr-defined]
             heard.add(node_id)
         self._audio[node_id] = (publisher, listener)
         return publisher

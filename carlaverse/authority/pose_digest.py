@@ -69,7 +69,8 @@ class PoseDigestRelay:
             self._wake.set()
 
         self._listener = self._publisher.declare_matching_listener(on_matching)
-        if self._publisher.matching_status.matching:
+        # zenoh 1.10's stub types `matching_status` as bool; it is a MatchingStatus at run time.
+        if self._publisher.matching_status.matching:  # type: ignore[attr-defined]
             self._heard.set()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="pose-digest", daemon=True)

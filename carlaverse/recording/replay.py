@@ -148,7 +148,8 @@ class Replayer:
     def wait_for_subscribers(self, stop: threading.Event, timeout_s: float = 2.0) -> bool:
         """Until some subscriber matches a prepared key (declarations have arrived)."""
         deadline = time.monotonic() + timeout_s
-        while not any(p.matching_status.matching for p in self._publishers.values()):
+        # zenoh 1.10's stub types `matching_status` as bool; it is a MatchingStatus at run time.
+        while not any(p.matching_status.matching for p in self._publishers.values()):  # type: ignore[attr-defined]
             if time.monotonic() > deadline or stop.wait(0.01):
                 return False
         return True

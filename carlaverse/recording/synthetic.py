@@ -16,6 +16,7 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import zenoh
@@ -130,8 +131,8 @@ class SyntheticSession:
     # ------------------------------------------------------------------ publishing
 
     def _declare_publishers(self) -> dict[str, zenoh.Publisher]:
-        reliable = dict(congestion_control=zenoh.CongestionControl.BLOCK)
-        fast = dict(congestion_control=zenoh.CongestionControl.DROP, express=True)
+        reliable: dict[str, Any] = dict(congestion_control=zenoh.CongestionControl.BLOCK)
+        fast: dict[str, Any] = dict(congestion_control=zenoh.CongestionControl.DROP, express=True)
         if self.spec.reliable_state:
             fast = dict(reliable, express=True)
         self._fast = fast  # for pose keys of tiles the egos drive into later
@@ -144,7 +145,8 @@ class SyntheticSession:
 
     def all_matched(self) -> bool:
         """True once every stream has a subscriber (a recorder or viewer is listening)."""
-        return all(p.matching_status.matching for p in self._publishers.values())
+        # zenoh 1.10's stub types `matching_status` as bool; it is a MatchingStatus at run time.
+        return all(p.matching_status.matching for p in self._publishers.values())  # type: ignore[attr-defined]
 
     def _pose_key(self, i: int, t: float) -> str:
         """Ego i's pose key at time t: it ends in the tile the ego is in then."""
@@ -260,7 +262,15 @@ class SyntheticSession:
     def _snapshot(self) -> bytes:
         t = self.now()
         egos = [
-            m.EgoInfo(ego_id(i), "scripted", "car", m.Extent(), 1500.0, "lab", ego_pose(i, 0, t))
+            m.EgoInfo(
+                ego_id(i),
+                "scripted",
+                "car",
+                m.Extent(),
+                1500.0,
+                "lab",
+                m.encode_pose(ego_pose(i, 0, t)),
+            )
             for i in range(self.spec.egos)
         ]
         snap = m.Snapshot(m.SCHEMA_VERSION, t, egos, None, light_state(0, t), m.Weather(0, t))

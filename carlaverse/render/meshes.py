@@ -171,7 +171,7 @@ class MeshBuilder:
         for i in range(cells):
             for j in range(cells):
                 x0, y0 = xmin + i * dx, ymin + j * dy
-                corners = [(x0, y0, z), (x0 + dx, y0, z), (x0 + dx, y0 + dy, z), (x0, y0 + dy, z)]
+                corners = ((x0, y0, z), (x0 + dx, y0, z), (x0 + dx, y0 + dy, z), (x0, y0 + dy, z))
                 if shade is None:
                     self.quad(*corners, color)
                     continue

@@ -66,8 +66,8 @@ def _face(mesh: MeshBuilder, centre: tuple[float, float, float], facing: float, 
     cx, cy, cz = centre
     h = size / 2
     u0, v0, u1, v1 = uv
-    corners = [(cx - rx, cy - ry, cz - h), (cx + rx, cy + ry, cz - h),
-               (cx + rx, cy + ry, cz + h), (cx - rx, cy - ry, cz + h)]  # fmt: skip
+    corners = ((cx - rx, cy - ry, cz - h), (cx + rx, cy + ry, cz - h),
+               (cx + rx, cy + ry, cz + h), (cx - rx, cy - ry, cz + h))  # fmt: skip
     mesh.quad(*corners, WHITE, [(u0, v0), (u1, v0), (u1, v1), (u0, v1)])
 
 

@@ -17,6 +17,7 @@ from __future__ import annotations
 import math
 import threading
 from collections.abc import Callable
+from typing import Any
 
 import zenoh
 
@@ -86,7 +87,7 @@ class TiledPublisher:
         self._session = session
         self._keys = keys
         self._node_id = node_id
-        self._options = {**POSE_QOS, **options}
+        self._options: dict[str, Any] = {**POSE_QOS, **options}
         self._tracker = TileTracker()
         self._tile: tuple[int, int] | None = None
         self._publisher: zenoh.Publisher | None = None

@@ -22,13 +22,19 @@ import bisect
 import math
 from dataclasses import dataclass
 from enum import Enum
-from typing import Literal
+from typing import TYPE_CHECKING, Literal, TypeVar
 
 from carlaverse.config import StrictStruct
 from carlaverse.dead_reckoning import project
 from carlaverse.messages import POSE_FLAG_TELEPORT, Pose
 from carlaverse.support.angles import wrap_angle
 from carlaverse.world.present import Projector
+
+if TYPE_CHECKING:
+    import numpy as np
+
+# One actor's coordinate, or a column of them (world/npc_table.py interpolates whole batches).
+Coordinate = TypeVar("Coordinate", float, "np.ndarray")
 
 _Vec4 = tuple[float, float, float, float]  # x, y, z [m], yaw [rad]
 RenderMode = Literal["past", "present"]
@@ -83,7 +89,9 @@ class ActorView:
     render_t: float  # [s] session time shown
 
 
-def hermite(p0: float, v0: float, p1: float, v1: float, s: float, h: float) -> float:
+def hermite(
+    p0: Coordinate, v0: Coordinate, p1: Coordinate, v1: Coordinate, s: float, h: float
+) -> Coordinate:
     s2, s3 = s * s, s * s * s
     return (
         (2 * s3 - 3 * s2 + 1) * p0
