@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 import struct
 from collections.abc import Callable
-from typing import Annotated, Any, Generic, Literal, NamedTuple, TypeVar, get_args
+from typing import Annotated, Any, Generic, Literal, NamedTuple, TypeVar, cast, get_args
 
 import msgspec
 import numpy as np
@@ -126,7 +126,9 @@ def _checked_pose_fields(buf: bytes | bytearray | memoryview) -> tuple[Any, ...]
 
 def decode_pose(buf: bytes | bytearray | memoryview) -> Pose:
     v = _checked_pose_fields(buf)
-    return Pose(v[3], *v[4:], flags=v[1])
+    # The layout unpacks into exactly Pose's positional fields after `seq`, so `flags` is never
+    # filled twice; mypy cannot count a slice of the unpacked tuple.
+    return Pose(v[3], *v[4:], flags=v[1])  # type: ignore[misc]
 
 
 _POSE_STAMP = struct.Struct("<4xId")  # seq u32 at byte 4, t f64 at byte 8 (POSE_LAYOUT)
@@ -207,7 +209,7 @@ def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
         return [_pose_or_none(rows[k : k + POSE_SIZE]) for k in range(0, len(rows), POSE_SIZE)]
     columns, good = pose_columns(rows)
     if good.all():  # nearly always
-        return columns.poses()
+        return cast("list[Pose | None]", columns.poses())  # a new list, held by nobody else
     keep = np.flatnonzero(good)
     poses = columns.take(keep).poses()
     out: list[Pose | None] = [None] * len(good)
@@ -320,7 +322,7 @@ NPC_DTYPE = np.dtype(
         ("kind", "u1"), ("reserved", "u1"), ("lights", "<u2"),
     ]
 )  # fmt: skip
-_NPC_FLOAT_FIELDS = [name for name in NPC_DTYPE.names if NPC_DTYPE[name].kind == "f"]
+_NPC_FLOAT_FIELDS = [name for name in NPC_DTYPE.names or () if NPC_DTYPE[name].kind == "f"]
 
 
 class NpcBatch(msgspec.Struct, frozen=True, array_like=True):

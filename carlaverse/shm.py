@@ -55,15 +55,17 @@ class SharedBlock:
         self._owner = create
         if not create:
             _untrack(self._shm)
-        self._buf = self._shm.buf
-        self._record = np.ndarray((), dtype=self.dtype, buffer=self._buf, offset=HEADER)
-        self._payload = self._buf[HEADER:size]
+        buf = self._shm.buf
+        assert buf is not None  # None only once closed
+        self._buf: memoryview | None = buf
+        self._record = np.ndarray((), dtype=self.dtype, buffer=buf, offset=HEADER)
+        self._payload = buf[HEADER:size]
         # The counter is read and written through a native 'Q' view: one 8-byte load or store.
         # `struct.pack_into` zero-fills its target before packing, so a counter written with
         # it passed through 0 on every write, and a reader that caught two such moments
         # around its copy took a torn record for a whole one (seen at about one read in a
         # million with a writer writing flat out).
-        self._seq = self._buf[:HEADER].cast("Q")
+        self._seq = buf[:HEADER].cast("Q")
         self.retries = 0
         self.stale_reads = 0  # `read_latest` calls answered with the previous copy
         self._last: np.void | None = None
@@ -148,7 +150,7 @@ class SharedBlock:
         del self._record
         self._payload.release()
         self._seq.release()
-        self._buf = None  # type: ignore[assignment]
+        self._buf = None
         self._shm.close()
         if self._owner:
             self._shm.unlink()
@@ -156,7 +158,8 @@ class SharedBlock:
 
 def new_record(dtype: np.dtype) -> np.void:
     """A zeroed record to fill and write."""
-    return np.zeros((), dtype=dtype)[()]
+    # numpy's stubs type `[()]` of a 0-d array as an array; of a structured one it is a void.
+    return np.zeros((), dtype=dtype)[()]  # type: ignore[return-value]
 
 
 def block_name(session: str, node_id: str, part: str) -> str:

@@ -15,13 +15,18 @@ import argparse
 import os
 import sys
 import time
+from collections.abc import Callable
 
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
 from carlaverse.hal import open_ffb, open_input, open_motion
 from carlaverse.hal.diagnostics import SweepAmplitudes, ffb_test_sequence, motion_sweep, paced
 from carlaverse.hal.errors import HalError
+from carlaverse.hal.ffb.udp import UdpFfb
+from carlaverse.hal.ffb_packet import FfbCommand
 from carlaverse.hal.input import InputState
+from carlaverse.hal.motion.udp import UdpMotion
+from carlaverse.hal.motion_packet import MotionFrame
 from carlaverse.patterns import whole_ascii
 
 # HOST:PORT of a device server; no host means this one. Whole text, ASCII digits only.
@@ -64,17 +69,29 @@ def host_port(text: str) -> dict[str, object]:
 
 def run_ffb(args: argparse.Namespace) -> None:
     with open_ffb({"backend": "udp", "options": host_port(args.ffb)}) as ffb:
+        assert isinstance(ffb, UdpFfb)  # the backend named above, whose sender counts packets
         for label, command in ffb_test_sequence(args.strength):
             print(f"ffb: {label}", flush=True)
-            paced(args.step_s, args.rate, lambda _u, c=command: ffb.send(c))
+
+            def send_command(_phase: float, command: FfbCommand = command) -> None:
+                ffb.send(command)
+
+            paced(args.step_s, args.rate, send_command)
         print(f"ffb: sent {ffb.sender.sent} packets to {args.ffb}; did the wheel follow?")
 
 
 def run_motion(args: argparse.Namespace) -> None:
     with open_motion({"backend": "udp", "options": host_port(args.motion)}) as motion:
+        assert isinstance(motion, UdpMotion)  # the backend named above, whose sender counts frames
         for label, frame_at in motion_sweep(SweepAmplitudes()):
             print(f"motion: {label}", flush=True)
-            paced(args.step_s, args.rate, lambda u, f=frame_at: motion.send(f(u)))
+
+            def send_frame(
+                phase: float, frame_at: Callable[[float], MotionFrame] = frame_at
+            ) -> None:
+                motion.send(frame_at(phase))
+
+            paced(args.step_s, args.rate, send_frame)
         print(f"motion: sent {motion.sender.sent} frames to {args.motion}; did the rig move?")
 
 

@@ -41,6 +41,8 @@ class FfbServerStats:
 class FfbServer(WatchdogUdpServer):
     """UDP -> validated FfbCommand -> actuator, with the safety watchdog."""
 
+    stats: FfbServerStats
+
     def __init__(
         self,
         actuator: ForceActuator,

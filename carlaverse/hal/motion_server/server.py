@@ -56,6 +56,8 @@ class MotionServerStats:
 class MotionServer(WatchdogUdpServer):
     """UDP -> validated MotionFrame -> platform, with the neutral-on-silence watchdog."""
 
+    stats: MotionServerStats
+
     def __init__(
         self,
         platform: MotionPlatform,
