@@ -155,14 +155,14 @@ class OpenXrHeadset(XrHeadset):
     def _make_actions(self) -> None:
         self.action_set = self._keep(xr.destroy_action_set, xr.create_action_set(
             self.instance, xr.ActionSetCreateInfo("walk", "Walk", 0)))  # fmt: skip
-        self.actions = {a.name: self._action(a) for a in ACTIONS}
-        refused = suggest_bindings(xr, self.instance, self.actions)
+        self.xr_actions = {a.name: self._action(a) for a in ACTIONS}
+        refused = suggest_bindings(xr, self.instance, self.xr_actions)
         if refused:  # a vendor's profile this runtime does not know: the others still apply
             log.info("the OpenXR runtime refused the bindings of %s", ", ".join(refused))
         xr.attach_session_action_sets(self.session, xr.SessionActionSetsAttachInfo(
             action_sets=[self.action_set]))  # fmt: skip
         self.hand_space = self._keep(xr.destroy_space, xr.create_action_space(
-            self.session, xr.ActionSpaceCreateInfo(action=self.actions["hand"])))  # fmt: skip
+            self.session, xr.ActionSpaceCreateInfo(action=self.xr_actions["hand"])))  # fmt: skip
 
     # ------------------------------------------------------------------ the frame loop
 
@@ -231,7 +231,7 @@ class OpenXrHeadset(XrHeadset):
     def _read_actions(self, display_time: int) -> XrActions:
         xr.sync_actions(self.session, xr.ActionsSyncInfo(
             active_action_sets=[xr.ActiveActionSet(self.action_set, xr.NULL_PATH)]))  # fmt: skip
-        get = lambda name: xr.ActionStateGetInfo(action=self.actions[name])  # noqa: E731
+        get = lambda name: xr.ActionStateGetInfo(action=self.xr_actions[name])  # noqa: E731
         move = xr.get_action_state_vector2f(self.session, get("move"))
         run = xr.get_action_state_boolean(self.session, get("run"))
         interact = xr.get_action_state_boolean(self.session, get("interact"))
