@@ -10,6 +10,7 @@ again. Effects the device does not support are skipped, with one warning at open
 from __future__ import annotations
 
 import logging
+import os
 import time
 from typing import Annotated
 
@@ -45,7 +46,7 @@ def find_device(spec: str) -> evdev.InputDevice:
     for device in candidates:
         if spec.lower() in device.name.lower() and fx.EV_FF in device.capabilities():
             return device
-    names = ", ".join(f"{d.path} ({d.name})" for d in candidates) or "none readable"
+    names = ", ".join(f"{os.fsdecode(d.path)} ({d.name})" for d in candidates) or "none readable"
     raise DeviceError(
         f"no force-feedback device matches {spec!r}; input devices: {names}. "
         "Check permissions on /dev/input (the 'input' group) and `carlaverse doctor`."
@@ -63,7 +64,8 @@ class EvdevActuator(ForceActuator):
         supported = set(self.device.capabilities().get(fx.EV_FF, []))
         if not supported:
             self.device.close()
-            raise DeviceError(f"{self.device.path} ({self.device.name}) has no force feedback")
+            path = os.fsdecode(self.device.path)  # evdev types it str | bytes
+            raise DeviceError(f"{path} ({self.device.name}) has no force feedback")
         self.supported = supported
         self.ids: dict[fx.EffectName, int] = {}
         self.uploaded: dict[fx.EffectName, fx.EffectParams] = {}

@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from carlaverse.shm import SharedBlock, TornRead
+from carlaverse.shm import SharedBlock, TornRead, new_record
 
 SIZE_FIELDS = np.dtype([("width", "<u4"), ("height", "<u4")])  # what an attaching view reads first
 
@@ -97,12 +97,13 @@ class EyeImageWriter:
             raise ValueError(f"eye images: the rig drew {len(eyes)} cameras, a headset has 2")
         if self._block is None and not self._attach():
             return False
-        record = self._record
+        block, record = self._block, self._record
+        assert block is not None and record is not None  # `_attach` sets both
         size = (int(record["height"]), int(record["width"]))
         record["left"], record["right"] = (self._fit(eye, size) for eye in eyes)
         self.frames += 1
         record["frame"] = self.frames
-        self._block.write(record)
+        block.write(record)
         return True
 
     def _attach(self) -> bool:
@@ -115,8 +116,8 @@ class EyeImageWriter:
         if width == 0 or height == 0:
             return False  # created, size not written yet
         self._block = SharedBlock(self.name, eye_images_dtype(width, height))
-        self._record = np.zeros((), dtype=self._block.dtype)[()]
-        self._record["width"], self._record["height"] = width, height
+        self._record = record = new_record(self._block.dtype)
+        record["width"], record["height"] = width, height
         return True
 
     def _fit(self, image: np.ndarray, size: tuple[int, int]) -> np.ndarray:

@@ -79,8 +79,9 @@ def openxr_to_world(
     """The head pose in the world frame."""
     r = quaternion_matrix(orientation)
     column = lambda j: (r[0][j], r[1][j], r[2][j])  # noqa: E731  head axis j in stage coords
-    forward = stage_to_body(tuple(-c for c in column(2)))  # the head's −z
-    left = stage_to_body(tuple(-c for c in column(0)))  # the head's −x
+    back, right = column(2), column(0)  # the head's +z and +x
+    forward = stage_to_body((-back[0], -back[1], -back[2]))  # the head's −z
+    left = stage_to_body((-right[0], -right[1], -right[2]))  # the head's −x
     up = stage_to_body(column(1))
     yaw_in_stage = math.atan2(forward[1], forward[0])
     pitch = -math.asin(max(-1.0, min(1.0, forward[2])))  # nose down positive

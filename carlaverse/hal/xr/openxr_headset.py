@@ -176,7 +176,7 @@ class OpenXrHeadset(XrHeadset):
         try:
             views = self._track(frame.predicted_display_time)
             if frame.should_render and self._pending is not None and len(views) == 2:
-                layer = self._draw(views)
+                layer = self._draw(self._pending, views)
         finally:
             xr.end_frame(self.session, xr.FrameEndInfo(
                 display_time=frame.predicted_display_time,
@@ -191,9 +191,8 @@ class OpenXrHeadset(XrHeadset):
     def present(self, eyes: EyeFrame) -> None:
         self._pending = eyes
 
-    def _draw(self, views: Any) -> Any:
+    def _draw(self, eyes: EyeFrame, views: Any) -> Any:
         """Upload the newest eye images and make the layer that shows them."""
-        eyes = self._pending
         for chain, image in zip(self.swapchains, (eyes.left, eyes.right), strict=True):
             chain.draw(image)
         self.frames_shown += 1
@@ -222,8 +221,9 @@ class OpenXrHeadset(XrHeadset):
             view_configuration_type=xr.ViewConfigurationType.PRIMARY_STEREO,
             display_time=display_time, space=self.space))  # fmt: skip
         if len(views) == 2:  # primary stereo: left, then right
-            self._eye_fovs = tuple(EyeFov(v.fov.angle_left, v.fov.angle_right, v.fov.angle_up,
-                                          v.fov.angle_down) for v in views)  # fmt: skip
+            left, right = (EyeFov(v.fov.angle_left, v.fov.angle_right, v.fov.angle_up,
+                                  v.fov.angle_down) for v in views)  # fmt: skip
+            self._eye_fovs = (left, right)
         self._actions_now = self._read_actions(display_time)
         oriented = state.view_state_flags & xr.ViewStateFlags.ORIENTATION_VALID_BIT
         return views if oriented else ()  # no pose to show the eyes at: no layer
