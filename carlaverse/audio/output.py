@@ -18,6 +18,7 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -158,7 +159,7 @@ class PortAudioOutput(Output):
         self._stream.close()
 
 
-def _open_stream(config: AudioConfig, channels: int, callback: Callable) -> object:
+def _open_stream(config: AudioConfig, channels: int, callback: Callable) -> Any:
     try:
         import sounddevice as sd
     except (ImportError, OSError) as exc:

@@ -108,7 +108,8 @@ def checked(keys: list[str], payloads: list[bytes], drops: Tally) -> tuple[list[
 
 def take(ring: PoseRing, limit: int = RING_CAPACITY) -> tuple[list[str], list[bytes]]:
     """The keys and payloads of up to `limit` samples waiting in `ring`, oldest first."""
-    keys, payloads = [], []
+    keys: list[str] = []
+    payloads: list[bytes] = []
     recv = ring.try_recv
     while len(keys) < limit and (sample := recv()) is not None:
         keys.append(str(sample.key_expr))

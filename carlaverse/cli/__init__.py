@@ -13,6 +13,7 @@ import logging
 import os
 import sys
 from collections.abc import Sequence
+from types import ModuleType
 
 from carlaverse import __version__
 from carlaverse.cli.exit_codes import CliParser, Exit, summary
@@ -62,7 +63,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _command_parser(name: str) -> tuple[argparse.ArgumentParser, object]:
+def _command_parser(name: str) -> tuple[argparse.ArgumentParser, ModuleType]:
     module_name, help_text = COMMANDS[name]
     module = importlib.import_module(module_name)
     parser = CliParser(prog=f"carlaverse {name}", description=help_text)

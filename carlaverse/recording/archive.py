@@ -55,8 +55,10 @@ class ArchiveItem:
     values: Mapping[str, str] = field(default_factory=dict)
 
 
-def error_text(err: zenoh.ReplyError, limit: int = 300) -> str:
+def error_text(err: zenoh.ReplyError | None, limit: int = 300) -> str:
     """The reason an error reply carries, as text (not the ReplyError's byte dump)."""
+    if err is None:  # zenoh types `Reply.err` optional: a reply that is neither ok nor error
+        return "error reply without a reason"
     reason = err.payload.to_bytes()[:limit].decode("utf-8", errors="replace").strip()
     return reason or "error reply without a reason"
 

@@ -279,7 +279,8 @@ SCULPTORS = {"car": _car, "van": _van, "truck": _truck, "bus": _bus,
 def body_color(kind: str, ego: bool) -> Color:
     body = palette.ACTOR_COLORS.get(kind, palette.ACTOR_COLORS["other"])
     if ego:
-        body = (*(min(1.0, c * palette.EGO_TINT) for c in body[:3]), 1.0)
+        r, g, b = (min(1.0, c * palette.EGO_TINT) for c in body[:3])
+        body = (r, g, b, 1.0)
     return body
 
 

@@ -150,7 +150,8 @@ class Glare:
         if lamps:
             self._sprites(lamps, np.asarray(eye, np.float64))
         array = self.data.modify_array(0)
-        memoryview(array).cast("B").cast("f")[:] = self.rows.ravel()
+        # An array is a buffer; the stubs' memoryview item assignment takes only bytes types.
+        memoryview(array).cast("B").cast("f")[:] = self.rows.ravel()  # type: ignore[call-overload]
 
     def _sprites(self, lamps: list[tuple[tuple[float, float, float], ActorDraw]],
                  eye: np.ndarray) -> None:  # fmt: skip

@@ -200,9 +200,10 @@ def _tree(mesh: MeshBuilder, tree: Tree, rng: random.Random) -> None:
     sides = rng.choice((0, 0, 0, 1, 2)) if tree.subdivisions else 0  # only near ones show them
     for _ in range(sides):  # some trees have side crowns
         side = r * rng.uniform(0.5, 0.7)
-        a, off = rng.uniform(0, math.tau), r - side  # the side crown ends where the main one does
+        # The side crown ends where the main one does.
+        angle, off = rng.uniform(0, math.tau), r - side
         crowns.append(
-            (off * math.cos(a), off * math.sin(a), base + rng.uniform(0.5, 1.1) * r, side)
+            (off * math.cos(angle), off * math.sin(angle), base + rng.uniform(0.5, 1.1) * r, side)
         )
     count = icosphere_size(tree.subdivisions)
     for dx, dy, z, radius in crowns:

@@ -31,6 +31,8 @@ hands such a node an ambient of (1, 1, 1, 1), while the scene's own ambient ligh
 
 from __future__ import annotations
 
+from typing import Any
+
 from carlaverse.render.quality import Preset
 
 FOG_LAYER_M = 60.0  # [m] thickness of the fog layer the sky is seen through
@@ -477,7 +479,7 @@ def surface_sources(preset: Preset, night: bool, sun_up: bool,
     """Vertex and fragment source of the surface shader for this preset and time of day;
     `flags` (POOLS 1, WINDOWS 2, UNTEXTURED 4) compiled in, else read from `surface.z`."""
     vs_body, fs_body = (PIXEL_VS, PIXEL_FS) if preset.per_pixel else (VERTEX_LIT_VS, VERTEX_LIT_FS)
-    key = {"night": night, "sun_up": sun_up, "flags": flags}
+    key: dict[str, Any] = {"night": night, "sun_up": sun_up, "flags": flags}
     vs = program(preset, SURFACE_HEAD, VERTEX_IN, vs_body, **key)
     fs = program(preset, SURFACE_HEAD, SHADOW_LOOKUP, EMISSION, fs_body, **key)
     return vs, fs

@@ -62,7 +62,8 @@ class ShadowBoxes:
         self.points[:] = 0.0  # unused boxes shrink to a point: no area, no shadow
         if boxes:
             self.points[: 8 * len(boxes)] = corners(boxes).reshape(-1, 3)
-        memoryview(self.data.modify_array(0)).cast("B").cast("f")[:] = self.points.ravel()
+        # An array is a buffer; the stubs' memoryview item assignment takes only bytes types.
+        memoryview(self.data.modify_array(0)).cast("B").cast("f")[:] = self.points.ravel()  # type: ignore[call-overload]
 
 
 def corners(actors: list[ActorDraw]) -> np.ndarray:

@@ -27,6 +27,7 @@ mapped (`shaders.py`). No Panda3D here, so the numbers are testable on their own
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
 
 from carlaverse.messages import Weather
@@ -160,8 +161,8 @@ def _lum(c: RGB) -> float:
     return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
 
 
-def _rgb(values: object) -> RGB:
-    r, g, b = values  # type: ignore[misc]
+def _rgb(values: Iterable[float]) -> RGB:
+    r, g, b = values
     return (float(r), float(g), float(b))
 
 

@@ -128,7 +128,7 @@ def tileable_noise(rng: np.random.Generator, size: int, cells: int) -> np.ndarra
 
 def _octaves(rng: np.random.Generator, size: int, cells: tuple[int, ...]) -> np.ndarray:
     total = sum(tileable_noise(rng, size, c) / (k + 1) for k, c in enumerate(cells))
-    return total / sum(1 / (k + 1) for k in range(len(cells)))
+    return np.asarray(total / sum(1 / (k + 1) for k in range(len(cells))))
 
 
 def _grey(values: np.ndarray) -> np.ndarray:

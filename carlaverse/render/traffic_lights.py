@@ -72,7 +72,7 @@ class TrafficLightLayer:
         head.set_h(math.degrees(heading) - 90.0)  # local +y along the lane's direction
         head.attach_new_node(_housing_mesh(slot == 0).node())
         lamps = tuple(_lamp(head, z) for z in LAMP_HEIGHTS_M)
-        lamp_head = SignalHead(light_id, link, lamps)  # type: ignore[arg-type]
+        lamp_head = SignalHead(light_id, link, lamps)
         self._show(lamp_head, "O", 0.0)
         return lamp_head
 

@@ -148,7 +148,7 @@ def _fog_colour(day: Daylight, w: Weather) -> tuple[float, float, float]:
 
 
 def _same(a: Weather, b: Weather) -> bool:
-    fields = ("sun_altitude_deg", "sun_azimuth_deg", "cloudiness", "precipitation")
+    fields: tuple[str, ...] = ("sun_altitude_deg", "sun_azimuth_deg", "cloudiness", "precipitation")
     fields += ("fog_density", "wetness", "wind_speed_mps", "wind_direction_deg")
     return all(getattr(a, f) == getattr(b, f) for f in fields)
 

@@ -133,7 +133,7 @@ def issue_certificate(
     """A leaf certificate for a site router or node, usable as TLS server and client."""
     check_token(common_name, "certificate common name")
     key = ec.generate_private_key(ec.SECP256R1())
-    ca_public = authority.certificate.public_key()
+    ca_public = authority.private_key.public_key()  # the certificate's, typed as EC
     builder = (
         x509.CertificateBuilder()
         .subject_name(_name(common_name, "CARLAverse"))

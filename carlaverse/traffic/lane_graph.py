@@ -73,7 +73,8 @@ class LaneGraph:
         return self._crossings[key]
 
     def _chain(self, a: MapLane, b: MapLane) -> list[MapLane]:
-        here, chain = a.centerline[-1], []
+        here = a.centerline[-1]
+        chain: list[MapLane] = []
         for _ in range(MAX_CROSSING_LANES):
             if math.dist(here, b.centerline[0]) <= JOIN_M:
                 return chain

@@ -171,7 +171,7 @@ def polygon_areas(path: Path) -> list[MapArea]:
         root = ET.parse(path).getroot()
     except (OSError, ET.ParseError) as exc:
         raise ValueError(f"{path}: cannot read polygons: {exc}") from exc
-    areas = []
+    areas: list[MapArea] = []
     for poly in root.iter("poly"):
         kind = area_kind(poly.get("type", ""))
         points = _points(poly.get("shape", ""))

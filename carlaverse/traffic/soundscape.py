@@ -28,7 +28,8 @@ from carlaverse.traffic.trigger_spec import Spawn, TriggerSpec
 
 
 class HasId(Protocol):
-    id: str
+    @property
+    def id(self) -> str: ...  # read-only, so a frozen Struct's field satisfies it
 
 
 SirenPattern = Literal[SIREN_PATTERNS]  # type: ignore[valid-type]  # the wire's pattern table
