@@ -222,7 +222,7 @@ class Authority:
             if refused:
                 self.rejected.add(f"pose/{refused}")
 
-    def _despawn(self, node_id: str, reason: str, t: float) -> None:
+    def _despawn(self, node_id: str, reason: m.DespawnReason, t: float) -> None:
         if self.roster.remove(node_id) is None:
             return
         self.despawned.append((node_id, reason))

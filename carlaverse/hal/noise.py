@@ -8,6 +8,7 @@ device's start, and its value at time t is a function of the seed and t alone.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 
@@ -22,7 +23,7 @@ class OrnsteinUhlenbeck:
         step_s: float,
         sigma: float,
         reversion_per_s: float = 0.0,
-        mean: float | np.ndarray = 0.0,
+        mean: float | Sequence[float] | np.ndarray = 0.0,
     ) -> None:
         self.rng = np.random.default_rng(seed)
         self.step_s = step_s  # [s]

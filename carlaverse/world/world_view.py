@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import logging
 from collections import Counter, deque
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 from carlaverse.keys import AUTHORITY_ID, tile_of, tile_token
@@ -99,7 +99,7 @@ class WorldView:
         self._delay = DelaySlew(settings)
         self._render: tuple[float, float] | None = None  # (now, render time) last computed
         # inbox tag -> what applies it (poses, most of the items, are gathered instead)
-        self._handlers = {
+        self._handlers: dict[str, Callable[..., None]] = {
             "skeleton": self._on_skeleton, "npc": self._on_npc, "interest": self._on_interest,
             "gone": self._on_gone, "present": self._on_present, "notice": self._on_notice,
             "state": self._on_state, "snapshot": self._on_snapshot,
@@ -174,7 +174,7 @@ class WorldView:
         """Remove the actors silent for the despawn timeout (every actor is looked at on every
         update, no actor brought up to date unless it expired)."""
         for node_id in self.streams.silent(now, self.settings.despawn_timeout_s):
-            reason = "timeout" if self.hears(self.streams[node_id].newest) else "far"
+            reason: Departure = "timeout" if self.hears(self.streams[node_id].newest) else "far"
             self._remove(node_id, reason, now)
 
     def _on_notice(self, notice: Notice) -> None:

@@ -125,10 +125,13 @@ def check_odd(text: str, where: str, ys: Mapping[float, float]) -> None:
 
 
 class RawInput(Protocol):
-    """What an input device reports (carlaverse.hal.InputState fits)."""
+    """What an input device reports (carlaverse.hal.InputState fits). Read-only, so any
+    mapping type satisfies it (the loop's merged dicts, a device's state)."""
 
-    axes: Mapping[str, float]
-    buttons: Mapping[str, bool]
+    @property
+    def axes(self) -> Mapping[str, float]: ...
+    @property
+    def buttons(self) -> Mapping[str, bool]: ...
 
 
 @dataclass(slots=True)

@@ -145,7 +145,7 @@ class _Runner:
         touched = self.touch.buttons()
         if len(self.inputs) == 1 and touched is None:
             s = self.inputs[0].poll()
-            return MergedInput(s.axes, s.buttons)  # type: ignore[arg-type]
+            return MergedInput(s.axes, s.buttons)
         axes: dict[str, float] = {}
         buttons: dict[str, bool] = {}
         for device in self.inputs:

@@ -140,7 +140,7 @@ class DriveNode(LoopHost):
                 float(s["t"]),
                 key[0],
                 INDICATORS[key[1]],
-                key[2],  # type: ignore[arg-type]
+                key[2],
                 float(s["speed_mps"]),
                 "adas" if key[3] else "",
             )

@@ -10,9 +10,14 @@ so an HMI can attach.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
-INDICATORS = ("off", "left", "right", "hazard")
+if TYPE_CHECKING:
+    from carlaverse.messages import Indicator
+
+INDICATORS: tuple[Indicator, ...] = ("off", "left", "right", "hazard")
 
 STATE = np.dtype(
     [

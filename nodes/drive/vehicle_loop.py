@@ -18,6 +18,7 @@ import logging
 import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import cast
 
 from carlaverse_nodes.drive.adas import AdasArbiter, AdasState
 from carlaverse_nodes.drive.config import DriveNodeConfig
@@ -25,7 +26,7 @@ from carlaverse_nodes.drive.controls import H_SHIFTER_ACTIONS, Controls, DriverC
 from carlaverse_nodes.drive.indicators import Indicators
 from carlaverse_nodes.drive.lights import Lights
 
-from carlaverse.messages import EgoState, Impulse, Override, Pose
+from carlaverse.messages import EgoState, Impulse, Indicator, Override, Pose
 from carlaverse.physics.car import Car
 from carlaverse.physics.impulse import ImpulseInbox
 from carlaverse.physics.motion_cueing import MotionCue, MotionCueing
@@ -81,9 +82,10 @@ class LoopOutput:
                     0.0, 0.0, self.yaw_rate, self.ax, self.ay, 0.0)  # fmt: skip
 
     def ego_state(self, seq: int, t: float) -> EgoState:
-        indicator = self.indicator if self.indicator in ("left", "right", "hazard") else "off"
+        on = self.indicator in ("left", "right", "hazard")
+        indicator: Indicator = cast("Indicator", self.indicator) if on else "off"
         return EgoState(seq, t, self.lights, indicator, self.gear, self.speed_mps,
-                        self.adas.sources)  # type: ignore[arg-type]  # fmt: skip
+                        self.adas.sources)  # fmt: skip
 
 
 class DriveLoop:

@@ -88,8 +88,9 @@ class OpenCvCamera(Camera):
                     break
             if self._newest is self._returned:
                 raise DeviceError(self._why_no_frame())
-            self._returned = self._newest
-            return self._newest
+            frame = self._returned = self._newest
+            assert frame is not None  # it is not `_returned`, which starts as None
+            return frame
 
     def _why_no_frame(self) -> str:
         source = _describe(self.options.device)

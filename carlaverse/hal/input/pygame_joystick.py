@@ -164,7 +164,8 @@ class PygameJoystick(InputDevice):
     def _hats(self) -> Hats:
         js = self.joystick
         mapping = self.options.hats or {f"hat{i}": i for i in range(js.get_numhats())}
-        return {name: tuple(js.get_hat(i)) for name, i in mapping.items()}
+        hats = {name: js.get_hat(i) for name, i in mapping.items()}
+        return {name: (int(x), int(y)) for name, (x, y) in hats.items()}
 
     def _rumble(self, low: float, high: float, duration_ms: int) -> bool:
         return bool(self.joystick.rumble(low, high, duration_ms))

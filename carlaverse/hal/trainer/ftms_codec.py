@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import enum
 import struct
+from typing import Any
 
 import msgspec
 
@@ -127,7 +128,8 @@ def decode_bike_data(data: bytes | bytearray) -> IndoorBikeData:
     if len(data) < 2:
         raise FtmsError(FtmsReason.TRUNCATED, f"Indoor Bike Data of {len(data)} bytes")
     flags = int.from_bytes(data[:2], "little")
-    at, values = 2, {}
+    at = 2
+    values: dict[str, Any] = {}  # each field its own type (energy is a triple)
     for bit, name, fmt, resolution in _FIELDS:
         if not _present(flags, bit):
             continue
