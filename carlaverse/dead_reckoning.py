@@ -164,7 +164,7 @@ def project_many(m: Motion, dt: np.ndarray | float) -> Projected:
     ahead = vv + vb * dt  # < 0: the speed along v reaches zero within dt
     if ahead.min(initial=0.0) < 0.0:
         stops = ahead < 0.0
-        ta = np.where(stops, -vv / np.where(stops, vb, 1.0), dt)
+        ta: np.ndarray | float = np.where(stops, -vv / np.where(stops, vb, 1.0), dt)
         es, ec = _turn(w * ta)[4:]
     else:
         ta = dt

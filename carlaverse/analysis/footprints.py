@@ -61,7 +61,7 @@ def time_to_contact(
     return np.where(touching, np.maximum(start, 0.0), np.inf)
 
 
-def corners(centre: Array, yaw: Array, length: Array, width: Array) -> Array:
+def corners(centre: Array, yaw: Array, length: Array | float, width: Array | float) -> Array:
     """The four corners, shape (..., 4, 2), counter-clockwise from front-left."""
     forward, left = axes(yaw)
     half_l = (0.5 * np.asarray(length))[..., None, None]

@@ -70,12 +70,12 @@ def measure(
 
 
 def near_pairs(tracks: Tracks, near_m: float) -> list[tuple[int, int]]:
-    out = []
+    out: list[tuple[int, int]] = []
     for i in range(len(tracks.actors) - 1):
         d = np.hypot(tracks.x[i + 1 :] - tracks.x[i], tracks.y[i + 1 :] - tracks.y[i])
         with np.errstate(invalid="ignore"):
             close = np.nanmin(np.where(np.isnan(d), np.inf, d), axis=1) <= near_m
-        out.extend((i, i + 1 + k) for k in np.flatnonzero(close))
+        out.extend((i, i + 1 + int(k)) for k in np.flatnonzero(close))
     return out
 
 

@@ -167,7 +167,7 @@ def raw_schema() -> dict[str, Any]:
     }
 
 
-def _as_object(definition: dict[str, Any], cls: type) -> None:
+def _as_object(definition: dict[str, Any], cls: type[msgspec.Struct]) -> None:
     """Rewrite an array-like Struct's tuple schema as the object our views produce."""
     fields = cls.__struct_fields__
     if "prefixItems" in definition:

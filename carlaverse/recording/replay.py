@@ -155,7 +155,11 @@ class Replayer:
         return True
 
     def close(self) -> None:
-        for handle in [*self._publishers.values(), *self._queryables.values()]:
+        handles: list[zenoh.Publisher | zenoh.Queryable] = [
+            *self._publishers.values(),
+            *self._queryables.values(),
+        ]
+        for handle in handles:
             handle.undeclare()
         for token in self._tokens.values():
             token.undeclare()
@@ -233,9 +237,11 @@ class Replayer:
         """Answer queries on an authority key with the latest recorded reply."""
         self._replies[key] = scrub_configs(payload) if holds_configs(key) else payload
         if self._serve_queries and key not in self._queryables:
-            self._queryables[key] = self._session.declare_queryable(
-                key, lambda query, key=key: query.reply(key, self._replies[key]), complete=True
-            )
+
+            def reply(query: zenoh.Query, key: str = key) -> None:
+                query.reply(key, self._replies[key])
+
+            self._queryables[key] = self._session.declare_queryable(key, reply, complete=True)
 
     def _presence(self, key: str, kind: str) -> None:
         if kind == "delete":

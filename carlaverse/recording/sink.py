@@ -142,7 +142,7 @@ class McapSink:
         self.admission = admission or KeyAdmission()
         self._file = UnbufferedFile(self.path)
         self._writer = Writer(
-            self._file,
+            self._file,  # type: ignore[arg-type]  # mcap types it IO; it calls write, tell, flush
             chunk_size=chunk_size,
             compression=_COMPRESSION[compression],
             index_types=INDEX_TYPES,

@@ -84,7 +84,9 @@ def on_this_host(endpoint: str) -> bool:
         return False
     host = match["host"].strip("[]")
     try:
-        addresses = {info[4][0] for info in socket.getaddrinfo(host, None, type=socket.SOCK_DGRAM)}
+        addresses = {
+            str(info[4][0]) for info in socket.getaddrinfo(host, None, type=socket.SOCK_DGRAM)
+        }
     except OSError:
         return False
     for address in addresses:

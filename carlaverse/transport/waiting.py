@@ -115,7 +115,7 @@ class WaitNotice:
             self.say(f"reached the router and the authority of session {session!r}")
             self.said = None
         elif missing not in (None, self.said) and self.clock() - self.started >= self.grace_s:
-            self.say(missing)  # type: ignore[arg-type]
+            self.say(missing)
             self.said = missing
             self.spoke = True
         return missing

@@ -52,7 +52,7 @@ class RawTap:
             rec.log("world/raw/npcs", _points(np.column_stack((rows["x"], rows["y"], rows["z"]))))
 
 
-def _points(xyz: object) -> rr.Points3D:
+def _points(xyz: np.ndarray | list[tuple[float, float, float]]) -> rr.Points3D:
     return rr.Points3D(xyz, colors=[RAW_COLOR], radii=[RAW_RADIUS_M])
 
 
