@@ -144,7 +144,8 @@ def _check_node(path: Path, data: Any, kind: str) -> None:
         node_type = load_node_kind(kind)
     except UnknownNodeKind as exc:
         raise ConfigError(str(path), str(exc)) from exc
-    config = convert(data, node_type.config_type, str(path))
+    # The kind's own config type; NodeKind promises only its `node` and `fabric` sections.
+    config: Any = convert(data, node_type.config_type, str(path))
     _check_fabric(path, config.fabric)
     check = getattr(node_type, "check_config", None)  # a kind's own checks across fields
     if check is not None:

@@ -103,7 +103,7 @@ def node_kinds() -> dict[str, Any]:
     return {ep.name: ep for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 
-def load_node_kind(name: str) -> type:
+def load_node_kind(name: str) -> type[NodeKind]:
     kinds = node_kinds()
     if name not in kinds:
         import difflib

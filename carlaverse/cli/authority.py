@@ -165,7 +165,12 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         digest_period_s=args.digest_ms / 1e3,
     )
     authority = Authority(session, settings, WallAlignedClock(), domain).start()
-    watcher = threading.Thread(target=lambda: (stop.wait(), authority.stop()), daemon=True)
+
+    def stop_when_asked() -> None:
+        stop.wait()
+        authority.stop()
+
+    watcher = threading.Thread(target=stop_when_asked, daemon=True)
     watcher.start()
     print(
         f"authority of session {session_name!r} ticking at {settings.tick_hz:g} Hz "

@@ -96,7 +96,7 @@ def _run_session(
     endpoint: str,
     tmp: Path,
     children: list[Child],
-    stop: threading.Event,
+    stop: StopSignal,
 ) -> dict[str, Any]:
     children.append(_spawn("router", "router", ["router", "--listen", endpoint]))
     # The listeners before the authority, and the recorder confirmed subscribed: started

@@ -85,7 +85,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def _prepare(args: argparse.Namespace) -> tuple[type, Any, NodeSettings, FabricSettings]:
     """The kind, its config with --id/--session/fabric flags applied; ConfigError-like errors."""
     kind_cls = load_node_kind(args.kind)
-    config = (
+    # Each kind's own config type; NodeKind promises only its `node` and `fabric` sections.
+    config: Any = (
         load_config(args.config, kind_cls.config_type) if args.config else kind_cls.config_type()
     )
     node_settings = config.node

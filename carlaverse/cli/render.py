@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from carlaverse.cli.common import (
+    StopSignal,
     add_fabric_args,
     attend,
     fabric_from_args,
@@ -126,7 +127,8 @@ def run(args: argparse.Namespace) -> int:
     except (FabricUnreachable, WorldMissing) as exc:  # no router, authority or world in time
         waited = f" (waited --join-timeout {args.join_timeout:g} s)"
         return fail("render", f"{exc}{waited}",
-                    stop.exit_code() if stop.is_set() else Exit.NOT_ADMITTED)  # fmt: skip
+                    stop.exit_code() if isinstance(stop, StopSignal) and stop.is_set()
+                    else Exit.NOT_ADMITTED)  # fmt: skip
     except FabricError as exc:
         return fail("render", str(exc), Exit.FABRIC)
     except ConfigError as exc:  # a rig file that does not decode: nothing was drawn

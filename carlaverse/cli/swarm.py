@@ -129,7 +129,12 @@ def _run_swarm(
         file=sys.stderr,
         flush=True,
     )
-    watcher = threading.Thread(target=lambda: (stop.wait(), swarm.stop()), daemon=True)
+
+    def stop_when_asked() -> None:
+        stop.wait()
+        swarm.stop()
+
+    watcher = threading.Thread(target=stop_when_asked, daemon=True)
     watcher.start()
     report = swarm.run(args.duration)
     if args.json:
