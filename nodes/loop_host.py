@@ -104,8 +104,9 @@ class LoopHost:
                 s = self._state.read_latest()
             if not s["running"]:
                 return None  # no pose before the loop's first tick
-            plane = {name: float(s[name]) for name in PLANAR}
-            return Pose(0, **plane, **self._pose_extras(s))
+            plane: dict[str, Any] = {name: float(s[name]) for name in PLANAR}
+            extras: dict[str, Any] = self._pose_extras(s)
+            return Pose(0, **plane, **extras)
 
         return source
 

@@ -58,7 +58,7 @@ class Vbap:
     def __init__(self, azimuths_deg: tuple[float | None, ...]) -> None:
         self.channels = len(azimuths_deg)
         self.speakers = [i for i, az in enumerate(azimuths_deg) if az is not None]
-        angles = np.radians([azimuths_deg[i] for i in self.speakers])
+        angles = np.radians([az for az in azimuths_deg if az is not None])  # the speakers'
         self._vectors = np.stack([np.cos(angles), np.sin(angles)], axis=1)  # S × 2
         self._pairs = self._adjacent_pairs(angles)
         # The pairs as arrays, for all sources at once: P × 2 channels, P × 2 × 2 inverses.

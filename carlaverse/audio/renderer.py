@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -41,6 +41,11 @@ from carlaverse.audio.sources import Drive, SourceBank
 POLE_TAIL = 256  # [samples] FFT history kept for the absorption pole's decay (≤ 0.97^256)
 
 
+# Each spatialiser's own weights, handed back to it only: an array (Binaural), a dataclass of
+# arrays (Panned). Any, so each implementation's methods may name their own type.
+Weights = Any
+
+
 class Spatialiser(Protocol):
     """binaural.Binaural or panning.Panned: how emitters' spectra reach the output channels.
     Weights are per emitter (an array or a dataclass of arrays, first axis the emitter)."""
@@ -48,13 +53,13 @@ class Spatialiser(Protocol):
     channels: int
 
     def weights(self, response: np.ndarray, directions: np.ndarray,
-                diffuse: np.ndarray) -> object: ...  # fmt: skip
+                diffuse: np.ndarray) -> Weights: ...  # fmt: skip
 
-    def silent(self, n: int, bins: int) -> object: ...
+    def silent(self, n: int, bins: int) -> Weights: ...
 
-    def take(self, weights: object, sel: np.ndarray | slice) -> object: ...
+    def take(self, weights: Weights, sel: np.ndarray | slice) -> Weights: ...
 
-    def mix(self, spectra: np.ndarray, weights: object) -> np.ndarray: ...
+    def mix(self, spectra: np.ndarray, weights: Weights) -> np.ndarray: ...
 
     def finish(self, block: np.ndarray) -> np.ndarray: ...
 

@@ -22,20 +22,33 @@ SCENE, LOCAL = "scene", "local"  # who owns an emitter: the network scene or thi
 
 
 class EmitterLike(Protocol):
-    """What the renderer reads of an emitter: messages.AudioEmitter has exactly this."""
+    """What the renderer reads of an emitter: messages.AudioEmitter has exactly this.
+    Read-only, as the frozen message's fields are."""
 
-    id: str
-    kind: str
-    x: float
-    y: float
-    z: float
-    vx: float
-    vy: float
-    vz: float
-    level_db: float
-    extent_m: float
-    drive_a: float
-    drive_b: float
+    @property
+    def id(self) -> str: ...
+    @property
+    def kind(self) -> str: ...
+    @property
+    def x(self) -> float: ...
+    @property
+    def y(self) -> float: ...
+    @property
+    def z(self) -> float: ...
+    @property
+    def vx(self) -> float: ...
+    @property
+    def vy(self) -> float: ...
+    @property
+    def vz(self) -> float: ...
+    @property
+    def level_db(self) -> float: ...
+    @property
+    def extent_m(self) -> float: ...
+    @property
+    def drive_a(self) -> float: ...
+    @property
+    def drive_b(self) -> float: ...
 
 
 class EmitterSlots:

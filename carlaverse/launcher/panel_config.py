@@ -13,6 +13,7 @@ from typing import Any
 import yaml
 from nicegui import ui
 from nicegui.elements.mixins.validation_element import ValidationElement
+from nicegui.elements.mixins.value_element import ValueElement
 
 from carlaverse.config import ConfigError
 from carlaverse.launcher.config_draft import ConfigDraft, FieldError, config_kinds
@@ -105,19 +106,20 @@ class ConfigEditor:
         assert self.draft is not None
         value = self.draft.value(leaf.path)
         hint = " · ".join(p for p in (leaf.bounds, f"default {_show(leaf.default)}") if p)
+        widget: ValueElement
         if leaf.kind == "bool":
             widget = ui.switch(leaf.name, value=bool(value))
         elif leaf.kind == "choice":
             widget = ui.select(
                 list(leaf.choices), label=leaf.name, value=value,
-                validation=lambda _v, p=leaf.path: self._error_at(p),
+                validation=lambda _v: self._error_at(leaf.path),
             )  # fmt: skip
         else:
             widget = ui.input(
-                leaf.name, value=_show(value), validation=lambda _v, p=leaf.path: self._error_at(p)
+                leaf.name, value=_show(value), validation=lambda _v: self._error_at(leaf.path)
             ).classes("w-96")
         widget.props(f'data-path="{leaf.path}" hint="{hint}" dense')
-        widget.on_value_change(lambda e, leaf=leaf: self._edited(leaf, e.value))
+        widget.on_value_change(lambda e: self._edited(leaf, e.value))
 
     def _edited(self, leaf: Leaf, value: Any) -> None:
         assert self.draft is not None

@@ -47,7 +47,7 @@ def _check_card(
         log = (
             ui.log(max_lines=200).classes("w-full h-40 text-xs").props(f"data-testid={testid}-log")
         )
-        button = ui.button(
+        button: ui.button = ui.button(
             action, on_click=lambda: _run_check(files, check, text.value, log, button)
         )
         button.props(f"data-testid={testid}-run")

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Awaitable, Callable
+from typing import Any
 
 from nicegui import run, ui
 
@@ -142,7 +143,7 @@ def _kinds(text: str) -> list[str]:
 
 
 def _processes_and_logs(lab: Lab) -> None:
-    selected = {"name": "", "next": 0}
+    selected: dict[str, Any] = {"name": "", "next": 0}
     with ui.card().classes("w-full"):
         with ui.row().classes("w-full items-center"):
             ui.label("Processes").classes("text-lg font-medium")

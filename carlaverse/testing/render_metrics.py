@@ -131,4 +131,4 @@ def probe_metrics(rows: list[list[Any]], path: HasPoseAt) -> dict[str, Metrics]:
         return p.x, p.y
 
     frames = {r: [tuple(row[3][r]) for row in rows if r in row[3]] for r in RENDERERS}
-    return {r: measure(frames[r], truth) for r in RENDERERS}  # type: ignore[arg-type]
+    return {r: measure(frames[r], truth) for r in RENDERERS}

@@ -109,7 +109,7 @@ class WalkRunner:
             if self.ticks % event_every == 0:
                 self._drain_events()
             if self.eyes is not None:
-                self._show_eyes()
+                self._show_eyes(self.eyes)
             out = self.walk.tick(self.pacer.period_s)
             self.distance_m += out.speed_mps * self.pacer.period_s
             self._publish(out)
@@ -123,9 +123,9 @@ class WalkRunner:
             self.spawn_seq = int(c["spawn_seq"])
             self.walk.place(float(c["spawn_x"]), float(c["spawn_y"]), float(c["spawn_yaw"]))
 
-    def _show_eyes(self) -> None:
+    def _show_eyes(self, block: EyeImageBlock) -> None:
         """The view's newest eyes go to the headset before its next frame."""
-        eyes = self.eyes.newest()
+        eyes = block.newest()
         if eyes is not None:
             self.headset.present(eyes)
             self.eye_frames += 1
