@@ -93,6 +93,18 @@ def _act_start(act: ET.Element, start: ET.Element) -> str:
     )
 
 
+def _number(ev: _Event, element: ET.Element, name: str) -> float:
+    """An attribute the schema requires to be a number; Refused naming it when not."""
+    text = element.get(name)
+    where = f"event {ev.name!r}: <{element.tag}>"
+    if text is None:
+        raise Refused(f"{where} has no {name}")
+    try:
+        return float(text)
+    except ValueError:
+        raise Refused(f"{where} has {name} {text!r}, not a number") from None
+
+
 class _Event:
     """One event being translated: its measurements and condition text."""
 
@@ -141,20 +153,19 @@ def _condition(ev: _Event, c: ET.Element) -> str:
     if body.tag == "StoryboardElementStateCondition":
         return f"fired_{_identifier(body.get('storyboardElementRef', ''))} > 0"
     actors = [e.get("entityRef", "") for e in c.iterfind(".//TriggeringEntities/EntityRef")]
-    joiner = (
-        " and "
-        if c.find(".//TriggeringEntities").get("triggeringEntitiesRule") == "all"
-        else " or "
-    )
+    entities = c.find(".//TriggeringEntities")
+    if entities is None:
+        raise Refused(f"event {ev.name!r}: <{body.tag}> names no TriggeringEntities")
+    joiner = " and " if entities.get("triggeringEntitiesRule") == "all" else " or "
     return "(" + joiner.join(_entity_condition(ev, body, actor) for actor in actors) + ")"
 
 
 def _entity_condition(ev: _Event, body: ET.Element, actor: str) -> str:
     if body.tag == "SpeedCondition":
-        return f"{ev.add_measure('speed', actor)} {_rule(ev, body)} {float(body.get('value'))}"
+        return f"{ev.add_measure('speed', actor)} {_rule(ev, body)} {_number(ev, body, 'value')}"
     if body.tag == "ReachPositionCondition":
         name = ev.add_measure("distance", actor, point=_world_position(ev, body))
-        return f"{name} < {float(body.get('tolerance'))}"
+        return f"{name} < {_number(ev, body, 'tolerance')}"
     if body.tag == "DistanceCondition":
         if body.get("freespace", "false") != "false":
             raise ev.refuse("DistanceCondition with freespace true (centres only)")
@@ -166,7 +177,7 @@ def _entity_condition(ev: _Event, body: ET.Element, actor: str) -> str:
                 f"DistanceCondition relativeDistanceType {body.get('relativeDistanceType')!r}"
             )
         name = ev.add_measure("distance", actor, point=_world_position(ev, body))
-        return f"{name} {_rule(ev, body)} {float(body.get('value'))}"
+        return f"{name} {_rule(ev, body)} {_number(ev, body, 'value')}"
     if body.tag == "TimeToCollisionCondition":
         if body.get("freespace", "true") != "true":
             raise ev.refuse("TimeToCollisionCondition with freespace false (footprints only)")
@@ -174,7 +185,7 @@ def _entity_condition(ev: _Event, body: ET.Element, actor: str) -> str:
         if other is None:
             raise ev.refuse("TimeToCollisionCondition to a position")
         name = ev.add_measure("ttc", actor, other=other.get("entityRef"))
-        return f"{name} {_rule(ev, body)} {float(body.get('value'))}"
+        return f"{name} {_rule(ev, body)} {_number(ev, body, 'value')}"
     raise ev.refuse(_chain(body))
 
 
@@ -229,8 +240,11 @@ def _weather(ev: _Event, action: ET.Element) -> dict[str, float]:
             raise ev.refuse(f"cloud cover {cover!r}")
         values["cloudiness"] = CLOUDS[cover]
     road = env.find("RoadCondition")
-    if road is not None and road.get("wetness"):
-        values["wetness"] = WETNESS[road.get("wetness")]
+    wetness = None if road is None else road.get("wetness")
+    if wetness:
+        if wetness not in WETNESS:
+            raise ev.refuse(f"road wetness {wetness!r}")
+        values["wetness"] = WETNESS[wetness]
     return values
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import pytest
@@ -150,3 +151,56 @@ def test_an_unsupported_element_is_refused_by_name(tmp_path: Path) -> None:
     scenario = write_scenario(tmp_path, f"{CROSSING_MAP}\nopenscenario: study.xosc\n")
     with pytest.raises(ConfigError, match="LaneChangeAction"):
         load_scenario(scenario)
+
+
+def _edited(path: Path, xpath: str, attribute: str, value: str | None) -> Path:
+    """The storyboard at `path` with `attribute` of the element at `xpath` set, or removed
+    when `value` is None: an input scenariogeneration would not write, as a hand edit can."""
+    tree = ET.parse(path)
+    element = tree.getroot().find(xpath)
+    assert element is not None, xpath
+    if value is None:
+        del element.attrib[attribute]
+    else:
+        element.set(attribute, value)
+    tree.write(path)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("value", "said"),
+    [(None, "<SpeedCondition> has no value"), ("fast", "<SpeedCondition> has value 'fast'")],
+)
+def test_a_condition_without_its_number_is_one_config_error(
+    tmp_path: Path, value: str | None, said: str
+) -> None:
+    # OpenSCENARIO requires SpeedCondition's `value` (a double); a file without one, or with
+    # a word there, is refused naming file, event, element and attribute (it was a TypeError
+    # or ValueError out of float(), with no file named).
+    path = _write(tmp_path / "study.xosc", _pull_out())
+    _edited(path, ".//SpeedCondition", "value", value)
+    with pytest.raises(ConfigError, match=rf"study.xosc: event 'pull out': {said}"):
+        import_triggers(path)
+
+
+def test_an_unknown_road_wetness_is_refused_by_name(tmp_path: Path) -> None:
+    # Wetness is an enumeration (dry, moist, wetWithPuddles, ...): a value outside it is
+    # refused as an unknown cloud cover is (it was a KeyError).
+    path = _write(tmp_path / "study.xosc", _pull_out(), _rain())
+    _edited(path, ".//RoadCondition", "wetness", "soggy")
+    with pytest.raises(ConfigError, match=r"study.xosc: event 'rain': road wetness 'soggy'"):
+        import_triggers(path)
+
+
+def test_an_entity_condition_without_its_entities_is_refused_by_name(tmp_path: Path) -> None:
+    # A ByEntityCondition must say whose speed or distance it reads (TriggeringEntities); one
+    # without is refused naming the condition (it was an AttributeError on None).
+    path = _write(tmp_path / "study.xosc", _pull_out())
+    tree = ET.parse(path)
+    for by_entity in tree.getroot().iterfind(".//ByEntityCondition"):
+        entities = by_entity.find("TriggeringEntities")
+        assert entities is not None
+        by_entity.remove(entities)
+    tree.write(path)
+    with pytest.raises(ConfigError, match=r"event 'pull out': <\w+Condition> names no Trigger"):
+        import_triggers(path)
