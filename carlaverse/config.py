@@ -53,11 +53,12 @@ def invalid_at(message: str) -> tuple[str, str]:
     return (match["path"], match["message"]) if match else ("", message)
 
 
-# msgspec hands `frozen` and `kw_only` down to subclasses, but a type checker reads a subclass
-# that does not repeat `frozen=True` as a mutable dataclass under a frozen one (msgspec issue
-# 657): saying here that StrictStruct's subclasses default to frozen and keyword-only lets
-# every config type stay `class X(StrictStruct):`.
-@dataclass_transform(frozen_default=True, kw_only_default=True, field_specifiers=(msgspec.field,))
+# msgspec hands `frozen` down to subclasses, but a type checker reads a subclass that does not
+# repeat `frozen=True` as a mutable dataclass under a frozen one (msgspec issue 657): saying
+# here that StrictStruct's subclasses default to frozen lets every config type stay
+# `class X(StrictStruct):`. (`kw_only` is not handed down: it covers the fields of the class
+# that sets it, and StrictStruct has none, so subclasses take positional arguments too.)
+@dataclass_transform(frozen_default=True, field_specifiers=(msgspec.field,))
 class StrictStruct(msgspec.Struct, frozen=True, forbid_unknown_fields=True, kw_only=True):
     """Base for config types: immutable, keyword-only, unknown fields rejected."""
 
