@@ -149,6 +149,7 @@ class BikeRunner:
         r["grade_percent"] = self.loop.grade_percent
         r["ticks"], r["ffb_sent"], r["impulses_applied"] = self.ticks, self.ffb_sent, self.impulses
         r["running"] = 1
+        r["written_ns"] = time.monotonic_ns()  # last: the stamp is the moment it is published
         self.state.write(r)
 
     def summary(self) -> dict[str, Any]:

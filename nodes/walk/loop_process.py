@@ -149,6 +149,7 @@ class WalkRunner:
         r["ticks"], r["snaps"] = self.ticks, self.walk.snaps
         r["running"] = 1
         self._eyes(r)
+        r["written_ns"] = time.monotonic_ns()  # last: the stamp is the moment it is published
         self.state.write(r)
 
     def _eyes(self, r: Any) -> None:
