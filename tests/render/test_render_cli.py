@@ -155,6 +155,7 @@ def test_at_counts_seconds_from_the_recordings_start(
     assert set(shown) == documented_keys("`carlaverse render --json`")
     assert shown["recording_start"] == pytest.approx(start_s, abs=1e-9)
     assert shown["t"] == pytest.approx(start_s + 1.0, abs=1e-9)
+    assert shown["at"] == pytest.approx(1.0, abs=1e-9)
     # the same moment named on the session clock is the same picture
     same = tmp_path / "same.png"
     argv = ["render", str(recording), "--at-session", str(start_s + 1.0), "--out", str(same)]
@@ -177,7 +178,9 @@ def test_at_flags_are_checked(recording: Path, tmp_path: Path, capsys) -> None:
     assert exit_.value.code == 2
     assert main(["render", str(recording), "--chase", "--out", out]) == 2  # chase whom?
     err = capsys.readouterr().err
-    assert "--at -1: give seconds >= 0" in err and "--chase follows a node" in err
+    # the recording spans session time -0.003 s (its map) to 1.98 s (its last pose): 1.983 s
+    assert "--at -1 s is before the recording's start: valid 0.0–1.9 s from start" in err
+    assert "--chase follows a node" in err
 
 
 # The chase camera as the help states it: the eye 6 m behind the chased actor and 2.5 m above
