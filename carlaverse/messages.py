@@ -27,6 +27,7 @@ import msgspec
 import numpy as np
 
 from carlaverse.keys import DIGEST_CHANNEL
+from carlaverse.patterns import anchored
 
 # 2: the snapshot's pose is the 64-byte pose layout; `spawned` carries the actor kind;
 #    the `authority/leave` query; despawn reasons are a closed set.
@@ -814,3 +815,99 @@ REQUEST_CODECS: dict[str, Codec[Any]] = {
     "leave": LEAVE_REQUEST,
     "clock": CLOCK_REQUEST,
 }
+
+
+# --------------------------------------------------------------------------- study: questionnaires
+# Issue 44. Between trials the study runner asks a participant's node to show a questionnaire
+# on the participant's own screen, the node's web HMI (`study/<id>/ask`). The node answers on
+# `study/<id>/answers` with every answer given so far, each time one changes, and once more with
+# `final` set when the participant submits. Each answers message holds the whole set so far, so
+# the newest is the partial set when a node goes away mid-way. The runner repeats its request
+# until the final set comes; a node that sent it already sends it again, so no single lost
+# message loses answers. Answers are checked against the request they answer
+# (carlaverse.study.questionnaires): an unknown item, a value off the scale or too long a text
+# is counted and dropped by the runner.
+
+QUESTIONNAIRE_MAX_ITEMS = 64
+QUESTIONNAIRE_MAX_POINTS = 101  # values of a scale, options of a choice
+QUESTIONNAIRE_MAX_TEXT = 2000  # [characters] of a free-text answer or of instructions
+StudyId = Annotated[str, msgspec.Meta(pattern=anchored(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,62}"))]
+ShortText = Annotated[str, msgspec.Meta(max_length=500)]
+LongText = Annotated[str, msgspec.Meta(max_length=QUESTIONNAIRE_MAX_TEXT)]
+ScaleValue = Annotated[int, msgspec.Meta(ge=-1000, le=1000)]
+
+
+class QuestionnaireItem(msgspec.Struct, frozen=True):
+    """One question as a participant's page shows it."""
+
+    id: StudyId
+    text: ShortText
+    kind: Literal["scale", "choice", "text"]
+    low: ScaleValue = 0  # scale: the lowest value
+    high: ScaleValue = 0  # scale: the highest value
+    step: Annotated[int, msgspec.Meta(ge=1, le=1000)] = 1  # scale: between neighbouring values
+    # scale: the two ends' anchors, or one per value; choice: the options (answer: the index)
+    labels: Annotated[list[ShortText], msgspec.Meta(max_length=QUESTIONNAIRE_MAX_POINTS)] = []
+    required: bool = True  # the page submits only when it is answered
+    max_chars: Annotated[int, msgspec.Meta(ge=1, le=QUESTIONNAIRE_MAX_TEXT)] = 500  # text
+
+    def __post_init__(self) -> None:  # msgspec turns this ValueError into its decode error
+        problem = _item_problem(self)
+        if problem:
+            raise ValueError(f"item {self.id!r}: {problem}")
+
+    def points(self) -> int:
+        """How many values a scale has, or options a choice; 0 for text."""
+        if self.kind == "scale":
+            return (self.high - self.low) // self.step + 1
+        return len(self.labels) if self.kind == "choice" else 0
+
+
+def _item_problem(item: QuestionnaireItem) -> str:
+    """What makes an item unshowable, or ""."""
+    points = item.points()
+    if item.kind == "scale" and not (
+        item.high > item.low and (item.high - item.low) % item.step == 0
+    ):
+        return "a scale needs high > low, in whole steps"
+    if item.kind == "scale" and points > QUESTIONNAIRE_MAX_POINTS:
+        return f"a scale has at most {QUESTIONNAIRE_MAX_POINTS} values"
+    if item.kind == "scale" and len(item.labels) not in (0, 2, points):
+        return f"a scale's labels: none, the two ends, or one per value ({points})"
+    if item.kind == "choice" and len(item.labels) < 2:
+        return "a choice needs two options or more in labels"
+    return ""
+
+
+class QuestionnaireRequest(msgspec.Struct, frozen=True):
+    """A questionnaire for a participant's HMI, from the study runner."""
+
+    schema: Int64
+    request_id: StudyId  # one per showing (e.g. "<trial>.<questionnaire>"); answers name it
+    trial: StudyId
+    questionnaire: StudyId  # e.g. "ssq", "nasa-tlx"
+    title: ShortText
+    items: Annotated[
+        list[QuestionnaireItem], msgspec.Meta(min_length=1, max_length=QUESTIONNAIRE_MAX_ITEMS)
+    ]
+    instructions: LongText = ""
+
+
+class QuestionnaireAnswers(msgspec.Struct, frozen=True):
+    """A participant's answers so far to one QuestionnaireRequest, from the node."""
+
+    schema: Int64
+    request_id: StudyId
+    node_id: StudyId
+    seq: Seq  # counts the sets the node sent for this request
+    # item id -> scale value, choice index or text
+    answers: Annotated[
+        dict[StudyId, ScaleValue | LongText], msgspec.Meta(max_length=QUESTIONNAIRE_MAX_ITEMS)
+    ]
+    final: bool = False  # the participant submitted: the set is complete
+
+
+QUESTIONNAIRE_REQUEST: Codec[QuestionnaireRequest] = Codec(QuestionnaireRequest)
+QUESTIONNAIRE_ANSWERS: Codec[QuestionnaireAnswers] = Codec(QuestionnaireAnswers)
+CHANNEL_CODECS[("study", "ask")] = QUESTIONNAIRE_REQUEST
+CHANNEL_CODECS[("study", "answers")] = QUESTIONNAIRE_ANSWERS

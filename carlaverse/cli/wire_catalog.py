@@ -27,6 +27,7 @@ from carlaverse.keys import (
     DIGEST_CHANNEL,
     EGO_CHANNELS,
     KEY_AREAS,
+    STUDY_CHANNELS,
     TILED_EGO_CHANNELS,
     TILED_WORLD_CHANNELS,
     WORLD_CHANNELS,
@@ -64,6 +65,10 @@ _KEY_FACTS: tuple[tuple[str, str, str], ...] = (
     ("impulse/<id>", "authority", "reliable, congestion BLOCK, priority interactive-high"),
     ("audio/<id>", "authority; read by node <id>, observers and recorders only",
      "best effort, congestion DROP; scenario `audio.rate_hz` (20 Hz)"),
+    ("study/<id>/ask", "the study runner: a questionnaire for node <id>'s HMI",
+     "reliable, congestion BLOCK; repeated until the final answers come"),
+    ("study/<id>/answers", "the node: its participant's answers so far",
+     "reliable, congestion BLOCK; on each change, and on submit (`final`)"),
 )  # fmt: skip
 
 
@@ -75,7 +80,7 @@ def key_docs() -> list[KeyDoc]:
     for key, writer, delivery in [*_KEY_FACTS, *queries]:
         area, _, rest = key.partition("/")
         named = rest.removesuffix("/<tile>")  # a tiled key carries its channel's payload
-        channel = named.rpartition("/")[2] if area in ("ego", "world", "authority") else ""
+        channel = named.rpartition("/")[2] if area in ("ego", "world", "authority", "study") else ""
         codec = m.CHANNEL_CODECS.get((area, channel))
         payload = _type_names(codec.type) if codec is not None else ""
         request = ""
@@ -101,6 +106,7 @@ def key_space_paths() -> set[str]:
     paths |= {f"world/{c}" for c in (*WORLD_CHANNELS, DIGEST_CHANNEL)}
     paths |= {f"world/{c}/<tile>" for c in TILED_WORLD_CHANNELS}
     paths |= {f"authority/{q}" for q in AUTHORITY_QUERIES}
+    paths |= {f"study/<id>/{c}" for c in STUDY_CHANNELS}
     assert {p.split("/")[0] for p in paths} == set(KEY_AREAS)
     return paths
 
