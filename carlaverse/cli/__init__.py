@@ -39,6 +39,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "carlaverse.cli.analyze",
         "trajectories and safety measures (TTC, PET) of a recording",
     ),
+    "osi": ("carlaverse.cli.osi", "export a recording's ground truth as an ASAM OSI trace (MCAP)"),
     "audio": ("carlaverse.cli.audio", "render a recording's spatial audio for one listener (WAV)"),
     "certs": ("carlaverse.cli.certs", "generate a test CA and certificates for a lab"),
     "roster": ("carlaverse.cli.roster", "session roster tools: generate router ACLs"),
