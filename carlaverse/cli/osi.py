@@ -35,14 +35,29 @@ def add_options(parser: argparse.ArgumentParser | argparse._ArgumentGroup) -> No
                         help="lanes and boundaries in every frame, not only the first")  # fmt: skip
 
 
+def check_options(args: argparse.Namespace) -> str:
+    """What is wrong with the export's flags ("" if nothing); imports the osi3 bindings, so a
+    missing extra is reported before any work (`carlaverse.cli.main` names its install)."""
+    import osi3  # noqa: F401
+
+    return "" if args.osi_rate > 0 else f"--osi-rate must be > 0, got {args.osi_rate}"
+
+
+def export_beside(recording: Path, args: argparse.Namespace, command: str) -> int:
+    """Export into NAME.osi.mcap beside NAME.mcap."""
+    from carlaverse.recording.osi_trace import sibling_path
+
+    return export(recording, sibling_path(recording), args, command)
+
+
 def export(recording: Path, output: Path, args: argparse.Namespace, command: str = NAME) -> int:
     """Write the trace; one line on stderr saying what it holds, or why it failed."""
     from carlaverse.recording.osi_ground_truth import Options
     from carlaverse.recording.osi_trace import export as export_trace
     from carlaverse.recording.sink import RecordingError
 
-    if not args.osi_rate > 0:
-        return fail(command, f"--osi-rate must be > 0, got {args.osi_rate}")
+    if problem := check_options(args):
+        return fail(command, problem)
     options = Options(args.osi_rate, host=args.osi_host, map_every_frame=args.osi_map_every_frame)
     try:
         report = export_trace(recording, output, options)

@@ -17,6 +17,9 @@ from carlaverse.cli.common import (
     tell,
 )
 from carlaverse.cli.exit_codes import Exit
+from carlaverse.cli.osi import add_options as add_osi_options
+from carlaverse.cli.osi import check_options as check_osi_options
+from carlaverse.cli.osi import export_beside as export_osi
 from carlaverse.config import ConfigError
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.recorder import (
@@ -77,6 +80,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="recorder",
         help="identity in a --roster session (default recorder)",
     )
+    osi = parser.add_argument_group("ASAM OSI ground truth (needs the osi extra)")
+    osi.add_argument(
+        "--osi",
+        action="store_true",
+        help="when the recording ends, also write its ground truth as an OSI trace, "
+        "NAME.osi.mcap beside NAME.mcap (an OSI trace holds OSI messages only)",
+    )
+    add_osi_options(osi)
     add_fabric_args(parser, session=False)
     parser.epilog = (
         "Exit 3 when no router or peer was reached for the whole run (nothing recorded "
@@ -90,6 +101,8 @@ def run(args: argparse.Namespace) -> int:
             return _recover(args)
         if not args.session:
             return fail("record", "--session NAME is required (or --recover IN.mcap)")
+        if args.osi and (problem := check_osi_options(args)):  # before, not after, an hour
+            return fail("record", problem)
         return _record(args)
     except (KeySpaceError, ConfigError) as exc:  # ConfigError: a --roster problem
         return fail("record", str(exc))
@@ -148,6 +161,8 @@ def _record(args: argparse.Namespace) -> int:
     tell(f"recorded {_describe(stats)} into {args.output}")
     if stats.failure:
         return fail("record", f"RECORDING FAILED: {stats.failure}", Exit.FAILED)
+    if args.osi:
+        return export_osi(args.output, args, "record")
     return Exit.OK
 
 
