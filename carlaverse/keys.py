@@ -39,8 +39,9 @@ WORLD_CHANNELS = ("npc", "lights", "weather", "events")
 # not take a second copy of every pose, and only a node that names the key receives it.
 DIGEST_CHANNEL = "@egos"
 # Per-node study channels under study/<node_id>/... (issue 44): the study runner asks a
-# participant's node to show a questionnaire (`ask`), the node sends the answers (`answers`).
-STUDY_CHANNELS = ("ask", "answers")
+# participant's node to show a questionnaire (`ask`), the node sends the answers (`answers`);
+# under the study's own name as session, the runner briefs a participant's agent (`brief`).
+STUDY_CHANNELS = ("ask", "answers", "brief")
 KEY_AREAS = ("node", "ego", "world", "impulse", "audio", "authority", "study")
 AUTHORITY_QUERIES = ("clock", "join", "leave", "snapshot", "map", "scenario", "configs")
 

@@ -911,3 +911,40 @@ QUESTIONNAIRE_REQUEST: Codec[QuestionnaireRequest] = Codec(QuestionnaireRequest)
 QUESTIONNAIRE_ANSWERS: Codec[QuestionnaireAnswers] = Codec(QuestionnaireAnswers)
 CHANNEL_CODECS[("study", "ask")] = QUESTIONNAIRE_REQUEST
 CHANNEL_CODECS[("study", "answers")] = QUESTIONNAIRE_ANSWERS
+
+
+# --------------------------------------------------------------------------- study: trials
+# Issue 44. A study's runner briefs each participant's agent (`carlaverse study agent`, on the
+# participant's machine) on `carlaverse/<study>/study/<participant>/brief`, the study's name
+# standing as the session: the trial to take part in now, or none. The brief is put again
+# every half second, so an agent that starts or reconnects late hears it; the agent starts the
+# participant's node in the trial's session with the brief's node config, and stops it when a
+# brief names another trial or none.
+
+STUDY_BRIEF_MAX_CONFIG = 65536  # [characters] of a node config in a brief
+
+
+class TrialBrief(msgspec.Struct, frozen=True):
+    """What a study's runner tells one participant's agent, repeated while it holds."""
+
+    schema: Int64
+    study: StudyId
+    participant: StudyId
+    active: bool = False  # False between trials: the agent stops the node
+    trial: StudyId = "none"
+    attempt: Seq = 0  # a redone trial is a new attempt: a new node in a new session
+    session: StudyId = "none"  # the trial's session, where the node joins
+    kind: Literal["drive", "bike", "walk", "scripted", "observer"] = "observer"
+    condition: StudyId = "none"
+    duration_s: Annotated[float, msgspec.Meta(ge=0, le=86400)] = 0.0  # [s] 0: until told
+    # the node's config with the condition's overrides merged in (YAML); "" for the kind's own
+    node_config_yaml: Annotated[str, msgspec.Meta(max_length=STUDY_BRIEF_MAX_CONFIG)] = ""
+    backend: Annotated[str, msgspec.Meta(max_length=32)] = ""  # "sim": devices simulated
+    # the participant's link in this trial, as the runner applies it (for the record)
+    delay_ms: Annotated[float, msgspec.Meta(ge=0, le=5000)] = 0.0
+    jitter_ms: Annotated[float, msgspec.Meta(ge=0, le=5000)] = 0.0
+    loss: Annotated[float, msgspec.Meta(ge=0, lt=1)] = 0.0
+
+
+TRIAL_BRIEF: Codec[TrialBrief] = Codec(TrialBrief)
+CHANNEL_CODECS[("study", "brief")] = TRIAL_BRIEF

@@ -69,6 +69,8 @@ _KEY_FACTS: tuple[tuple[str, str, str], ...] = (
      "reliable, congestion BLOCK; repeated until the final answers come"),
     ("study/<id>/answers", "the node: its participant's answers so far",
      "reliable, congestion BLOCK; on each change, and on submit (`final`)"),
+    ("study/<id>/brief", "the study runner, under the study's name as session: the trial "
+     "participant <id>'s agent takes part in now, or none", "reliable; every 0.5 s"),
 )  # fmt: skip
 
 
