@@ -1,0 +1,273 @@
+"""A recording's OSI ground truth, read back by independent OSI readers (betterosi, the ASAM
+osi-utilities reader) and held to the project's analysis and to the synthetic world's truth.
+
+The recording is written on the real keys as a recorder writes them: two egos on circles
+(`synthetic.ego_pose`, 50 Hz), six NPCs on straight lanes (`npc_rows`, 10 Hz), the signal
+cycling `GGrr, yyrr, rrGG, rryy` every 4 s (`light_state`), the cross-shaped map, and the
+authority's snapshot and spawn events that name each ego's kind and size.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from pathlib import Path
+
+import betterosi
+import pytest
+from mcap.reader import make_reader
+
+from carlaverse import messages as m
+from carlaverse.analysis.tracks import read_tracks
+from carlaverse.cli import main
+from carlaverse.keys import Keys
+from carlaverse.recording.sink import McapSink
+from carlaverse.recording.synthetic import (
+    LIGHT_CYCLE_S,
+    ego_pose,
+    light_state,
+    npc_rows,
+    synthetic_map,
+)
+
+T0_NS = 1_700_000_000 * 10**9  # [ns] the recorder's wall clock at session time 0
+SECONDS = 9.0  # [s] through three signal phases
+RATE_HZ = 20.0
+NPCS = 6
+EGO_EXTENTS = {"ego-0": m.Extent(4.6, 1.9, 1.45), "ego-1": m.Extent(1.8, 0.6, 1.7)}
+EGO_KINDS = {"ego-0": "car", "ego-1": "bicycle"}
+
+
+def write_recording(path: Path) -> None:
+    keys = Keys("rec")
+    sink = McapSink(path, monotonic=time.monotonic)
+    sink.write(keys.authority("map"), m.MAP.encode(synthetic_map()), T0_NS)
+    egos = [m.EgoInfo(e, "scripted", EGO_KINDS[e], EGO_EXTENTS[e], 80.0) for e in EGO_KINDS]
+    sink.write(keys.authority("snapshot"), m.SNAPSHOT.encode(m.Snapshot(2, 0.0, egos)), T0_NS)
+    for seq, ego in enumerate(EGO_KINDS, 1):
+        event = m.Spawned(seq, 0.0, ego, "scripted", EGO_KINDS[ego])
+        sink.write(keys.world("events"), m.WORLD_EVENT.encode(event), T0_NS)
+    for k in range(int(SECONDS * 50) + 1):
+        t = k / 50
+        at = T0_NS + round(t * 1e9) + 3_000_000
+        for i in range(2):
+            sink.write(keys.pose(f"ego-{i}", "t0_0"), m.POSE.encode(ego_pose(i, k, t)), at)
+        if k % 5 == 0:
+            ids = [f"npc-{j}" for j in range(NPCS)]
+            batch = m.NpcBatch.pack(k, t, ids, npc_rows(NPCS, t))
+            sink.write(keys.world("npc"), m.NPC_BATCH.encode(batch), at)
+        if k % 50 == 0:
+            sink.write(keys.world("lights"), m.LIGHTS.encode(light_state(k, t)), at)
+    sink.close()
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path, list]:
+    folder = tmp_path_factory.mktemp("osi")
+    recording, trace = folder / "session.mcap", folder / "session.osi.mcap"
+    write_recording(recording)
+    assert main(["osi", str(recording), "--osi-rate", str(RATE_HZ)]) == 0  # default: beside
+    frames = list(betterosi.read(str(trace), return_ground_truth=True))
+    return recording, trace, frames
+
+
+def actor_of(obj) -> str:
+    (ref,) = obj.source_reference
+    assert ref.type == "net.carlaverse.actor"
+    return ref.identifier[0]
+
+
+def seconds(frame) -> float:
+    return frame.timestamp.seconds + frame.timestamp.nanos * 1e-9
+
+
+def test_every_trajectory_matches_the_analysis_within_a_millimetre(exported) -> None:
+    recording, _, frames = exported
+    tracks = read_tracks(recording, rate_hz=RATE_HZ)  # the project's own analysis
+    assert len(frames) == len(tracks.t) == int(SECONDS * RATE_HZ) + 1
+    worst, compared = 0.0, 0
+    for k, frame in enumerate(frames):
+        assert abs(seconds(frame) - tracks.t[k]) < 1e-9
+        seen = {actor_of(o): o for o in frame.moving_object}
+        present = {a.id for i, a in enumerate(tracks.actors) if tracks.present[i, k]}
+        assert set(seen) == present, k
+        for actor_id, obj in seen.items():
+            i = tracks.index(actor_id)
+            p = obj.base.position
+            worst = max(worst, math.hypot(p.x - tracks.x[i, k], p.y - tracks.y[i, k]))
+            assert (
+                abs(math.remainder(obj.base.orientation.yaw - tracks.yaw[i, k], 2 * math.pi)) < 1e-6
+            )
+            assert obj.base.velocity.x == pytest.approx(tracks.vx[i, k], abs=1e-6)
+            assert obj.base.velocity.y == pytest.approx(tracks.vy[i, k], abs=1e-6)
+            compared += 1
+    assert compared == len(frames) * (2 + NPCS)
+    assert worst < 1e-3, f"max deviation {worst * 1e3:.4f} mm"
+    print(f"OSI vs analysis: {compared} object samples, max deviation {worst * 1e3:.6f} mm")
+
+
+def test_egos_follow_their_circles_in_osi_frame_and_signs(exported) -> None:
+    # The truth is the synthetic world's formula (synthetic.ego_pose): ego i on a circle of
+    # radius 20 + 5 i about the origin, counter-clockwise at 10 m/s from angle i. Sampled at
+    # 50 Hz and interpolated linearly, the chord falls inside the arc by at most
+    # R (w dt)^2 / 8 = 0.25 mm (R 20 m, w 0.5 rad/s, dt 0.02 s); float32 adds microns.
+    # OSI's box reference point is half the height above the ground (OSI BaseMoving), a yaw
+    # counter-clockwise from +x (a left turn) is positive and grows, and the velocity is along
+    # the heading; a circle's acceleration is v^2 / R towards its centre.
+    _, _, frames = exported
+    worst = 0.0
+    for frame in frames[1:-1]:
+        t = seconds(frame)
+        for obj in frame.moving_object:
+            actor = actor_of(obj)
+            if not actor.startswith("ego-"):
+                continue
+            i = int(actor[-1])
+            radius, a = 20.0 + 5.0 * i, 10.0 / (20.0 + 5.0 * i) * t + i
+            b = obj.base
+            worst = max(worst, math.hypot(b.position.x - radius * math.cos(a),
+                                          b.position.y - radius * math.sin(a)))  # fmt: skip
+            assert b.position.z == pytest.approx(EGO_EXTENTS[actor].height / 2)
+            heading = math.atan2(b.velocity.y, b.velocity.x)
+            assert math.remainder(b.orientation.yaw - heading, 2 * math.pi) == pytest.approx(
+                0, abs=1e-5
+            )
+            assert (
+                b.orientation_rate.yaw == pytest.approx(10.0 / radius, rel=1e-3)
+                and b.orientation_rate.yaw > 0
+            )
+            radial = b.acceleration.x * math.cos(a) + b.acceleration.y * math.sin(a)
+            assert radial == pytest.approx(-100.0 / radius, rel=0.01)
+    assert worst < 1e-3, f"{worst * 1e3:.4f} mm off the circle"
+    print(f"OSI vs the synthetic circles: max deviation {worst * 1e3:.4f} mm")
+
+
+def test_types_dimensions_and_host(exported) -> None:
+    _, _, frames = exported
+    frame = frames[10]
+    objects = {actor_of(o): o for o in frame.moving_object}
+    vehicle, types = (
+        betterosi.MovingObjectType.VEHICLE,
+        betterosi.MovingObjectVehicleClassificationType,
+    )
+    expected = {"ego-0": (vehicle, types.MEDIUM_CAR), "ego-1": (vehicle, types.BICYCLE)}
+    npc_types = ("MEDIUM_CAR", "DELIVERY_VAN", "HEAVY_TRUCK")  # npc_rows: kind = i % 3
+    for j in range(NPCS):
+        expected[f"npc-{j}"] = (vehicle, getattr(types, npc_types[j % 3]))
+    for actor, (kind, vehicle_type) in expected.items():
+        obj = objects[actor]
+        assert obj.type == kind and obj.vehicle_classification.type == vehicle_type, actor
+        d = obj.base.dimension
+        size = EGO_EXTENTS.get(actor, m.Extent(4.5, 1.8, 1.5))  # npc_rows' boxes
+        assert (d.length, d.width, d.height) == pytest.approx(
+            (size.length, size.width, size.height)
+        )
+    assert frame.host_vehicle_id.value == objects["ego-0"].id.value
+    assert len({o.id.value for o in frame.moving_object}) == len(objects)
+
+
+def test_lanes_with_boundaries_half_a_width_either_side(exported) -> None:
+    # synthetic_map's lane x_0 runs east along y = -1.75, 3.5 m wide: facing east, left is
+    # north, so its left boundary lies on y = 0 and its right on y = -3.5.
+    _, _, frames = exported
+    first = frames[0]
+    assert len(first.lane) == len(synthetic_map().lanes) == 5
+    assert all(len(f.lane) == 0 for f in frames[1:])  # static: the first frame only
+    boundaries = {b.id.value: b for b in first.lane_boundary}
+    assert len(boundaries) == 2 * len(first.lane)
+    for lane in first.lane:
+        c = lane.classification
+        assert len(c.centerline) >= 2 and c.centerline_is_driving_direction
+        assert c.left_lane_boundary_id[0].value in boundaries
+        assert c.right_lane_boundary_id[0].value in boundaries
+    x0 = next(lane for lane in first.lane if lane.classification.centerline[0].x == -100.0)
+    left = boundaries[x0.classification.left_lane_boundary_id[0].value]
+    right = boundaries[x0.classification.right_lane_boundary_id[0].value]
+    assert [p.position.y for p in left.boundary_line] == pytest.approx([0.0, 0.0])
+    assert [p.position.y for p in right.boundary_line] == pytest.approx([-3.5, -3.5])
+
+
+def test_signal_bulbs_follow_the_recorded_states(exported) -> None:
+    # SUMO signal states: G/g green, y amber, r red (SUMO "Traffic Lights", signal state
+    # definitions); OSI: one TrafficLight per bulb, lit = MODE_CONSTANT, dark = MODE_OFF.
+    _, _, frames = exported
+    colors = betterosi.TrafficLightClassificationColor
+    lit_of = {"G": colors.GREEN, "y": colors.YELLOW, "r": colors.RED}
+    checked = set()
+    for frame in frames:
+        t = seconds(frame)
+        recorded_at = math.floor(t)  # lights were written once a second
+        state = light_state(0, recorded_at).lights[0].state
+        bulbs = frame.traffic_light
+        assert len(bulbs) == 3 * len(state)  # one head of three per link
+        for bulb in bulbs:
+            link = int(bulb.source_reference[0].identifier[1])
+            on = bulb.classification.mode == betterosi.TrafficLightClassificationMode.CONSTANT
+            assert on == (bulb.classification.color == lit_of[state[link]]), (t, link)
+        checked.add(state)
+    assert len(checked) == 3 and SECONDS > 2 * LIGHT_CYCLE_S
+
+
+def test_the_file_is_an_osi_trace_by_the_spec(exported) -> None:
+    _, trace, frames = exported
+    with trace.open("rb") as f:
+        reader = make_reader(f)
+        summary = reader.get_summary()
+        meta = {r.name: r.metadata for r in reader.iter_metadata()}
+    assert summary is not None and summary.chunk_indexes, "an indexed file with chunks"
+    (schema,) = summary.schemas.values()
+    assert (schema.name, schema.encoding) == ("osi3.GroundTruth", "protobuf")
+    (channel,) = summary.channels.values()
+    assert channel.message_encoding == "protobuf"
+    assert channel.metadata["net.asam.osi.trace.channel.osi_version"] == "3.8.0"
+    assert "net.asam.osi.trace.channel.protobuf_version" in channel.metadata
+    trace_meta = meta["net.asam.osi.trace"]
+    for key in ("version", "min_osi_version", "max_osi_version",
+                "min_protobuf_version", "max_protobuf_version"):  # fmt: skip
+        assert trace_meta[key], key
+    # the ASAM reader (osi-utilities) opens it as an OSI GroundTruth channel
+    from osi_utilities import ChannelSpecification, open_channel
+
+    with open_channel(ChannelSpecification(path=trace, topic="ground_truth")) as channel_reader:
+        read = list(channel_reader)
+    assert len(read) == len(frames)
+    assert type(read[0]).__name__ == "GroundTruth" and read[0].lane
+
+
+def test_user_errors_are_one_line(exported, tmp_path: Path, capsys) -> None:
+    recording, _, _ = exported
+    assert main(["osi", str(tmp_path / "none.mcap")]) == 2
+    assert main(["osi", str(recording), "-o", str(recording)]) == 2
+    assert main(["osi", str(recording), "-o", str(tmp_path / "o.mcap"), "--osi-rate", "0"]) == 2
+    assert main(["osi", str(recording), "-o", str(tmp_path / "o.mcap"), "--osi-host", "x"]) == 1
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 4 and all(line.startswith("carlaverse osi: ") for line in lines), lines
+    assert "no such ego" in lines[3] and "ego-0, ego-1" in lines[3]
+
+
+def test_a_leaning_rider_s_box_centre_leans_with_it(tmp_path: Path) -> None:
+    # docs/protocol.md: roll positive puts the right side down, so a bike leaning into a left
+    # turn sends roll < 0; pitch positive puts the nose down. OSI places the box centre half
+    # its height up the body's z axis: a rider leaning left by 0.3 rad, heading north (yaw
+    # pi/2, so left is -x), has it h/2 sin 0.3 towards -x and h/2 cos 0.3 up.
+    path = tmp_path / "lean.mcap"
+    keys = Keys("rec")
+    sink = McapSink(path, monotonic=time.monotonic)
+    for k in range(3):
+        pose = m.Pose(k, k * 0.05, 10.0, 20.0, 0.0, -0.3, 0.0, math.pi / 2, vy=5.0)
+        sink.write(keys.pose("bike-1", "t0_0"), m.POSE.encode(pose), T0_NS + k * 50_000_000)
+    sink.write(
+        keys.world("events"),
+        m.WORLD_EVENT.encode(m.Spawned(1, 0.0, "bike-1", "bike", "bicycle")),
+        T0_NS,
+    )
+    sink.close()
+    assert main(["osi", str(path), "-o", str(tmp_path / "lean.osi.mcap")]) == 0
+    frame = next(betterosi.read(str(tmp_path / "lean.osi.mcap"), return_ground_truth=True))
+    (obj,) = frame.moving_object
+    h = m.KIND_EXTENTS["bicycle"].height
+    p, o = obj.base.position, obj.base.orientation
+    assert (p.x, p.y, p.z) == pytest.approx(
+        (10.0 - h / 2 * math.sin(0.3), 20.0, h / 2 * math.cos(0.3)), abs=1e-6
+    )
+    assert (o.roll, o.yaw) == pytest.approx((-0.3, math.pi / 2), abs=1e-6)
