@@ -1,4 +1,10 @@
-"""`carlaverse replay`: republish an MCAP recording into a live session, with its timing."""
+"""`carlaverse replay`: republish an MCAP recording into a live session, with its timing.
+
+The replay is that session's authority (`recording/replay_authority.py`): observers join it,
+its clock tells the recorded session time being played, and it answers snapshot, map,
+scenario and configs from the recording; so `view --session`, `render --connect`, `audio`
+and `join observer` work on `<recorded>-replay` as on a live session.
+"""
 
 from __future__ import annotations
 
@@ -15,6 +21,7 @@ from carlaverse.keys import KeySpaceError, check_token, parse
 from carlaverse.recording.reading import iter_samples, read_channels
 from carlaverse.recording.replay import Replayer, ReplayStats, default_target
 from carlaverse.recording.sink import RecordingError
+from carlaverse.recording.timeline import receive_offset_ns, recording_start_time
 from carlaverse.transport.session import FabricError, await_mesh, open_session
 
 
@@ -42,8 +49,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--no-queries",
         action="store_true",
-        help="do not answer authority/map|scenario|snapshot|configs from the "
-        "recording (use when a live authority runs in the target session)",
+        help="do not stand in for the session's authority (join, clock, snapshot, map, "
+        "scenario, configs from the recording): use when a live authority runs in the target "
+        "session",
     )
     parser.add_argument(
         "--id",
@@ -84,6 +92,7 @@ def _replay(args: argparse.Namespace) -> ReplayStats:
     target = args.session or default_target(recorded_session(channels, args.file))
     fabric = fabric_from_args(args)  # a --roster problem is said before anything else
     tell(f"replaying {args.file} into session {target}")
+    offset_ns = receive_offset_ns(args.file)
     session = open_session(fabric)
     replayer = Replayer(
         session,
@@ -91,16 +100,30 @@ def _replay(args: argparse.Namespace) -> ReplayStats:
         speed=args.speed,
         serve_queries=not args.no_queries,
         with_commands=args.with_commands,
+        session_offset_ns=offset_ns,
     )
     try:
         if args.connect and not await_mesh(session, stop):
             raise FabricError(f"could not reach {', '.join(args.connect)} within 10 s")
-        replayer.prepare(channels)
+        replayer.prepare(channels, recording_start_time(args.file))
+        replayer.preload(iter_samples(args.file, topics=_authority_keys(channels)))
         replayer.wait_for_subscribers(stop)  # best effort: a session may have no listener yet
         return replayer.run(lambda: iter_samples(args.file), stop, loop=args.loop)
     finally:
         replayer.close()
         session.close()
+
+
+def _authority_keys(channels: Mapping[str, object]) -> list[str]:
+    """The recording's `authority/<query>` channels (recorded replies)."""
+    out = []
+    for key in channels:
+        try:
+            if parse(key).area == "authority":
+                out.append(key)
+        except KeySpaceError:
+            continue
+    return out
 
 
 def recorded_session(channels: Mapping[str, object], path: Path) -> str:
