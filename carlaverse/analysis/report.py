@@ -3,13 +3,15 @@
 `report.png` draws the road network the authority served (lanes at their widths, areas),
 NPC paths thin and grey, human paths in colour, and marks the worst TTC instant of each
 critical pair and every crossing conflict below the thresholds. `report.html` shows that
-picture and the summary, the most critical pairs and conflicts as tables.
+picture and the summary, says what was left out and why (queues at standstill, implausible
+DRAC), and lists the pairs with a participant first, the conflicts, and who each id is.
 """
 
 from __future__ import annotations
 
 import html
 import math
+from dataclasses import dataclass
 from pathlib import Path
 
 import matplotlib
@@ -92,21 +94,33 @@ def _mark_conflicts(ax, tracks: Tracks, pairs, conflicts, th: Thresholds) -> Non
                    label=f"min TTC < {th.ttc_s:g} s")  # fmt: skip
 
 
-def write_html(path: Path, image: str, summary: dict, pairs, conflicts, source: str) -> None:
-    worst_pairs = sorted(pairs, key=lambda p: (p.min_ttc_s, p.min_gap_m))[:MAX_ROWS]
-    worst_conflicts = sorted(conflicts, key=lambda c: c.pet_s)[:MAX_ROWS]
+def write_html(path: Path, image: str, summary: dict, tables: Tables, source: str) -> None:
+    """The page: summary, how to read it, the picture, then pairs (humans first), conflicts
+    and who the road users named in them are. Times in seconds from the recording's start."""
+    pairs = [p for p in tables.pairs if p["human"] or math.isfinite(p["min_ttc_s"])][:MAX_ROWS]
+    conflicts = sorted(tables.conflicts, key=lambda c: c["pet_s"])[:MAX_ROWS]
+    named = {p[s] for p in pairs for s in ("a", "b")} | {c[s] for c in conflicts
+                                                        for s in ("first", "second")}  # fmt: skip
+    actors = [a for a in tables.actors if a["human"] or a["actor"] in named]
     body = [
         f"<h1>Session analysis</h1><p>{html.escape(source)}</p>",
         _table(["measure", "value"], [[k, _fmt(v)] for k, v in summary.items()]),
+        _notes(summary, len(tables.pairs) - len(pairs)),
         f'<img src="{html.escape(image)}" alt="map, trajectories and conflicts" width="800">',
-        "<h2>Pairs, lowest TTC first</h2>",
-        _table(["a", "b", "min TTC [s]", "time below [s]", "min gap [m]", "max DRAC [m/s²]"],
-               [[p.a, p.b, _fmt(p.min_ttc_s), _fmt(p.ttc_below_s), _fmt(p.min_gap_m),
-                 _fmt(p.max_drac_mps2)] for p in worst_pairs]),
+        "<h2>Pairs: with a participant first, then lowest TTC</h2>",
+        _table(["a", "b", "min TTC [s]", "at [s]", "time below [s]", "min gap [m]",
+                "max DRAC [m/s²]", "left out"], [_pair_row(p) for p in pairs]),
         "<h2>Crossing conflicts, lowest PET first</h2>",
-        _table(["first", "second", "x [m]", "y [m]", "PET [s]", "angle [°]"],
-               [[c.first, c.second, _fmt(c.x), _fmt(c.y), _fmt(c.pet_s), _fmt(c.angle_deg)]
-                for c in worst_conflicts]),
+        _table(["first", "second", "x [m]", "y [m]", "second arrives at [s]", "PET [s]",
+                "angle [°]"],
+               [[c["first"], c["second"], _fmt(c["x"]), _fmt(c["y"]),
+                 _fmt(c["t_second_arrives_rel_s"]), _fmt(c["pet_s"]), _fmt(c["angle_deg"])]
+                for c in conflicts]),
+        "<h2>Road users named above</h2>",
+        _table(["id", "who", "kind", "seen from [s]", "to [s]", "lanes driven"],
+               [[a["actor"], "participant" if a["human"] else "NPC", a["kind"],
+                 _fmt(a["first_seen_rel_s"]), _fmt(a["last_seen_rel_s"]), a["route"] or "—"]
+                for a in actors]),
     ]  # fmt: skip
     style = "body{font-family:sans-serif;margin:2em}td,th{padding:2px 10px;text-align:left}"
     path.write_text(
@@ -114,6 +128,53 @@ def write_html(path: Path, image: str, summary: dict, pairs, conflicts, source: 
         f"<style>{style}</style></head><body>{''.join(body)}</body></html>",
         encoding="utf-8",
     )
+
+
+@dataclass(frozen=True)
+class Tables:
+    """The rows the page shows, as the tables on disk hold them (`export`)."""
+
+    pairs: list[dict]  # in `surrogate.by_concern` order
+    conflicts: list[dict]
+    actors: list[dict]
+
+
+def _notes(summary: dict, hidden: int) -> str:
+    """How to read the numbers: the origin of times and what was left out, and why."""
+    notes = [
+        f"Times are seconds from the recording's start (session time "
+        f"{summary['recording_start']:.3f} s); <code>carlaverse render FILE --at S</code> "
+        "shows that moment.",
+        f"Queued at standstill: instants with both road users slower than "
+        f"{summary['standstill_mps']:g} m/s (cars waiting nose to tail at a stop line) are "
+        f"left out of TTC, time below and DRAC (pairs with such instants: "
+        f"{summary['pairs_at_standstill']}).",
+        f"DRAC above {summary['drac_limit_mps2']:g} m/s² is more than a tyre's friction "
+        "allows (μg = 9.8 m/s² for μ = 1): no braking avoids contact, and without a contact "
+        "the number is an artefact of footprints or sampling. It is left out of max DRAC and "
+        f"flagged (pairs with such instants: {summary['pairs_drac_implausible']}).",
+    ]
+    if hidden:
+        notes.append(f"NPC-only pairs never on a collision course are not listed here: "
+                     f"{hidden} (pairs.csv has every pair).")  # fmt: skip
+    return "<ul>" + "".join(f"<li>{n}</li>" for n in notes) + "</ul>"
+
+
+def _pair_row(p: dict) -> list[str]:
+    left_out = []
+    if p["standstill_s"] > 0:
+        left_out.append(f"standstill {_fmt(p['standstill_s'])} s")
+    if p["drac_implausible_s"] > 0:
+        left_out.append(f"DRAC implausible {_fmt(p['drac_implausible_s'])} s "
+                        f"(peak {_fmt(p['peak_drac_mps2'])})")  # fmt: skip
+    return [_who(p, "a"), _who(p, "b"), _fmt(p["min_ttc_s"]), _fmt(p["t_min_ttc_rel_s"]),
+            _fmt(p["ttc_below_s"]), _fmt(p["min_gap_m"]), _fmt(p["max_drac_mps2"]),
+            "; ".join(left_out) or "—"]  # fmt: skip
+
+
+def _who(p: dict, side: str) -> str:
+    lane = p[f"{side}_lane"]
+    return f"{p[side]} ({p[f'{side}_kind']}{', lane ' + lane if lane else ''})"
 
 
 def _table(header: list[str], rows: list[list]) -> str:

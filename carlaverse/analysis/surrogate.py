@@ -6,7 +6,16 @@
   Bovy, 2001). TTCs beyond `ttc_horizon_s` are not an encounter.
 - Gap: the smallest distance between the footprints (0 = they touched).
 - DRAC, deceleration rate to avoid a crash: closing speed along the line of centres squared
-  over twice the gap (Almqvist et al., 1991); for a follower that is dv^2 / 2s.
+  over twice the gap (Almqvist et al., 1991); for a follower that is dv^2 / 2s. A DRAC above
+  `drac_limit_mps2` is more than any tyre gives: braking is limited by friction to mu g, 9.8
+  m/s^2 for mu = 1 (dry asphalt, a good tyre). Such a value says no braking could have
+  avoided the contact on those tracks, and where no contact followed it is an artefact (a
+  footprint too long, a lateral neighbour in a junction, a sampling step); it is counted as
+  `drac_implausible_s` and kept out of `max_drac_mps2`, the headline; `peak_drac_mps2` keeps it.
+- Queued at standstill: while both are slower than `standstill_mps`, cars waiting nose to tail
+  at a stop line creep a few centimetres towards each other and would fill the TTC list with
+  "encounters" nobody was in. Those instants are left out of TTC, time below and DRAC, and
+  counted as `standstill_s`.
 - PET, post-encroachment time, at every point where the two centre paths cross (at an angle
   of at least `min_crossing_deg`; paths that share a lane are following, not crossing): the
   time from the first actor's footprint leaving the point to the second's reaching it
@@ -31,6 +40,9 @@ class Thresholds:
     near_m: float = 30.0  # [m] pairs whose centres never come closer are not measured
     pet_max_s: float = 10.0  # [s] crossings further apart in time are no conflict
     min_crossing_deg: float = 15.0  # [deg] shallower crossings are following
+    standstill_mps: float = 0.5  # [m/s] both slower than this: queued, not an encounter
+    # [m/s²] mu g for mu = 1 is 9.81: a larger DRAC is beyond any tyre's friction limit
+    drac_limit_mps2: float = 10.0
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,8 +54,12 @@ class PairMeasures:
     ttc_below_s: float  # [s] time with TTC below the threshold
     min_gap_m: float
     t_min_gap: float
-    max_drac_mps2: float  # 0 if never closing
+    max_drac_mps2: float  # 0 if never closing; the largest within `drac_limit_mps2`
     t_max_drac: float
+    human: bool = False  # at least one of the two is a participant (a human's ego)
+    standstill_s: float = 0.0  # [s] both slower than `standstill_mps`: left out of TTC, DRAC
+    drac_implausible_s: float = 0.0  # [s] DRAC above `drac_limit_mps2`
+    peak_drac_mps2: float = 0.0  # the largest DRAC, implausible or not
 
 
 @dataclass(frozen=True, slots=True)
@@ -93,7 +109,12 @@ def pair_measures(tracks: Tracks, i: int, j: int, th: Thresholds) -> PairMeasure
         footprints.corners(ca["p"], ca["yaw"], a.length, a.width),
         footprints.corners(cb["p"], cb["yaw"], b.length, b.width),
     )
-    drac = _drac(offset, rel_v, gap)
+    still = _standstill(ca["v"], th.standstill_mps) & _standstill(cb["v"], th.standstill_mps)
+    ttc[still] = np.inf
+    peak = _drac(offset, rel_v, gap)
+    peak[still] = 0.0
+    implausible = peak > th.drac_limit_mps2
+    drac = np.where(implausible, 0.0, peak)
     dt = float(np.median(np.diff(tracks.t))) if len(tracks.t) > 1 else 0.0
     k_ttc, k_gap, k_drac = np.argmin(ttc), np.argmin(gap), np.argmax(drac)
     return PairMeasures(
@@ -102,7 +123,18 @@ def pair_measures(tracks: Tracks, i: int, j: int, th: Thresholds) -> PairMeasure
         float(np.count_nonzero(ttc < th.ttc_s) * dt),
         float(gap[k_gap]), float(t[k_gap]),
         float(drac[k_drac]), float(t[k_drac]) if drac[k_drac] > 0 else math.nan,
+        a.human or b.human, float(np.count_nonzero(still) * dt),
+        float(np.count_nonzero(implausible) * dt), float(peak.max(initial=0.0)),
     )  # fmt: skip
+
+
+def by_concern(pairs: list[PairMeasures]) -> list[PairMeasures]:
+    """Pairs with a human first, then by least TTC, then by least gap."""
+    return sorted(pairs, key=lambda p: (not p.human, p.min_ttc_s, p.min_gap_m))
+
+
+def _standstill(v: np.ndarray, limit_mps: float) -> np.ndarray:
+    return np.hypot(v[:, 0], v[:, 1]) < limit_mps
 
 
 def _column(tracks: Tracks, i: int, mask: np.ndarray) -> dict[str, np.ndarray]:
