@@ -20,6 +20,7 @@ from carlaverse.cli.exit_codes import Exit
 from carlaverse.cli.osi import add_options as add_osi_options
 from carlaverse.cli.osi import check_options as check_osi_options
 from carlaverse.cli.osi import export_beside as export_osi
+from carlaverse.cli.record_lsl import LSL_ERRORS, LslPlan, add_lsl_arguments
 from carlaverse.config import ConfigError
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.recorder import (
@@ -30,6 +31,7 @@ from carlaverse.recording.recorder import (
 )
 from carlaverse.recording.recover import recover
 from carlaverse.recording.sink import DEFAULT_CHUNK_SIZE, McapSink, RecordingError
+from carlaverse.study.lsl_sink import SharedSink
 from carlaverse.transport.session import FabricError, FabricUnreachable
 
 
@@ -88,6 +90,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "NAME.osi.mcap beside NAME.mcap (an OSI trace holds OSI messages only)",
     )
     add_osi_options(osi)
+    add_lsl_arguments(parser)
     add_fabric_args(parser, session=False)
     parser.epilog = (
         "Exit 3 when no router or peer was reached for the whole run (nothing recorded "
@@ -110,6 +113,8 @@ def run(args: argparse.Namespace) -> int:
         return fail("record", str(exc), Exit.FABRIC)
     except RecordingError as exc:
         return fail("record", str(exc), Exit.FAILED)
+    except LSL_ERRORS as exc:  # pylsl missing, a --lsl stream not found: nothing written
+        return fail("record", str(exc))
 
 
 def _recover(args: argparse.Namespace) -> int:
@@ -127,6 +132,7 @@ def _recover(args: argparse.Namespace) -> int:
 
 def _record(args: argparse.Namespace) -> int:
     keys = Keys(args.session)
+    lsl = LslPlan.from_args(args)  # the --lsl streams are found first, or nothing starts
     stop = stop_on_signals()  # the file is always finished with its indexes
     deadline = None if args.duration is None else time.monotonic() + args.duration
     fabric = fabric_from_args(args)
@@ -137,7 +143,7 @@ def _record(args: argparse.Namespace) -> int:
     except FabricUnreachable as exc:
         return fail("record", str(exc), stop.exit_code() if stop.is_set() else Exit.FABRIC)
     try:
-        sink = McapSink(
+        sink = (McapSink if lsl is None else SharedSink)(
             args.output,
             compression=args.compression,
             chunk_size=args.chunk_kib * 1024,
@@ -147,9 +153,13 @@ def _record(args: argparse.Namespace) -> int:
             session, keys, sink, queue_size=args.queue_size, queue_bytes=args.queue_mib * 2**20
         )
         recorder.start()
+        if lsl is not None:
+            lsl.start(session, keys, sink)
         # Said once subscribed: a script starting the session after it can wait for this line.
         tell(f"recording session {args.session} into {args.output}")
         _wait(recorder, stop, deadline, args.progress_s)
+        if lsl is not None:
+            tell(lsl.stop())  # before the recorder closes the file the streams write to
         stats = recorder.stop()
         unreached = reached_nothing(notice, fabric)
     finally:
