@@ -76,8 +76,10 @@ def to_world(r: Matrix, v: Vec3) -> Vec3:
 
 def stamp(t: float) -> dict[str, int]:
     """builtin_interfaces/Time of a session time [s] (Unix-aligned, so it is ROS time)."""
-    ns = round(t * 1e9)
-    sec, nanosec = divmod(ns, 1_000_000_000)
+    sec = math.floor(t)  # split first: t * 1e9 would round away ~100 ns at Unix times
+    nanosec = round((t - sec) * 1e9)
+    if nanosec == 1_000_000_000:
+        sec, nanosec = sec + 1, 0
     return {"sec": max(-(2**31), min(2**31 - 1, sec)), "nanosec": nanosec}
 
 
