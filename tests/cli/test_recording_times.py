@@ -3,9 +3,11 @@ piece of code (`recording.timeline`) for every command that takes one."""
 
 from __future__ import annotations
 
+import json
 import time
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from carlaverse import messages as m
@@ -85,4 +87,64 @@ def test_render_past_the_end_exits_2_naming_the_range(
     argv = ["render", str(recording), "--at-session", "99", "--out", str(out)]
     assert main(argv) == 2
     assert "valid 500.000–510.000 s session time" in capsys.readouterr().err
+    assert not out.exists()
+
+
+# ---------------------------------------------------------------- audio render
+
+
+@pytest.fixture(scope="module")
+def late_siren(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    """Scenes at 20 Hz over 2 s; a siren 10 m east of the listener sounds from 1.0 s only."""
+    from tests.audio.measure import scenes, write_recording
+
+    siren = ("s", "siren", 100.0, 1.0, 0.0, (10.0, 0.0, 1.0), (0.0, 0.0, 0.0))
+    made = scenes([siren], 2.0)
+    made = [s if s.t >= 1.0 else m.AudioScene(s.seq, s.t, s.listener, []) for s in made]
+    return write_recording(tmp_path_factory.mktemp("audio") / "siren.mcap", made)
+
+
+def _audio(recording: Path, out: Path, *extra: str) -> int:
+    from tests.audio.measure import LISTENER
+
+    return main(["audio", "render", str(recording), "--listener", LISTENER, "--out", str(out),
+                 *extra])  # fmt: skip
+
+
+def _rms(path: Path) -> float:
+    from carlaverse.audio.wav import read_wav
+
+    samples, _ = read_wav(path)
+    return float(np.sqrt(np.mean(samples**2)))
+
+
+def test_audio_at_seeks_and_says_where_it_is(
+    late_siren: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The recording's first sample is the first scene, at session time 0: --at counts from it.
+    # From 1.2 s the siren sounds; from 0.2 s for 0.3 s it has not started: silence.
+    loud, quiet = tmp_path / "loud.wav", tmp_path / "quiet.wav"
+    assert _audio(late_siren, loud, "--at", "1.2", "--duration", "0.3", "--json") == 0
+    out, err = capsys.readouterr()
+    summary = json.loads(out)
+    assert summary["at"] == pytest.approx(1.2, abs=1e-6)
+    block_s = 512 / 48_000  # the renderer writes whole blocks: at most one past the duration
+    assert 0.3 <= summary["seconds"] < 0.3 + block_s + 1e-3
+    assert "0.0% rendered (at 1.2 s from start)" in err
+    assert "100.0% rendered (at 1.5 s from start)" in err
+    assert _audio(late_siren, quiet, "--at", "0.2", "--duration", "0.3") == 0
+    assert _rms(quiet) == 0.0 and _rms(loud) > 0.01
+
+
+def test_audio_at_outside_the_recording_exits_2_naming_the_range(
+    late_siren: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # scenes (and poses) from 0 to 1.95 s: the range printed rounds its end down to 1.9
+    out = tmp_path / "x.wav"
+    assert _audio(late_siren, out, "--at", "99") == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    assert "--at 99 s is past the recording's end: valid 0.0–1.9 s from start" in err
+    assert _audio(late_siren, out, "--at", "1", "--duration", "0") == 2
+    assert "--duration 0: give seconds > 0" in capsys.readouterr().err
     assert not out.exists()
