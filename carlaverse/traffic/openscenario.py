@@ -59,19 +59,50 @@ def import_triggers(path: Path) -> list[TriggerSpec]:
     except (OSError, ET.ParseError) as exc:
         raise ConfigError(str(path), f"cannot read OpenSCENARIO file: {exc}") from exc
     try:
-        _refuse_init_actions(root)
+        _refuse_outside_the_events(root)
         triggers = [_event(e, act_time) for e, act_time in _events(root)]
     except Refused as exc:
         raise ConfigError(str(path), str(exc)) from exc
+    except ValueError as exc:  # a number that is none (float("fast")): the element is named
+        raise ConfigError(str(path), f"bad value in the storyboard: {exc}") from exc
     return [convert(t, TriggerSpec, str(path)) for t in triggers]
 
 
-def _refuse_init_actions(root: ET.Element) -> None:
-    init = root.find("./Storyboard/Init/Actions")
+def _refuse_outside_the_events(root: ET.Element) -> None:
+    """What would change the storyboard's meaning outside its events is refused, not skipped."""
+    board = root.find("./Storyboard")
+    if board is None:
+        raise Refused(
+            f"<{root.tag}> holds no <Storyboard>: a catalog or a parameter distribution is "
+            "not a scenario"
+        )
+    init = board.find("./Init/Actions")
     if init is not None and len(init):
         raise Refused(
             f"Init action <{init[0].tag}> is not supported: the scenario YAML places actors"
         )
+    for element in board.iter():
+        _refuse_element(element)
+
+
+def _refuse_element(element: ET.Element) -> None:
+    name = f"<{element.tag} name={element.get('name')!r}>" if element.get("name") else ""
+    if element.tag == "StopTrigger" and len(element):
+        raise Refused(
+            f"a StopTrigger with conditions is not supported{' in ' + name if name else ''}: "
+            "a session ends by its --duration or Ctrl-C"
+        )
+    if element.tag == "CatalogReference":
+        raise Refused(
+            f"<CatalogReference catalogName={element.get('catalogName')!r}> is not "
+            "supported: write the element out in the storyboard"
+        )
+    for attribute, value in element.attrib.items():
+        if value.startswith("$"):
+            raise Refused(
+                f"<{element.tag} {attribute}={value!r}>: parameter references and "
+                "expressions are not supported: write the value"
+            )
 
 
 def _events(root: ET.Element) -> Iterator[tuple[ET.Element, str]]:
