@@ -46,6 +46,7 @@ class Fabric:
     """Two Zenoh sessions on loopback: the stand-in authority's and the recorder's."""
 
     keys: Keys
+    endpoint: str  # the stand-in authority's, for a recorder to --connect to
     authority: zenoh.Session
     client: zenoh.Session
     clock_queries: int = 0
@@ -70,7 +71,7 @@ def open_fabric() -> Iterator[Fabric]:
     endpoint = f"tcp/127.0.0.1:{free_port()}"
     authority = open_session(FabricSettings(listen=[endpoint]))
     client = open_session(FabricSettings(connect=[endpoint]))
-    fab = Fabric(Keys("lsltest"), authority, client)
+    fab = Fabric(Keys("lsltest"), endpoint, authority, client)
     fab.serve_clock()
     try:
         yield fab
