@@ -376,6 +376,8 @@ class Weather(msgspec.Struct, frozen=True):
 
 
 class Spawned(msgspec.Struct, frozen=True, tag="spawned"):
+    """A node joined: its actor (if any) is in the world from now on."""
+
     seq: Seq
     t: Time
     node_id: str
@@ -390,6 +392,8 @@ DespawnReason = Literal["left", "liveliness", "timeout", "authority"]
 
 
 class Despawned(msgspec.Struct, frozen=True, tag="despawned"):
+    """A node left the world, and why."""
+
     seq: Seq
     t: Time
     node_id: str
@@ -397,6 +401,8 @@ class Despawned(msgspec.Struct, frozen=True, tag="despawned"):
 
 
 class ContactStarted(msgspec.Struct, frozen=True, tag="contact_started"):
+    """Two actors' boxes began to touch (one contact, until it ends)."""
+
     seq: Seq
     t: Time
     contact_id: Int64
@@ -406,6 +412,8 @@ class ContactStarted(msgspec.Struct, frozen=True, tag="contact_started"):
 
 
 class ContactEnded(msgspec.Struct, frozen=True, tag="contact_ended"):
+    """Two actors' boxes no longer touch."""
+
     seq: Seq
     t: Time
     contact_id: Int64

@@ -51,7 +51,7 @@ _KEY_FACTS: tuple[tuple[str, str, str], ...] = (
     ("ego/<id>/pose/<tile>", "the node; `<tile>` is the map tile it is in (t<ix>_<iy>)",
      "best effort, congestion DROP, priority real-time; 50-120 Hz"),
     ("ego/<id>/state", "the node", "reliable, congestion BLOCK; on change"),
-    ("ego/<id>/skeleton", "walk nodes (none ships yet)", "best effort; ~30 Hz"),
+    ("ego/<id>/skeleton", "walk nodes with a skeleton source (`body:`)", "best effort; ~30 Hz"),
     ("ego/<id>/override", "an ADAS program; the drive node applies it", "reliable"),
     ("world/npc", "authority", "best effort, congestion DROP; scenario `npc_rate_hz` (20 Hz)"),
     ("world/npc/<tile>", "authority: the NPCs of one map tile (an empty batch when it empties)",
