@@ -23,7 +23,7 @@ from carlaverse.cli.common import (
     stop_on_signals,
 )
 from carlaverse.cli.exit_codes import Exit
-from carlaverse.cli.join_hmi import add_hmi_arguments, node_hmi
+from carlaverse.cli.join_hmi import add_hmi_arguments, hmi_questionnaires, node_hmi
 from carlaverse.cli.join_view import add_view_arguments, node_view
 from carlaverse.config import ConfigError, load_config
 from carlaverse.keys import KeySpaceError, check_token
@@ -142,6 +142,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
                 node, node_settings, fabric, config, args.duration, stop,
                 join_timeout_s=args.join_timeout, on_wait=say("join"),
                 on_notice=_show_notice(hmi, say("join")), audio=audio.running,
+                on_session=hmi_questionnaires(hmi, node_settings.node_id),
             )  # fmt: skip
         summary.extra.update(view.extra | hmi.extra | audio.extra)
     except JoinRefused as exc:

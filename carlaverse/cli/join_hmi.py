@@ -23,6 +23,7 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 from carlaverse.cli.common import Companion
+from carlaverse.keys import Keys
 
 
 def add_hmi_arguments(parser: argparse.ArgumentParser) -> None:
@@ -118,3 +119,20 @@ def _address_for_tablets(bind: str) -> str:
         except OSError:
             return "127.0.0.1"
         return str(probe.getsockname()[0])
+
+
+def hmi_questionnaires(
+    hmi: Companion, node_id: str
+) -> Callable[[Any, Any], Callable[[], None]] | None:
+    """With an HMI: the node shows a study's questionnaires on it (issue 44), asked over its
+    session (`run_node(on_session=...)`); the answers go back the same way."""
+    if hmi.running is None:
+        return None
+    server = hmi.running
+
+    def attach(session: Any, keys: Keys) -> Callable[[], None]:
+        from carlaverse.hmi.questionnaire import QuestionnaireLink
+
+        return QuestionnaireLink(session, keys, node_id, server).close
+
+    return attach
