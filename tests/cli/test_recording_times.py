@@ -23,9 +23,10 @@ SECONDS = 10.0  # [s] poses from session time 500 to 510
 
 
 def write_recording(path: Path) -> None:
-    """One ego driving east at 5 m/s for SECONDS at 50 Hz, its first pose the first sample."""
+    """One ego driving east at 5 m/s for SECONDS at 50 Hz, from the recording's start."""
     keys = Keys("rec")
     sink = McapSink(path, monotonic=time.monotonic)
+    sink.write(keys.node("ego-0"), b"", T0_NS + LATENCY_NS)  # its liveliness, as recorded
     for k in range(int(SECONDS * 50) + 1):
         t = SESSION_T0_S + k / 50
         pose = m.Pose(k, t, 5.0 * k / 50, 0.0, 0.0, 0.0, 0.0, 0.0, 5.0, 0.0)
@@ -148,3 +149,32 @@ def test_audio_at_outside_the_recording_exits_2_naming_the_range(
     assert _audio(late_siren, out, "--at", "1", "--duration", "0") == 2
     assert "--duration 0: give seconds > 0" in capsys.readouterr().err
     assert not out.exists()
+
+
+# ---------------------------------------------------------------- view
+
+
+def test_view_puts_every_row_on_a_from_start_timeline_too(
+    recording: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import pyarrow as pa
+    import rerun.chunk as rrc
+
+    rrd = tmp_path / "ten.rrd"
+    assert main(["view", str(recording), "--save", str(rrd)]) == 0
+    assert "0.0–10.0 s from the recording's start" in capsys.readouterr().err
+    boxes = 0
+    for chunk in rrc.RrdReader(rrd).stream():
+        if chunk.is_static:
+            continue
+        batch = chunk.to_record_batch()
+        session = np.array(batch.column("sim_time").cast(pa.int64()).to_pylist()) / 1e9
+        start = np.array(batch.column("from_start").cast(pa.int64()).to_pylist()) / 1e9
+        # the recording starts at session time 500: every row's two stamps are 500 s apart
+        assert np.allclose(session - start, SESSION_T0_S, atol=1e-6), chunk.entity_path
+        if chunk.entity_path == "/world/egos/ego-0" and "Boxes3D:centers" in batch.schema.names:
+            # the ego drives east at 5 m/s from x = 0 at the start: x = 5 m/s x from_start
+            x = [c[0][0] for c in batch.column("Boxes3D:centers").to_pylist()]
+            assert np.allclose(x, 5.0 * start, atol=1e-3)
+            boxes += len(x)
+    assert boxes > 100  # the view drew the ego in most of its 200 frames
