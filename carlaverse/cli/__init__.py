@@ -46,6 +46,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "swarm": ("carlaverse.cli.swarm", "N synthetic egos in one process: load for the fabric"),
     "body": ("carlaverse.cli.body", "body pose: build the pose model, joint angles of a photo"),
     "schema": ("carlaverse.cli.schema", "print the wire contract: JSON Schema of every message"),
+    "study": ("carlaverse.cli.study", "studies: validate, plan, run trials; participant agents"),
     "ros2": ("carlaverse.cli.ros2", "the session on ROS 2 over Zenoh: a view, or an AV as an ego"),
 }
 

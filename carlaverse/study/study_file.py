@@ -73,6 +73,8 @@ class Condition(StrictStruct):
     seed: int | None = None  # the scenario's own when unset
     # deep-merged into the scenario (weather, triggers, traffic ...), checked as a scenario
     scenario_override: dict[str, Any] = {}
+    # the link of each participant in this condition; `latency` names one participant's own
+    link: LinkCondition = LinkCondition()
     latency: dict[str, LinkCondition] = {}  # participant id -> their link in this condition
     node_config: dict[str, dict[str, Any]] = {}  # participant id -> fields merged into config
 

@@ -293,6 +293,11 @@ class LinkEmulator:
                 self._pump(reader, up_writer, self.forward),
                 self._pump(up_reader, writer, self.backward),
             )
+        except asyncio.CancelledError:
+            # `close` with connections open: this task is asyncio's connection callback,
+            # whose cancellation asyncio (3.11) reports as an error with a traceback; the
+            # relay ends here on purpose, so the connection's end is quiet.
+            return
         finally:
             self._writers.difference_update((writer, up_writer))
 
