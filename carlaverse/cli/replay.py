@@ -105,8 +105,8 @@ def _replay(args: argparse.Namespace) -> ReplayStats:
     try:
         if args.connect and not await_mesh(session, stop):
             raise FabricError(f"could not reach {', '.join(args.connect)} within 10 s")
-        replayer.prepare(channels, recording_start_time(args.file))
         replayer.preload(iter_samples(args.file, topics=_authority_keys(channels)))
+        replayer.prepare(channels, recording_start_time(args.file))
         replayer.wait_for_subscribers(stop)  # best effort: a session may have no listener yet
         return replayer.run(lambda: iter_samples(args.file), stop, loop=args.loop)
     finally:

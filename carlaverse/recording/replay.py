@@ -134,9 +134,8 @@ class Replayer:
         self.stats = ReplayStats()
         self.session_clock = ReplayClock(speed, clock)
         self.authority: ReplayAuthority | None = None
-        if serve_queries:
-            keys = Keys(target_session)
-            self.authority = ReplayAuthority(session, keys, self.session_clock).start()
+        if serve_queries:  # answering once `prepare` or `run` starts it (after `preload`)
+            self.authority = ReplayAuthority(session, Keys(target_session), self.session_clock)
 
     def run(
         self,
@@ -145,6 +144,7 @@ class Replayer:
         loop: bool = False,
     ) -> ReplayStats:
         """Replay `source()` once (or until `stop` with `loop`); returns the counts."""
+        self._answer()
         while not stop.is_set():
             self._one_pass(source(), stop)
             self.stats.passes += 1
@@ -157,17 +157,24 @@ class Replayer:
     ) -> None:
         """Declare a publisher per recorded key up front, so subscribers can match early;
         the session clock holds at `start_t` [s] (the recording's start) until the replay
-        starts."""
+        starts. The authority answers from here on: call `preload` first."""
         for key, metadata in channels.items():
             target = self._target_key(key)
             if target is not None and self._publishes(target):
                 self._publisher(target, metadata)
         if start_t is not None:
             self.session_clock.hold(start_t)
+        self._answer()
+
+    def _answer(self) -> None:
+        """Start answering for the session's authority (once)."""
+        if self.authority is not None and not self.authority.started:
+            self.authority.start()
 
     def preload(self, samples: Iterable[RecordedSample]) -> None:
         """Serve the first recorded reply of each authority query from the start, before the
-        replay reaches it (a viewer asks for the map as it joins)."""
+        replay reaches it (a viewer asks for the map as it joins). Before `prepare`: a node
+        that joined before it would be told there is no map."""
         if self.authority is None:
             return
         seen: set[str] = set()

@@ -75,6 +75,10 @@ class ReplayAuthority:
 
     # ------------------------------------------------------------ lifecycle
 
+    @property
+    def started(self) -> bool:
+        return self._token is not None
+
     def start(self) -> ReplayAuthority:
         handlers: dict[str, Callable[[zenoh.Query], None]] = {
             "join": self._on_join, "leave": self._on_leave, "clock": self._on_clock,
