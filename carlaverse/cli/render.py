@@ -249,13 +249,14 @@ def _render_recording(args: argparse.Namespace, config: Any, stop: threading.Eve
     from carlaverse.render.renderer import Renderer
 
     world = RecordedWorld(args.source)
-    shown = Shown(recording_start=recording_span(args.source).start)
+    origin = recording_span(args.source).start
+    shown = Shown(recording_start=origin)
     start = _start_time(args)
     road_map = recorded_map(args.source)
     first = world.frame(start)
     if args.camera == FREE and road_map is None and not first.actors:
         raise ValueError(
-            f"{args.source} has no map and no actors at {start - shown.recording_start:.2f} s "
+            f"{args.source} has no map and no actors at {start - origin:.2f} s "
             f"from start (session time {start:.3f} s): nothing for "
             "--camera free to show (was anything recorded? try a later --at)"
         )
