@@ -131,7 +131,8 @@ def next_due(due: float, now: float, period: float) -> float:
 
 
 class Ros2BridgeConfig(StrictStruct):
-    node: NodeSettings = NodeSettings(kind="ros2", actor_kind="", interest_radius_m=0)
+    # an observer to the authority: the one kind of node without an actor
+    node: NodeSettings = NodeSettings(kind="observer", actor_kind="", interest_radius_m=0)
     fabric: FabricSettings = FabricSettings()
     ros2: Ros2Settings = Ros2Settings()
 

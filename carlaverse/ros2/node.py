@@ -38,6 +38,7 @@ class RosPublisher:
         self.key = k.data_key(node.domain, topic, definition)
         self.gid = os.urandom(k.GID_SIZE)
         self.sent = 0
+        self.closed = False
         self._publisher = node.session.declare_publisher(
             self.key, congestion_control=zenoh.CongestionControl.DROP
         )
@@ -53,6 +54,10 @@ class RosPublisher:
         self._publisher.put(payload, attachment=k.attachment(self.sent, source_time_ns, self.gid))
 
     def close(self) -> None:
+        """Undeclare it and its graph token (again: nothing)."""
+        if self.closed:
+            return
+        self.closed = True
         self._token.undeclare()
         self._publisher.undeclare()
 
@@ -79,7 +84,8 @@ class RosNode:
 
     def publisher(self, topic: str, definition: MsgDef) -> RosPublisher:
         publisher = RosPublisher(self, topic, definition, next(self._eids))
-        self._publishers.append(publisher)
+        # the ones closed already (an ego's odometry when it left) are not kept
+        self._publishers = [p for p in self._publishers if not p.closed] + [publisher]
         return publisher
 
     def subscription(self, topic: str, definition: MsgDef, on_message: OnMessage) -> None:
