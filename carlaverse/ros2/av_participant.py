@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from typing import Annotated, Any
 
 import msgspec
@@ -65,8 +66,10 @@ class AvParticipantNode:
     name = "ros2-av"
     config_type = AvConfig
 
-    def __init__(self, config: AvConfig) -> None:
+    def __init__(self, config: AvConfig, monotonic: Callable[[], float] = time.monotonic) -> None:
+        """`monotonic`: the clock odometry's age is read on [s] (a test's manual clock)."""
         self.config = config
+        self._monotonic = monotonic
         self.dropped = Tally()
         self.odometry_heard = 0
         self.impulses_sent = 0
@@ -97,7 +100,7 @@ class AvParticipantNode:
             self.dropped.add("odom/value")
             return
         self.odometry_heard += 1
-        self._latest = (pose, time.monotonic(), self.odometry_heard)
+        self._latest = (pose, self._monotonic(), self.odometry_heard)
 
     # ------------------------------------------------------------ pose thread
 
@@ -111,7 +114,7 @@ class AvParticipantNode:
         if latest is None or latest[2] == self._sent_serial:
             return None
         pose, rx_mono, serial = latest
-        age = time.monotonic() - rx_mono
+        age = self._monotonic() - rx_mono
         if age > self.config.av.odom_timeout_s:
             return None
         self._sent_serial = serial
