@@ -20,7 +20,7 @@ from carlaverse.cli.exit_codes import Exit
 from carlaverse.cli.osi import add_options as add_osi_options
 from carlaverse.cli.osi import check_options as check_osi_options
 from carlaverse.cli.osi import export_beside as export_osi
-from carlaverse.cli.record_lsl import LSL_ERRORS, LslPlan, add_lsl_arguments
+from carlaverse.cli.record_lsl import LSL_ERRORS, add_lsl_arguments, prepare_lsl
 from carlaverse.config import ConfigError
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.recorder import (
@@ -31,6 +31,7 @@ from carlaverse.recording.recorder import (
 )
 from carlaverse.recording.recover import recover
 from carlaverse.recording.sink import DEFAULT_CHUNK_SIZE, McapSink, RecordingError
+from carlaverse.study.lsl_session import describe as describe_lsl
 from carlaverse.study.lsl_sink import SharedSink
 from carlaverse.transport.session import FabricError, FabricUnreachable
 
@@ -132,7 +133,7 @@ def _recover(args: argparse.Namespace) -> int:
 
 def _record(args: argparse.Namespace) -> int:
     keys = Keys(args.session)
-    lsl = LslPlan.from_args(args)  # the --lsl streams are found first, or nothing starts
+    lsl = prepare_lsl(args)  # the --lsl streams are found first, or nothing starts
     stop = stop_on_signals()  # the file is always finished with its indexes
     deadline = None if args.duration is None else time.monotonic() + args.duration
     fabric = fabric_from_args(args)
@@ -159,7 +160,7 @@ def _record(args: argparse.Namespace) -> int:
         tell(f"recording session {args.session} into {args.output}")
         _wait(recorder, stop, deadline, args.progress_s)
         if lsl is not None:
-            tell(lsl.stop())  # before the recorder closes the file the streams write to
+            tell(describe_lsl(lsl.stop()))  # before the recorder closes the file they write to
         stats = recorder.stop()
         unreached = reached_nothing(notice, fabric)
     finally:

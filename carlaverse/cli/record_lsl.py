@@ -8,22 +8,13 @@ written), then recorded into the same MCAP as the session's keys, on `lsl/<name>
 from __future__ import annotations
 
 import argparse
-from dataclasses import dataclass, field
-from typing import Any
 
-import zenoh
-
-from carlaverse.keys import Keys
-from carlaverse.recording.sink import McapSink
-from carlaverse.study.lsl_api import LslClock, LslConfigConflict, LslNetwork, LslUnavailable, load
-from carlaverse.study.lsl_clock import SessionTimeFollower
-from carlaverse.study.lsl_markers import SessionMarkers
-from carlaverse.study.lsl_record import LslRecording, StreamMissing, resolve
-from carlaverse.study.lsl_sink import SharedSink
+from carlaverse.study.lsl_api import LslConfigConflict, LslNetwork, LslUnavailable
+from carlaverse.study.lsl_record import StreamMissing
+from carlaverse.study.lsl_session import DEFAULT_WAIT_S, LslSession
 
 # What --lsl can fail with before anything starts: a usage error (exit 2), naming the fix.
 LSL_ERRORS = (LslUnavailable, LslConfigConflict, StreamMissing)
-DEFAULT_WAIT_S = 10.0  # [s] an LSL app started with the recorder announces itself in ~1 s
 
 
 def add_lsl_arguments(parser: argparse.ArgumentParser) -> None:
@@ -63,45 +54,11 @@ def add_lsl_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-@dataclass
-class LslPlan:
-    """What `--lsl*` asked for, with the streams already found."""
-
-    pylsl: Any
-    streams: list[Any]
-    markers: bool
-    running: list[Any] = field(default_factory=list)
-    recording: LslRecording | None = None
-
-    @classmethod
-    def from_args(cls, args: argparse.Namespace) -> LslPlan | None:
-        """None when no --lsl flag was given; StreamMissing or LslUnavailable otherwise."""
-        if not args.lsl and not args.lsl_markers:
-            return None
-        pylsl = load(LslNetwork(args.lsl_scope, args.lsl_session_id))
-        return cls(pylsl, resolve(pylsl, args.lsl, args.lsl_wait), args.lsl_markers)
-
-    def start(self, session: zenoh.Session, keys: Keys, sink: McapSink) -> None:
-        if not isinstance(sink, SharedSink):
-            raise TypeError("LSL streams need a SharedSink (the recorder and inlets share it)")
-        follower = SessionTimeFollower(session, keys, LslClock(self.pylsl)).start()
-        self.running.append(follower)
-        if self.markers:
-            self.running.append(SessionMarkers(session, keys, self.pylsl, follower).start())
-        if self.streams:
-            self.recording = LslRecording(
-                session, keys, sink, self.pylsl, self.streams, follower=follower
-            ).start()
-
-    def stop(self) -> str:
-        """Stop (before the sink closes); one line saying what was recorded."""
-        stats = self.recording.stop() if self.recording else []
-        for part in reversed(self.running):
-            part.close()
-        parts = [
-            f"{s.topic} {s.samples} samples"
-            + (f" ({s.bad_shape + s.bad_time} bad, dropped)" if s.bad_shape + s.bad_time else "")
-            + (f" STOPPED: {s.error}" if s.error else "")
-            for s in stats
-        ]
-        return "LSL: " + (", ".join(parts) or "markers published")
+def prepare_lsl(args: argparse.Namespace) -> LslSession | None:
+    """None when no --lsl flag was given; else the streams, found (StreamMissing otherwise)."""
+    if not args.lsl and not args.lsl_markers:
+        return None
+    network = LslNetwork(args.lsl_scope, args.lsl_session_id)
+    return LslSession.prepare(
+        args.lsl, network=network, wait_s=args.lsl_wait, markers=args.lsl_markers
+    )

@@ -2,11 +2,11 @@
 
 Whatever records LSL beside a study (LabRecorder into XDF, this project's `lsl_record`) gets:
 
-- `carlaverse-<session>-markers` (type `Markers`, one string channel, irregular rate): one
-  marker per trial start and end, trigger firing, notice and contact start and end. Each is a
-  JSON object, `{"type": "trigger", "t": <session time [s]>, ...the event's fields}`, stamped
-  with the LSL time *at which it happened* (its session time `t` moved to this host's
-  `local_clock()`), not when it arrived here.
+- `carlaverse-<session>-markers` (or `<stream_prefix>-markers`; type `Markers`, one string
+  channel, irregular rate): one marker per trial start and end, trigger firing, notice and
+  contact start and end. Each is a JSON object, `{"type": "trigger", "t": <session time
+  [s]>, ...the event's fields}`, stamped with the LSL time *at which it happened* (its
+  session time `t` moved to this host's `local_clock()`), not when it arrived here.
 - `carlaverse-<session>-clock` (type `SessionClock`, one double channel, irregular rate):
   every `clock_period_s` the session time [s] at the sample's LSL timestamp, so an XDF reader
   maps any stream's LSL time to session time by interpolating between these pairs.
@@ -46,6 +46,7 @@ DEFAULT_QUEUE_SIZE = 4096  # events waiting for the worker (or the first clock s
 
 
 def marker_stream_name(session: str) -> str:
+    """The marker stream's name when no `stream_prefix` is given."""
     return f"carlaverse-{session}-markers"
 
 
@@ -74,12 +75,16 @@ class SessionMarkers:
         *,
         clock_period_s: float = 1.0,
         queue_size: int = DEFAULT_QUEUE_SIZE,
+        stream_prefix: str = "",
     ) -> None:
         self._session = session
         self._keys = keys
         self._pylsl = pylsl
         self._follower = follower
         self._clock_period_s = clock_period_s
+        # One name across a study's trials (each its own session) lets LabRecorder follow the
+        # outlet from trial to trial by its source id instead of asking for a new stream.
+        self._prefix = stream_prefix or f"carlaverse-{keys.session}"
         # (session time [s] or None for "now", the marker's fields or None, an event payload)
         self._queue: queue.Queue[_Item] = queue.Queue(queue_size)
         self._json = msgspec.json.Encoder()
@@ -91,9 +96,8 @@ class SessionMarkers:
         self._clock: Any = None
 
     def start(self) -> SessionMarkers:
-        session = self._keys.session
-        self._markers = self._outlet(marker_stream_name(session), MARKER_TYPE, "string")
-        self._clock = self._outlet(clock_stream_name(session), CLOCK_TYPE, "double64")
+        self._markers = self._outlet(f"{self._prefix}-markers", MARKER_TYPE, "string")
+        self._clock = self._outlet(f"{self._prefix}-clock", CLOCK_TYPE, "double64")
         self._subscriber = self._session.declare_subscriber(
             self._keys.world("events"), self._on_event
         )

@@ -95,6 +95,9 @@ def resolve(pylsl: Any, names: Sequence[str], timeout_s: float) -> list[Any]:
         if not name or "'" in name:
             raise StreamMissing(f"--lsl {name!r}: not a stream name (empty, or a quote in it)")
     deadline = time.monotonic() + timeout_s
+    # Listens meanwhile, so the error can say what *was* there without a second wait
+    # (resolve_streams() sometimes takes seconds beyond its wait time).
+    everything = pylsl.ContinuousResolver()
     found: dict[str, Any] = {}
     for name in names:
         left = max(0.0, deadline - time.monotonic())
@@ -103,7 +106,7 @@ def resolve(pylsl: Any, names: Sequence[str], timeout_s: float) -> list[Any]:
             found[name] = infos[0]
     missing = [n for n in names if n not in found]
     if missing:
-        seen = sorted({f"{i.name()}@{i.hostname()}" for i in pylsl.resolve_streams(0.5)})
+        seen = sorted({f"{i.name()}@{i.hostname()}" for i in everything.results()})
         raise StreamMissing(
             f"LSL stream(s) {', '.join(missing)} not found within {timeout_s:g} s "
             f"(streams seen: {', '.join(seen) or 'none'}); start the device's LSL app, or "
