@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 
 from carlaverse import messages as m
+from carlaverse.ros2 import types as ros_types
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.node_client import NodeClient, NodeSettings
 from carlaverse.transport.session import FabricSettings, open_session
@@ -241,6 +242,10 @@ def test_a_ros2_av_drives_in_the_session(cluster: Cluster, tmp_path: Path) -> No
                 return actor is not None and actor.newest is not None and len(driver.sent) > 30
 
             wait_until(av_seen, 30, "the AV in the observer's world", poll=0.05)
+            # bytes that are no Odometry on its topic: counted and dropped, never raised
+            odom = ros_types.ODOMETRY
+            junk_key = f"0/av/odom/{ros_types.dds_name(odom)}/{ros_types.type_hash(odom)}"
+            driver.publisher.session_mgr.session.put(junk_key, b"\x00\x01\x00\x00junk")
             _check_av_follows_the_path(obs, driver)
             snapshot = m.SNAPSHOT.decode(obs.query("snapshot"))
             info = next(e for e in snapshot.egos if e.node_id == "av-1")
@@ -265,7 +270,7 @@ def test_a_ros2_av_drives_in_the_session(cluster: Cluster, tmp_path: Path) -> No
     assert av.stop() == 0
     report = av.json()["extra"]
     assert report["odometry_heard"] >= 25 and report["impulses_sent"] == 1
-    assert report["odometry_dropped"] == {}
+    assert report["odometry_dropped"] == {"/av/odom": 1}
 
 
 def _check_av_follows_the_path(obs: NodeClient, driver: PathDriver) -> None:
