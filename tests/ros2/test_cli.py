@@ -1,0 +1,38 @@
+"""`carlaverse ros2`: its arguments, in-process; a bad one is one line naming it, exit 2."""
+
+from __future__ import annotations
+
+import pytest
+
+from carlaverse.cli import main
+from carlaverse.cli.exit_codes import Exit
+
+
+@pytest.mark.parametrize(
+    ("argv", "says"),
+    [
+        (["av", "--id", "av-1", "--odom-topic", "av/odom"], "odom_topic 'av/odom'"),
+        (["av", "--id", "av-1", "--extent", "4.5,1.8"], "--extent: '4.5,1.8'"),
+        (["av", "--id", "av-1", "--extent", "4.5,-1,1.5"], "between 0 and 50 m"),
+        (["av"], "no node id"),
+        (["view", "--domain", "300"], "domain_id"),
+        (["view", "--prefix", "carlaverse"], "prefix 'carlaverse'"),
+        (["view", "--id", "bad id"], "invalid node id 'bad id'"),
+    ],
+)  # fmt: skip
+def test_a_bad_argument_is_one_line_naming_it(
+    argv: list[str], says: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["ros2", *argv, "--connect", "tcp/127.0.0.1:9"]) == Exit.USAGE
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and err.startswith("carlaverse ros2 ")
+    assert says in err
+
+
+def test_help_names_the_roles_and_the_doc(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as done:
+        main(["ros2", "--help"])
+    assert done.value.code == 0
+    out = capsys.readouterr().out
+    assert "rmw_zenoh" in out and "view" in out and "av" in out
+    assert "docs/protocol.md" in out
