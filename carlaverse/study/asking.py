@@ -12,13 +12,15 @@ repeated every `repeat_s` until the node's final set arrives, so a node that joi
 restarts, or missed the request still shows it, and one that sent its final set already
 sends it again. A set that does not decode, names another node or questionnaire, or holds
 an unknown item, a value off the scale or too long a text is counted (`rejected`) and
-dropped. At the deadline `QuestionnaireTimeout` (a TimeoutError) carries the partial sets.
+dropped. At the deadline `QuestionnaireTimeout` (a TimeoutError), on a stop
+`QuestionnaireStopped` (both `QuestionnaireIncomplete`) carries the partial sets.
 """
 
 from __future__ import annotations
 
 import logging
 import queue
+import threading
 import time
 from collections import Counter
 from collections.abc import Callable, Iterable
@@ -32,17 +34,26 @@ from carlaverse.study.questionnaires import Questionnaire, check_answers, score
 log = logging.getLogger(__name__)
 
 REPEAT_S = 1.0  # [s] between repeats of a request not yet answered in full
+STOP_POLL_S = 0.2  # [s] longest wait before a stop is seen
 
 
-class QuestionnaireTimeout(TimeoutError):
-    """Some nodes sent no final set before the deadline; `partial` holds the newest set of
-    each node that sent any (also stored), `missing` the nodes without a final set."""
+class QuestionnaireIncomplete(Exception):
+    """Some nodes sent no final set; `partial` holds the newest set of each of them that sent
+    any (stored too), `missing` the nodes without a final set."""
 
-    def __init__(self, missing: list[str], partial: dict[str, AnswerRecord]) -> None:
-        super().__init__(f"no final answers from {missing} before the deadline "
+    def __init__(self, missing: list[str], partial: dict[str, AnswerRecord], why: str) -> None:
+        super().__init__(f"no final answers from {missing} {why} "
                          f"(partial sets from {sorted(partial)})")  # fmt: skip
         self.missing = missing
         self.partial = partial
+
+
+class QuestionnaireTimeout(QuestionnaireIncomplete, TimeoutError):
+    """The deadline passed first."""
+
+
+class QuestionnaireStopped(QuestionnaireIncomplete):
+    """The runner was stopped first (its `stop` event)."""
 
 
 class QuestionnaireRound:
@@ -76,22 +87,27 @@ class QuestionnaireRound:
         self._publishers[node_id] = session.declare_publisher(keys.study(node_id, "ask"))
         self.store.asked(node_id, self.request)
 
-    def run(self, timeout_s: float) -> dict[str, AnswerRecord]:
-        """Ask until every node sent its final set (returned, by node id) or `timeout_s`
-        passes (QuestionnaireTimeout). Every set received is stored as it arrives."""
+    def run(self, timeout_s: float, stop: threading.Event | None = None) -> dict[str, AnswerRecord]:
+        """Ask until every node sent its final set (returned, by node id), `timeout_s` passes
+        (QuestionnaireTimeout) or `stop` is set (QuestionnaireStopped, within STOP_POLL_S).
+        Every set received is stored as it arrives."""
         deadline = self.clock() + timeout_s
         next_ask = self.clock()
         while len(self.final) < len(self._publishers):
             now = self.clock()
             if now >= deadline:
-                missing = sorted(set(self._publishers) - set(self.final))
-                raise QuestionnaireTimeout(missing, {n: self.latest[n] for n in missing
-                                                     if n in self.latest})  # fmt: skip
+                raise QuestionnaireTimeout(*self._incomplete(), "before the deadline")
+            if stop is not None and stop.is_set():
+                raise QuestionnaireStopped(*self._incomplete(), "before the runner stopped")
             if now >= next_ask:
                 self._ask_waiting()
                 next_ask = now + self.repeat_s
-            self._take(min(next_ask, deadline) - now)
+            self._take(min(next_ask, deadline, now + STOP_POLL_S) - now)
         return dict(self.final)
+
+    def _incomplete(self) -> tuple[list[str], dict[str, AnswerRecord]]:
+        missing = sorted(set(self._publishers) - set(self.final))
+        return missing, {n: self.latest[n] for n in missing if n in self.latest}
 
     def _ask_waiting(self) -> None:
         for node_id, publisher in self._publishers.items():
@@ -157,15 +173,17 @@ class QuestionnaireRound:
 def ask_all(
     session: Any, keys: Keys, store: AnswerStore, node_ids: Iterable[str],
     questionnaire: Questionnaire, trial: str, timeout_s: float,
+    stop: threading.Event | None = None,
 ) -> dict[str, AnswerRecord]:  # fmt: skip
     """Ask each node `questionnaire` for `trial`; their final sets by node id."""
     with QuestionnaireRound(session, keys, store, node_ids, questionnaire, trial) as round_:
-        return round_.run(timeout_s)
+        return round_.run(timeout_s, stop)
 
 
 def ask(
     session: Any, keys: Keys, store: AnswerStore, node_id: str,
     questionnaire: Questionnaire, trial: str, timeout_s: float,
+    stop: threading.Event | None = None,
 ) -> AnswerRecord:  # fmt: skip
     """Ask one node; its final set, stored and scored."""
-    return ask_all(session, keys, store, [node_id], questionnaire, trial, timeout_s)[node_id]
+    return ask_all(session, keys, store, [node_id], questionnaire, trial, timeout_s, stop)[node_id]
