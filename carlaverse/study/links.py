@@ -18,10 +18,8 @@ CLEAR = LinkCondition()
 
 
 def profile(condition: LinkCondition) -> LinkProfile:
-    """The emulator's profile of one direction; jitter beyond the delay is clamped to it (a
-    byte cannot arrive before it was sent)."""
-    delay_s = condition.delay_ms / 1e3
-    return LinkProfile(delay_s, min(condition.jitter_ms / 1e3, delay_s), condition.loss)
+    """The emulator's profile of one direction (the study file keeps jitter within delay)."""
+    return LinkProfile(condition.delay_ms / 1e3, condition.jitter_ms / 1e3, condition.loss)
 
 
 def router_address(endpoint: str) -> tuple[str, int]:

@@ -38,6 +38,7 @@ from carlaverse.transport.session import FabricSettings, open_session
 ROUTER_READY = "router "  # what `router` prints once it listens
 READY_TIMEOUT_S = 30.0  # [s]
 PAUSE_LOOK_S = 0.2  # [s] between looks at the control file while paused
+AGENT_SAYS = "carlaverse study agent: "  # how an agent's own lines begin
 
 
 @dataclass
@@ -141,7 +142,7 @@ class StudyRunner:
         for p in self.study.participants:
             argv = ["study", "agent", "--study", self.study.name, "--participant", p.id,
                     "--connect", links.endpoint(p.id), "--exit-with-parent"]  # fmt: skip
-            self._agents.append(self._spawn(argv, f"agent {p.id}"))
+            self._agents.append(self._spawn(argv, f"agent {p.id}", self._relay_agent))
 
     def _context(self, router: str, links: ParticipantLinks, briefer: Briefer) -> StudyContext:
         return StudyContext(
@@ -152,8 +153,15 @@ class StudyRunner:
             say=self.say, backend=self.settings.backend,
         )  # fmt: skip
 
-    def _spawn(self, argv: list[str], name: str) -> Child:
-        child = start_child(argv, name=name, role=name.split()[0])
+    def _relay_agent(self, line: str) -> None:
+        """An agent's own lines (its node joining, stopping, failing) on the run's console."""
+        if line.startswith(AGENT_SAYS):
+            self.say(line[len(AGENT_SAYS) :].strip())
+
+    def _spawn(
+        self, argv: list[str], name: str, on_stderr: Callable[[str], None] | None = None
+    ) -> Child:
+        child = start_child(argv, name=name, role=name.split()[0], on_stderr=on_stderr)
         self._children.append(child)
         self.children_file.add(child.proc.pid)
         return child

@@ -142,6 +142,7 @@ def check_study(study: Study) -> str:
         _unique(names, "conditions", "id"),
         _unique([p.id.lower() for p in study.participants], "participants", "id (ignoring case)"),
         *(_known(c, set(ids), i) for i, c in enumerate(study.conditions)),
+        *(_links(c, i) for i, c in enumerate(study.conditions)),
         *(
             _condition(name, names, f"$.design.practice[{i}]")
             for i, name in enumerate(study.design.practice)
@@ -163,6 +164,20 @@ def _unique(items: list[str], field: str, what: str) -> str:
         if item in seen:
             return f"{what} {item!r} appears twice - at `$.{field}[{i}]`"
         seen.add(item)
+    return ""
+
+
+def _links(condition: Condition, index: int) -> str:
+    """A jitter larger than its delay would deliver bytes before they were sent."""
+    named = [("link", condition.link)] + [
+        (f"latency[{pid}]", c) for pid, c in condition.latency.items()
+    ]
+    for field, link in named:
+        if link.jitter_ms > link.delay_ms:
+            return (
+                f"jitter_ms {link.jitter_ms:g} exceeds delay_ms {link.delay_ms:g}: a byte cannot "
+                f"arrive before it is sent - at `$.conditions[{index}].{field}.jitter_ms`"
+            )
     return ""
 
 
