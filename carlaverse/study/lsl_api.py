@@ -105,6 +105,12 @@ def _import_pylsl() -> Any:
         ) from exc
 
 
+def stream_errors(pylsl: Any) -> tuple[type[Exception], ...]:
+    """pylsl's timeout and lost-stream errors (in `pylsl.util`; the package does not export
+    them, and its TimeoutError is its own, not the builtin)."""
+    return (pylsl.util.TimeoutError, pylsl.util.LostError)
+
+
 class LslClock:
     """liblsl's `local_clock()` as a `transport.clock.Clock`: the clock every LSL timestamp of
     this host is read on, so a session clock built on it maps LSL times directly."""

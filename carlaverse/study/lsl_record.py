@@ -33,7 +33,7 @@ from typing import Any
 import zenoh
 
 from carlaverse.keys import Keys
-from carlaverse.study.lsl_api import LslClock
+from carlaverse.study.lsl_api import LslClock, stream_errors
 from carlaverse.study.lsl_clock import SessionTimeFollower
 from carlaverse.study.lsl_sink import TOPIC_PREFIX, LslSample, SharedSink
 
@@ -188,9 +188,15 @@ class _StreamThread:
         self._mapper = SampleMapper(info.channel_count(), self.stats)
         # Opened now: from here liblsl buffers the stream whether or not we pull yet.
         self._inlet = pylsl.StreamInlet(info, max_buflen=MAX_BUFLEN_S, recover=True)
-        self._inlet.open_stream(timeout=CORRECTION_TIMEOUT_S)
-        # The full info (a resolved one lacks the description: channel labels, units).
-        self.info = self._inlet.info(timeout=CORRECTION_TIMEOUT_S)
+        try:
+            self._inlet.open_stream(timeout=CORRECTION_TIMEOUT_S)
+            # The full info (a resolved one lacks the description: channel labels, units).
+            self.info = self._inlet.info(timeout=CORRECTION_TIMEOUT_S)
+        except stream_errors(pylsl) as exc:
+            raise StreamMissing(
+                f"LSL stream {info.name()}@{info.hostname()} was found but did not open within "
+                f"{CORRECTION_TIMEOUT_S:g} s ({exc}): is a firewall between the hosts?"
+            ) from exc
         self._channel = sink.add_lsl_channel(topic, stream_metadata(self.info))
         self.thread = threading.Thread(target=self._run, name=f"lsl-{topic}", daemon=True)
 
@@ -198,6 +204,9 @@ class _StreamThread:
         try:
             while not self._stop.is_set() and not self._follower.wait_synced(0.1):
                 pass
+            if not self._follower.synced:
+                self.stats.error = "no authority answered a clock query: no session time"
+                return
             while not self._stop.is_set():
                 self._pull(timeout_s=0.1)
             self._pull(timeout_s=0.0)  # what arrived before the stop
@@ -228,7 +237,7 @@ class _StreamThread:
         probe round times out."""
         try:
             self.stats.correction_s = float(self._inlet.time_correction(CORRECTION_TIMEOUT_S))
-        except self._pylsl.TimeoutError:  # pylsl's own, a RuntimeError
+        except stream_errors(self._pylsl):
             if math.isnan(self.stats.correction_s):
                 raise
         return self.stats.correction_s

@@ -14,9 +14,11 @@ import pytest
 from mcap.reader import make_reader
 
 from carlaverse import messages as m
+from carlaverse.keys import Keys
 from carlaverse.recording.reading import iter_samples, read_channels, read_metadata
 from carlaverse.recording.recorder import Recorder
 from carlaverse.study.lsl_record import (
+    LslRecording,
     SampleMapper,
     StreamMissing,
     StreamStats,
@@ -177,3 +179,32 @@ def test_a_nan_timestamp_from_a_real_outlet_is_dropped(fabric: Fabric, tmp_path:
 
 def vars_of(stats: StreamStats) -> tuple[int, int, int]:
     return stats.samples, stats.bad_shape, stats.bad_time
+
+
+def test_a_stream_gone_between_finding_and_opening_is_named(fabric: Fabric, tmp_path: Path) -> None:
+    pylsl = lsl()
+    gone = EcgOutlet("ECG-gone")
+    (info,) = resolve(pylsl, ["ECG-gone"], timeout_s=5)
+    del gone  # liblsl closes the outlet when its Python object goes
+    sink = SharedSink(tmp_path / "gone.mcap", monotonic=time.monotonic)
+    with pytest.raises(StreamMissing, match=r"ECG-gone@\S+ was found but did not open"):
+        LslRecording(fabric.client, fabric.keys, sink, pylsl, [info])
+    sink.close()
+
+
+def test_without_an_authority_the_stream_says_it_has_no_session_time(
+    fabric: Fabric, tmp_path: Path
+) -> None:
+    pylsl = lsl()
+    ecg = EcgOutlet("ECG-noauth")
+    sink = SharedSink(tmp_path / "noauth.mcap", monotonic=time.monotonic)
+    # A session nobody serves the clock of: every clock query goes unanswered.
+    recording = record_lsl(fabric.client, Keys("noauth"), sink, pylsl, ["ECG-noauth"], 5)
+    ecg.wait_consumer()
+    ecg.send(0.1)
+    wait_until(lambda: recording.follower.unanswered > 0, 10, "an unanswered clock query")
+    (stats,) = recording.stop()
+    sink.close()
+    assert stats.samples == 0
+    assert stats.error == "no authority answered a clock query: no session time"
+    assert read_metadata(tmp_path / "noauth.mcap")["lsl/ECG-noauth"]["error"] == stats.error
