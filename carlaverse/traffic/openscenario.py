@@ -86,11 +86,10 @@ def _refuse_outside_the_events(root: ET.Element) -> None:
 
 
 def _refuse_element(element: ET.Element) -> None:
-    name = f"<{element.tag} name={element.get('name')!r}>" if element.get("name") else ""
     if element.tag == "StopTrigger" and len(element):
         raise Refused(
-            f"a StopTrigger with conditions is not supported{' in ' + name if name else ''}: "
-            "a session ends by its --duration or Ctrl-C"
+            "a StopTrigger with conditions is not supported: a session ends by its --duration "
+            "or Ctrl-C"
         )
     if element.tag == "CatalogReference":
         raise Refused(
@@ -171,12 +170,11 @@ def _condition(ev: _Event, c: ET.Element) -> str:
         return f"t {_rule(ev, body)} {float(body.get('value', 0))}"
     if body.tag == "StoryboardElementStateCondition":
         return f"fired_{_identifier(body.get('storyboardElementRef', ''))} > 0"
-    actors = [e.get("entityRef", "") for e in c.iterfind(".//TriggeringEntities/EntityRef")]
-    joiner = (
-        " and "
-        if c.find(".//TriggeringEntities").get("triggeringEntitiesRule") == "all"
-        else " or "
-    )
+    triggering = c.find(".//TriggeringEntities")
+    if triggering is None:  # a value condition other than the two above
+        raise ev.refuse(_chain(body))
+    actors = [e.get("entityRef", "") for e in triggering.iterfind("EntityRef")]
+    joiner = " and " if triggering.get("triggeringEntitiesRule") == "all" else " or "
     return "(" + joiner.join(_entity_condition(ev, body, actor) for actor in actors) + ")"
 
 
