@@ -18,11 +18,13 @@ from __future__ import annotations
 import json
 import threading
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import msgspec
 
 from carlaverse.recording.encoding import MESSAGE_ENCODING, SCHEMA_ENCODING, message_schema
+from carlaverse.recording.reading import iter_samples, read_metadata
 from carlaverse.recording.sink import McapSink
 
 TOPIC_PREFIX = "lsl/"
@@ -48,6 +50,22 @@ _DECODER = msgspec.msgpack.Decoder(LslSample)
 def decode_sample(payload: bytes) -> LslSample:
     """An `LslSample` from a recorded payload (`RecordedSample.payload` of an `lsl/` topic)."""
     return _DECODER.decode(payload)
+
+
+def read_lsl(path: str | Path) -> dict[str, list[LslSample]]:
+    """Every LSL channel of a recording: topic (`lsl/<name>`) -> its samples, in order."""
+    streams: dict[str, list[LslSample]] = {}
+    for recorded in iter_samples(path):
+        if recorded.key.startswith(TOPIC_PREFIX):
+            streams.setdefault(recorded.key, []).append(decode_sample(recorded.payload))
+    return streams
+
+
+def lsl_summaries(path: str | Path) -> dict[str, dict[str, str]]:
+    """Topic -> what its recording ended with (`lsl_record.StreamStats.as_metadata`: samples,
+    bad_shape, bad_time, first_t, last_t, nominal_srate, coverage, correction_s,
+    clock_bound_s, error); a stream cut off by a crash has none."""
+    return {k: v for k, v in read_metadata(path).items() if k.startswith(TOPIC_PREFIX)}
 
 
 def sample_schema() -> bytes:

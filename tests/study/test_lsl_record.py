@@ -25,7 +25,7 @@ from carlaverse.study.lsl_record import (
     record_lsl,
     resolve,
 )
-from carlaverse.study.lsl_sink import SharedSink, decode_sample
+from carlaverse.study.lsl_sink import SharedSink, decode_sample, lsl_summaries, read_lsl
 from tests.study.lsl_support import (
     ECG_RATE_HZ,
     HEART_RATE_BPM,
@@ -75,6 +75,7 @@ def test_synthetic_ecg_lands_in_the_trial_mcap_on_session_time(
     recorded = [s for s in iter_samples(path) if s.key == "lsl/ECG-rec"]
     samples = [decode_sample(s.payload) for s in recorded]
     assert [s.seq for s in samples] == list(range(750))
+    assert read_lsl(path) == {"lsl/ECG-rec": samples}
 
     # Session time: each sample's truth is the session time its outlet stamped it for.
     errors = [abs(s.t - truth) for s, truth in zip(samples, ecg.truth, strict=True)]
@@ -99,7 +100,7 @@ def test_synthetic_ecg_lands_in_the_trial_mcap_on_session_time(
     assert (channel["lsl.type"], channel["lsl.channel_count"]) == ("ECG", "1")
     assert channel["lsl.nominal_srate"] == "250.0"
     assert "<unit>mV</unit>" in channel["lsl.info_xml"]
-    meta = read_metadata(path)["lsl/ECG-rec"]
+    meta = lsl_summaries(path)["lsl/ECG-rec"]
     assert meta["samples"] == "750"
     # 750 samples between first and last at 250 Hz: coverage (750 / (2.996 · 250 + 1)) = 1
     assert float(meta["coverage"]) == pytest.approx(1.0, abs=0.01)
