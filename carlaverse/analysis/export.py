@@ -177,7 +177,7 @@ def summary(
         "drac_limit_mps2": th.drac_limit_mps2,
         "pairs_drac_implausible": sum(1 for p in pairs if p.drac_implausible_s > 0),
         "standstill_mps": th.standstill_mps,
-        "pairs_at_standstill": sum(1 for p in pairs if p.standstill_s > 0),
+        "pairs_queued": sum(1 for p in pairs if p.queued_s > 0),
     }
 
 

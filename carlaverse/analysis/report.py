@@ -3,8 +3,8 @@
 `report.png` draws the road network the authority served (lanes at their widths, areas),
 NPC paths thin and grey, human paths in colour, and marks the worst TTC instant of each
 critical pair and every crossing conflict below the thresholds. `report.html` shows that
-picture and the summary, says what was left out and why (queues at standstill, implausible
-DRAC), and lists the pairs with a participant first, the conflicts, and who each id is.
+picture and the summary, says what was left out and why (queues, implausible DRAC), and
+lists the pairs with a participant first, the conflicts, and who each id is.
 """
 
 from __future__ import annotations
@@ -145,10 +145,12 @@ def _notes(summary: dict, hidden: int) -> str:
         f"Times are seconds from the recording's start (session time "
         f"{summary['recording_start']:.3f} s); <code>carlaverse render FILE --at S</code> "
         "shows that moment.",
-        f"Queued at standstill: instants with both road users slower than "
-        f"{summary['standstill_mps']:g} m/s (cars waiting nose to tail at a stop line) are "
-        f"left out of TTC, time below and DRAC (pairs with such instants: "
-        f"{summary['pairs_at_standstill']}).",
+        f"Queued: instants with both road users slower than {summary['standstill_mps']:g} m/s "
+        "(cars waiting nose to tail at a stop line), and NPCs pulling up into a queue (at "
+        "rest together soon after, no contact: the traffic model's car-following) are "
+        f"left out of TTC and time below, standing ones out of DRAC too (pairs with such "
+        f"instants: "
+        f"{summary['pairs_queued']}). A participant pulling up behind a queue keeps its TTC.",
         f"DRAC above {summary['drac_limit_mps2']:g} m/s² is more than a tyre's friction "
         "allows (μg = 9.8 m/s² for μ = 1): no braking avoids contact, and without a contact "
         "the number is an artefact of footprints or sampling. It is left out of max DRAC and "
@@ -162,8 +164,8 @@ def _notes(summary: dict, hidden: int) -> str:
 
 def _pair_row(p: dict) -> list[str]:
     left_out = []
-    if p["standstill_s"] > 0:
-        left_out.append(f"standstill {_fmt(p['standstill_s'])} s")
+    if p["queued_s"] > 0:
+        left_out.append(f"queued {_fmt(p['queued_s'])} s")
     if p["drac_implausible_s"] > 0:
         left_out.append(f"DRAC implausible {_fmt(p['drac_implausible_s'])} s "
                         f"(peak {_fmt(p['peak_drac_mps2'])})")  # fmt: skip

@@ -12,10 +12,14 @@
   avoided the contact on those tracks, and where no contact followed it is an artefact (a
   footprint too long, a lateral neighbour in a junction, a sampling step); it is counted as
   `drac_implausible_s` and kept out of `max_drac_mps2`, the headline; `peak_drac_mps2` keeps it.
-- Queued at standstill: while both are slower than `standstill_mps`, cars waiting nose to tail
-  at a stop line creep a few centimetres towards each other and would fill the TTC list with
-  "encounters" nobody was in. Those instants are left out of TTC, time below and DRAC, and
-  counted as `standstill_s`.
+- Queued: while both are slower than `standstill_mps`, cars waiting nose to tail at a stop
+  line creep a few centimetres towards each other; and two NPCs pulling up into a queue (the
+  follower braking to rest behind the one ahead, both at rest within `ttc_horizon_s`, no
+  contact on the way) give a constant-velocity TTC near 1 s on every red light, though the
+  traffic model's car-following stops them at its minimum gap by construction. Either would
+  fill the TTC list with "encounters" nobody was in, so those instants are left out of TTC and
+  time below (standing ones out of DRAC too) and counted as `queued_s`. A participant pulling
+  up behind a queue keeps its TTC: how late a person brakes is what a study measures.
 - PET, post-encroachment time, at every point where the two centre paths cross (at an angle
   of at least `min_crossing_deg`; paths that share a lane are following, not crossing): the
   time from the first actor's footprint leaving the point to the second's reaching it
@@ -40,7 +44,7 @@ class Thresholds:
     near_m: float = 30.0  # [m] pairs whose centres never come closer are not measured
     pet_max_s: float = 10.0  # [s] crossings further apart in time are no conflict
     min_crossing_deg: float = 15.0  # [deg] shallower crossings are following
-    standstill_mps: float = 0.5  # [m/s] both slower than this: queued, not an encounter
+    standstill_mps: float = 0.5  # [m/s] both slower than this: at rest, not an encounter
     # [m/s²] mu g for mu = 1 is 9.81: a larger DRAC is beyond any tyre's friction limit
     drac_limit_mps2: float = 10.0
 
@@ -57,7 +61,7 @@ class PairMeasures:
     max_drac_mps2: float  # 0 if never closing; the largest within `drac_limit_mps2`
     t_max_drac: float
     human: bool = False  # at least one of the two is a participant (a human's ego)
-    standstill_s: float = 0.0  # [s] both slower than `standstill_mps`: left out of TTC, DRAC
+    queued_s: float = 0.0  # [s] at rest together, or NPCs pulling up into a queue: no TTC
     drac_implausible_s: float = 0.0  # [s] DRAC above `drac_limit_mps2`
     peak_drac_mps2: float = 0.0  # the largest DRAC, implausible or not
 
@@ -110,7 +114,8 @@ def pair_measures(tracks: Tracks, i: int, j: int, th: Thresholds) -> PairMeasure
         footprints.corners(cb["p"], cb["yaw"], b.length, b.width),
     )
     still = _standstill(ca["v"], th.standstill_mps) & _standstill(cb["v"], th.standstill_mps)
-    ttc[still] = np.inf
+    queued = still if a.human or b.human else still | _settling(still, gap, t, th.ttc_horizon_s)
+    ttc[queued] = np.inf
     peak = _drac(offset, rel_v, gap)
     peak[still] = 0.0
     implausible = peak > th.drac_limit_mps2
@@ -123,7 +128,7 @@ def pair_measures(tracks: Tracks, i: int, j: int, th: Thresholds) -> PairMeasure
         float(np.count_nonzero(ttc < th.ttc_s) * dt),
         float(gap[k_gap]), float(t[k_gap]),
         float(drac[k_drac]), float(t[k_drac]) if drac[k_drac] > 0 else math.nan,
-        a.human or b.human, float(np.count_nonzero(still) * dt),
+        a.human or b.human, float(np.count_nonzero(queued) * dt),
         float(np.count_nonzero(implausible) * dt), float(peak.max(initial=0.0)),
     )  # fmt: skip
 
@@ -135,6 +140,23 @@ def by_concern(pairs: list[PairMeasures]) -> list[PairMeasures]:
 
 def _standstill(v: np.ndarray, limit_mps: float) -> np.ndarray:
     return np.hypot(v[:, 0], v[:, 1]) < limit_mps
+
+
+def _settling(still: np.ndarray, gap: np.ndarray, t: np.ndarray, horizon_s: float) -> np.ndarray:
+    """Instants from which the two come to rest together within `horizon_s` without touching
+    on the way: one pulling up behind the other."""
+    idx = np.arange(len(still))
+    next_still = _next_index(still)
+    next_contact = _next_index(gap <= 0.0)
+    ahead = np.where(next_still < len(t), t[np.minimum(next_still, len(t) - 1)] - t, np.inf)
+    return (ahead <= horizon_s) & (next_contact > next_still) & (idx < next_still)
+
+
+def _next_index(mask: np.ndarray) -> np.ndarray:
+    """For every instant, the index of the first True at or after it (len(mask) if none)."""
+    n = len(mask)
+    marks = np.where(mask, np.arange(n), n)
+    return np.minimum.accumulate(marks[::-1])[::-1]
 
 
 def _column(tracks: Tracks, i: int, mask: np.ndarray) -> dict[str, np.ndarray]:

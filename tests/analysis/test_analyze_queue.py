@@ -119,12 +119,12 @@ def test_the_queue_at_standstill_is_no_encounter(analysis) -> None:
     # Creeping at 0.4 m/s over 3 s closes the 1.5 m gap to 0.3 m: a TTC of 0.3 / 0.4 s were
     # the queue an encounter. Both slower than 0.5 m/s throughout: left out, all 31 samples.
     assert math.isinf(queue["min_ttc_s"]) and queue["ttc_below_s"] == 0.0
-    assert queue["standstill_s"] == pytest.approx(3.1, abs=1e-6)
+    assert queue["queued_s"] == pytest.approx(3.1, abs=1e-6)
     assert queue["min_gap_m"] == pytest.approx(QUEUE_GAP_M - CREEP_MPS * SECONDS, abs=1e-4)
     assert queue["max_drac_mps2"] == 0.0
     assert summary["pairs_ttc_below_threshold"] == 1  # the participant's pair alone
     assert summary["human_pairs_ttc_below_threshold"] == 1
-    assert summary["pairs_at_standstill"] == 1 and summary["pairs_drac_implausible"] == 1
+    assert summary["pairs_queued"] == 1 and summary["pairs_drac_implausible"] == 1
     assert summary["min_ttc_pair"] == ["ego-0", "stopped"]
     assert summary["min_ttc_at_s"] == pytest.approx(3.0, abs=1e-6)
     assert summary["max_drac_mps2"] == pytest.approx(50 / gap_m(2.8), rel=1e-4)

@@ -160,13 +160,13 @@ def test_cars_queued_at_standstill_are_no_encounter() -> None:
                 ("leader", CAR, lambda t: straight(t, 0, 0, 0.0, 0.0)))  # fmt: skip
     p = pair_measures(tr, 0, 1, Thresholds())
     assert math.isinf(p.min_ttc_s) and p.ttc_below_s == 0.0 and p.max_drac_mps2 == 0.0
-    assert p.standstill_s == pytest.approx(2.1, abs=1e-9)  # all 21 samples, 0.1 s each
+    assert p.queued_s == pytest.approx(2.1, abs=1e-9)  # all 21 samples, 0.1 s each
     assert p.min_gap_m == pytest.approx(0.2, abs=1e-9)  # the gap is still measured
     # the same creep with the standstill speed set below it is an encounter again, by hand
     p = pair_measures(tr, 0, 1, Thresholds(standstill_mps=0.3))
     assert p.min_ttc_s == pytest.approx(0.2 / 0.4, abs=1e-9)
     assert p.max_drac_mps2 == pytest.approx(0.4**2 / (2 * 0.2), rel=1e-9)
-    assert p.standstill_s == 0.0
+    assert p.queued_s == 0.0
 
 
 def test_pairs_with_a_human_come_first() -> None:
@@ -204,3 +204,37 @@ def test_a_point_is_on_the_nearest_lane_within_its_half_width() -> None:
     xs = np.array([5.0, 6.0, 7.0, 8.0, 9.0])
     assert index.route(xs, np.array([0.0, 0.2, 3.1, 2.9, 0.0])) == ["road_0", "walk_0", "road_0"]
     assert LaneIndex(None).lane_at(0.0, 0.0) == ""
+
+
+def braking_to_rest(t: np.ndarray) -> np.ndarray:
+    """(5, T): a car at 5 m/s braking at 2.5 m/s^2 from t = 0 to rest at t = 2 s, 5 m on, its
+    front then 2.5 m (the traffic model's minimum gap) behind a rear at x = 0."""
+    v0, decel = 5.0, 2.5
+    moving = np.minimum(t, v0 / decel)
+    x = -2.5 - 5.0 - CAR[0] / 2 + v0 * moving - decel * moving**2 / 2
+    zeros = np.zeros_like(t)
+    return np.stack([x, zeros, zeros, v0 - decel * moving, zeros])
+
+
+@pytest.mark.parametrize("human", [False, True])
+def test_npcs_pulling_up_into_a_queue_are_no_encounter(human: bool) -> None:
+    # Constant-velocity TTC while braking: gap(t) = 7.5 - 5 t + 1.25 t^2, speed 5 - 2.5 t, so
+    # TTC = gap / speed = 0.5 (u + 2 / u) with u = 2 - t: below 1.5 s for 1 < u < 2 (t in
+    # 0 ... 1 s: the 9 samples 0.1 ... 0.9), least at u = sqrt 2; on the 10 Hz grid at t = 0.6,
+    # 0.5 (1.4 + 2 / 1.4). From t = 1.9 s the follower is below 0.5 m/s: both at rest.
+    users = [("follower", CAR, braking_to_rest),
+             ("stopped", CAR, lambda t: straight(t, CAR[0] / 2, 0, 0.0, 0.0))]  # fmt: skip
+    tr = tracks(4.0, *users)
+    tr.actors[:] = [dataclasses.replace(a, human=human and a.id == "follower") for a in tr.actors]
+    p = pair_measures(tr, 0, 1, Thresholds())
+    assert p.min_gap_m == pytest.approx(2.5, abs=1e-9)
+    if human:  # a participant braking late is what a study measures: its TTC stays
+        assert p.min_ttc_s == pytest.approx(0.5 * (1.4 + 2 / 1.4), abs=1e-9)
+        assert p.t_min_ttc == pytest.approx(0.6)
+        assert p.ttc_below_s == pytest.approx(0.9, abs=1e-9)
+        assert p.queued_s == pytest.approx(2.2, abs=1e-9)  # at rest: t = 1.9 ... 4.0
+    else:  # the NPCs come to rest 2.5 m apart, untouched, within the 10 s horizon: queued
+        assert math.isinf(p.min_ttc_s) and p.ttc_below_s == 0.0
+        assert p.queued_s == pytest.approx(4.1, abs=1e-9)  # every one of the 41 samples
+        # DRAC of the approach stays: at t = 0, 5^2 / (2 * 7.5)
+        assert p.max_drac_mps2 == pytest.approx(25 / 15, rel=1e-9)
