@@ -26,6 +26,8 @@ from collections import Counter, OrderedDict
 from collections.abc import Callable
 from typing import Any, Protocol
 
+import zenoh
+
 from carlaverse import messages as m
 from carlaverse.hmi.wire import ENCODER, Answer, Questionnaire
 from carlaverse.keys import Keys
@@ -165,7 +167,10 @@ class QuestionnaireLink:
         self.desk = QuestionnaireDesk(node_id, self._outbox.put)
         self._pages = pages
         self.send_errors = 0
-        self._publisher = session.declare_publisher(keys.study(node_id, "answers"))
+        self._publisher = session.declare_publisher(
+            keys.study(node_id, "answers"), congestion_control=zenoh.CongestionControl.BLOCK,
+            reliability=zenoh.Reliability.RELIABLE,
+        )  # fmt: skip
         self._sender = threading.Thread(target=self._send_all, name="questionnaire-out",
                                         daemon=True)  # fmt: skip
         self._sender.start()

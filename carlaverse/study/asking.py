@@ -26,6 +26,8 @@ from collections import Counter
 from collections.abc import Callable, Iterable
 from typing import Any
 
+import zenoh
+
 from carlaverse import messages as m
 from carlaverse.keys import Keys
 from carlaverse.study.answers import AnswerRecord, AnswerStore
@@ -84,7 +86,10 @@ class QuestionnaireRound:
         self._subscribers.append(
             session.declare_subscriber(keys.study(node_id, "answers"), receive)
         )
-        self._publishers[node_id] = session.declare_publisher(keys.study(node_id, "ask"))
+        self._publishers[node_id] = session.declare_publisher(
+            keys.study(node_id, "ask"), congestion_control=zenoh.CongestionControl.BLOCK,
+            reliability=zenoh.Reliability.RELIABLE,
+        )  # fmt: skip
         self.store.asked(node_id, self.request)
 
     def run(self, timeout_s: float, stop: threading.Event | None = None) -> dict[str, AnswerRecord]:
