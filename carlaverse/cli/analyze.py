@@ -14,10 +14,10 @@ Writes into DIR:
     report.png, report.html     the map, the trajectories, the conflicts and the tables
 
 Every time `t…` (session time) has `t…_rel_s` beside it: seconds from the recording's start,
-the number `carlaverse render FILE --at S` takes to show that moment. Cars queued at
-standstill (both slower than 0.5 m/s) are no encounter, and a DRAC above 10 m/s² (more than
-friction allows a tyre) is flagged, not a headline. The measures and their definitions are in
-`carlaverse.analysis.surrogate`.
+the number `carlaverse render FILE --at S` takes to show that moment. Queues are no encounter
+(both slower than 0.5 m/s, or two NPCs pulling up into one; a participant keeps its TTC), and
+a DRAC above 10 m/s² (more than friction allows a tyre) is flagged, not a headline. The
+measures and their definitions are in `carlaverse.analysis.surrogate`.
 """
 
 from __future__ import annotations
@@ -54,8 +54,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--pet-max", type=float, default=10.0, metavar="S",
                         help="longest PET counted as a conflict [s] (default 10)")  # fmt: skip
     parser.add_argument("--standstill", type=float, default=0.5, metavar="MPS",
-                        help="both slower than this [m/s]: queued, left out of TTC and DRAC "
-                        "(default 0.5)")  # fmt: skip
+                        help="both slower than this [m/s]: at rest in a queue, left out of "
+                        "TTC and DRAC (default 0.5); NPCs coming to rest together are left out "
+                        "of TTC too")  # fmt: skip
     parser.add_argument("--drac-limit", type=float, default=10.0, metavar="MPS2",
                         help="DRAC above this [m/s²] is flagged implausible, not a headline "
                         "(default 10: above mu g = 9.8 for mu = 1, no tyre brakes "
