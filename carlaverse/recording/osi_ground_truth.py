@@ -28,15 +28,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from osi3 import osi_groundtruth_pb2, osi_object_pb2, osi_version_pb2
+from osi3 import osi_version_pb2
+from osi3.osi_groundtruth_pb2 import GroundTruth
+from osi3.osi_object_pb2 import MovingObject
 
 from carlaverse import keys as keyspace
 from carlaverse import messages as m
 from carlaverse.recording.osi_map import OsiIds, lanes, signal_heads, traffic_lights
 from carlaverse.recording.reading import iter_samples
 
-GroundTruth = osi_groundtruth_pb2.GroundTruth
-MovingObject = osi_object_pb2.MovingObject
 VehicleType = MovingObject.VehicleClassification.Type
 ACTOR_REFERENCE_TYPE = "net.carlaverse.actor"  # source_reference.type: identifier is the id
 

@@ -22,14 +22,12 @@ import math
 from collections.abc import Iterable
 from dataclasses import dataclass
 
-from osi3 import osi_lane_pb2, osi_trafficlight_pb2
+from osi3.osi_lane_pb2 import Lane, LaneBoundary
+from osi3.osi_trafficlight_pb2 import TrafficLight
 
 from carlaverse import messages as m
 from carlaverse.traffic.polyline import offset_right
 
-Lane = osi_lane_pb2.Lane
-LaneBoundary = osi_lane_pb2.LaneBoundary
-TrafficLight = osi_trafficlight_pb2.TrafficLight
 Color = TrafficLight.Classification.Color
 Mode = TrafficLight.Classification.Mode
 

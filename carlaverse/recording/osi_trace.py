@@ -96,7 +96,8 @@ def _write(
         SCHEMA_NAME, "protobuf", descriptor_set(osi_groundtruth_pb2.DESCRIPTOR)
     )
     channel: int | None = None
-    count, actors, lanes, lights = 0, set(), 0, 0
+    count, lanes, lights = 0, 0, 0
+    actors: set[int] = set()
     for gt in frames:
         version = osi_version(gt.version)
         if channel is None:

@@ -302,7 +302,7 @@ def _inherited(name: str, anchors: set[str], refused: dict[str, str]) -> tuple[s
 
 def markdown(rows: list[Row]) -> str:
     """The table, and a count per status."""
-    counts = defaultdict(int)
+    counts: dict[str, int] = defaultdict(int)
     for row in rows:
         counts[row.status] += 1
     lines = [
