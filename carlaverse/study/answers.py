@@ -131,6 +131,20 @@ def latest_answers(records: list[Line]) -> dict[tuple[str, str], AnswerRecord]:
     return best
 
 
+def answer_rows(records: list[Line]) -> list[dict[str, Any]]:
+    """One flat row per (node, request), its best set (`latest_answers`), for a table export:
+    node_id, trial, questionnaire, request_id, final, unix_s, then `item.<id>` per answer
+    and `score.<name>` per score, in the order the records came."""
+    return [_row(record) for record in latest_answers(records).values()]
+
+
+def _row(r: AnswerRecord) -> dict[str, Any]:
+    head = {"node_id": r.node_id, "trial": r.trial, "questionnaire": r.questionnaire,
+            "request_id": r.request_id, "final": r.final, "unix_s": r.unix_s}  # fmt: skip
+    items = {f"item.{key}": value for key, value in r.answers.items()}
+    return head | items | {f"score.{name}": value for name, value in r.scores.items()}
+
+
 def to_builtins(record: Line) -> dict[str, Any]:
     """A record as plain JSON-able data (for an export)."""
     return msgspec.to_builtins(record)  # type: ignore[no-any-return]

@@ -220,6 +220,18 @@ BUILT_IN: dict[str, Callable[[], Questionnaire]] = {
 }
 
 
+def find_questionnaire(name: str, relative_to: Path | None = None) -> Questionnaire:
+    """A built-in questionnaire by name (`ssq`, `nasa-tlx`, `raw-tlx`), or one of a study's
+    own from its YAML file (a path, relative to `relative_to`, e.g. the study file's folder).
+    ConfigError naming `name` and the choices otherwise."""
+    if name in BUILT_IN:
+        return BUILT_IN[name]()
+    if not name.endswith((".yaml", ".yml")):
+        raise ConfigError(name, f"no such questionnaire: built in are {sorted(BUILT_IN)}, "
+                          "or name a YAML file of your own (e.g. comfort.yaml)")  # fmt: skip
+    return load_questionnaire(resolve_path(name, relative_to))
+
+
 # --------------------------------------------------------------------------- answers from outside
 
 

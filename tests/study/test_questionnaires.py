@@ -221,3 +221,12 @@ def test_a_bad_custom_questionnaire_is_one_line_naming_the_file_and_field(
     with pytest.raises(ConfigError, match=message) as caught:
         q.load_questionnaire(path)
     assert str(caught.value).startswith(str(path)) and "\n" not in str(caught.value)
+
+
+def test_questionnaires_are_found_by_name_or_by_their_file(tmp_path: Path) -> None:
+    assert q.find_questionnaire("ssq").id == "ssq"
+    assert len(q.find_questionnaire("raw-tlx").items) == 6
+    (tmp_path / "comfort.yaml").write_text(CUSTOM)
+    assert q.find_questionnaire("comfort.yaml", tmp_path).id == "comfort"
+    with pytest.raises(ConfigError, match=r"sss: no such questionnaire: built in are \['nasa"):
+        q.find_questionnaire("sss")

@@ -11,7 +11,14 @@ from pathlib import Path
 
 from carlaverse import messages as m
 from carlaverse.study import questionnaires as q
-from carlaverse.study.answers import AnswerRecord, AnswerStore, Asked, latest_answers, read_answers
+from carlaverse.study.answers import (
+    AnswerRecord,
+    AnswerStore,
+    Asked,
+    answer_rows,
+    latest_answers,
+    read_answers,
+)
 
 REQUEST = q.ssq().request("t1")
 
@@ -78,3 +85,18 @@ def test_a_process_killed_right_after_storing_loses_nothing(tmp_path: Path) -> N
     assert skipped == 0 and isinstance(record, AnswerRecord)
     assert record.answers == {"vertigo": 3} and record.final
     assert oct(os.stat(path).st_mode & 0o777) == "0o600"  # answers are personal data
+
+
+def test_rows_for_an_export_hold_each_best_set_flat(tmp_path: Path) -> None:
+    path = tmp_path / "answers.jsonl"
+    tlx = q.nasa_tlx(weighted=False).request("t1")
+    with AnswerStore(path) as store:
+        store.asked("p01", REQUEST)
+        store.answered(REQUEST, answers(1, fatigue=1))
+        store.answered(tlx, m.QuestionnaireAnswers(3, tlx.request_id, "p02", 1, {"mental": 5}))
+        store.answered(REQUEST, answers(2, True, fatigue=2), {"oculomotor": 15.16})
+    rows = answer_rows(read_answers(path)[0])
+    assert [(r["node_id"], r["request_id"], r["final"]) for r in rows] == [
+        ("p01", "t1.ssq", True), ("p02", "t1.raw-tlx", False)]  # fmt: skip
+    assert rows[0]["item.fatigue"] == 2 and rows[0]["score.oculomotor"] == 15.16
+    assert rows[1]["item.mental"] == 5 and rows[1]["questionnaire"] == "raw-tlx"
