@@ -11,7 +11,7 @@ import pytest
 from carlaverse.cli import main
 from carlaverse.recording.reading import iter_samples
 from carlaverse.study.lsl_sink import decode_sample
-from tests.study.lsl_support import NETWORK, EcgOutlet, Fabric, open_fabric
+from tests.study.lsl_support import NETWORK, SESSION_OFFSET_S, EcgOutlet, Fabric, lsl, open_fabric
 from tests.support import wait_until
 
 
@@ -56,3 +56,23 @@ def test_record_lsl_names_an_absent_stream_and_writes_nothing(
     assert code == 2, err
     assert "carlaverse record: LSL stream(s) NoSuchTobii not found within 0.3 s" in err
     assert not out.exists()
+
+
+def test_record_lsl_markers_publishes_the_session_clock_on_lsl(
+    fabric: Fabric, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = _record(fabric, tmp_path / "m.mcap", "--duration", "4", "--lsl-markers")
+    result: list[int] = []
+    runner = threading.Thread(target=lambda: result.append(main(argv)))
+    runner.start()
+    pylsl = lsl()
+    found = pylsl.resolve_byprop("name", "carlaverse-lsltest-clock", 1, 10.0)
+    assert found, "the session-clock stream did not appear"
+    inlet = pylsl.StreamInlet(found[0])
+    sample, stamp = inlet.pull_sample(timeout=5.0)
+    correction = inlet.time_correction(5.0)  # while the outlet is there to be probed
+    runner.join(timeout=30)
+    assert result == [0], capsys.readouterr().err
+    # session time = LSL time + the stand-in authority's offset (tests/study/lsl_support.py)
+    assert sample[0] - (stamp + correction) == pytest.approx(SESSION_OFFSET_S, abs=0.005)
+    assert "LSL: markers published, no stream recorded" in capsys.readouterr().err
