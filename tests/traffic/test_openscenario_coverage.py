@@ -167,7 +167,7 @@ def _everything_supported(path: Path) -> Path:
     parameters = xosc.ParameterDeclarations()
     parameters.add_parameter(xosc.Parameter("unused", xosc.ParameterType.double, "1.0"))
     return scenario(path, by_speed, by_distance, ttc, after, at_time,
-                    act_stop=xosc.EmptyTrigger("stop"), parameters=parameters)  # fmt: skip
+                    act_stop=xosc.Trigger("stop"), parameters=parameters)  # fmt: skip
 
 
 def _reach(path: Path) -> Path:
