@@ -256,12 +256,35 @@ def _place(obj: MovingObject, template: MovingObject, row: np.ndarray) -> None:
     b.orientation.roll, b.orientation.pitch, b.orientation.yaw = roll, pitch, yaw
     b.velocity.x, b.velocity.y, b.velocity.z = row[_C["vx"]], row[_C["vy"]], row[_C["vz"]]
     b.acceleration.x, b.acceleration.y, b.acceleration.z = row[_C["ax"] : _C["az"] + 1]
+    omega = row[_C["wx"] : _C["wz"] + 1]
     rate = b.orientation_rate
-    rate.roll, rate.pitch, rate.yaw = row[_C["wx"]], row[_C["wy"]], row[_C["wz"]]
+    rate.roll, rate.pitch, rate.yaw = _euler_rates(roll, pitch, yaw, omega)
+
+
+def _rotation(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """Rz(yaw) Ry(pitch) Rx(roll): body axes (columns) in the world frame."""
+    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
+                              math.cos(yaw), math.sin(yaw))  # fmt: skip
+    return np.array([
+        [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+        [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+        [-sp, cp * sr, cp * cr],
+    ])  # fmt: skip
+
+
+def _euler_rates(roll: float, pitch: float, yaw: float, omega: np.ndarray) -> tuple[float, ...]:
+    """d(roll, pitch, yaw)/dt from the world-frame angular velocity `omega` [rad/s].
+
+    OSI's orientation_rate is the rate of its angles, not an angular velocity: through the
+    body rates (p, q, r) = R^T omega, the z-y'-x'' kinematics give roll' = p + (q sin roll +
+    r cos roll) tan pitch, pitch' = q cos roll - r sin roll, yaw' = (q sin roll + r cos roll)
+    / cos pitch. For a level body it is omega itself."""
+    p, q, r = _rotation(roll, pitch, yaw).T @ omega
+    turn = q * math.sin(roll) + r * math.cos(roll)
+    return (float(p + turn * math.tan(pitch)), float(q * math.cos(roll) - r * math.sin(roll)),
+            float(turn / math.cos(pitch)))  # fmt: skip
 
 
 def _body_up(roll: float, pitch: float, yaw: float) -> np.ndarray:
-    """The body's z axis in the world frame: third column of Rz(yaw) Ry(pitch) Rx(roll)."""
-    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
-                              math.cos(yaw), math.sin(yaw))  # fmt: skip
-    return np.array([cy * sp * cr + sy * sr, sy * sp * cr - cy * sr, cp * cr])
+    """The body's z axis in the world frame."""
+    return _rotation(roll, pitch, yaw)[:, 2]

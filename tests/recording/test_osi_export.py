@@ -14,6 +14,7 @@ import time
 from pathlib import Path
 
 import betterosi
+import numpy as np
 import pytest
 from mcap.reader import make_reader
 
@@ -271,3 +272,29 @@ def test_a_leaning_rider_s_box_centre_leans_with_it(tmp_path: Path) -> None:
         (10.0 - h / 2 * math.sin(0.3), 20.0, h / 2 * math.cos(0.3)), abs=1e-6
     )
     assert (o.roll, o.yaw) == pytest.approx((-0.3, math.pi / 2), abs=1e-6)
+
+
+def test_orientation_rate_is_the_rate_of_osi_s_angles(tmp_path: Path) -> None:
+    # A pose carries its angular velocity in the world frame (docs/protocol.md); OSI's
+    # orientation_rate is the rate of its z-y'-x'' angles. The expected rates come from scipy:
+    # turn the pose's rotation by omega * dt in the world frame and difference the angles.
+    from scipy.spatial.transform import Rotation
+
+    roll, pitch, yaw, omega = -0.3, 0.1, 2.0, np.array([0.2, -0.1, 0.5])
+    path = tmp_path / "spin.mcap"
+    keys = Keys("rec")
+    sink = McapSink(path, monotonic=time.monotonic)
+    for k in range(2):
+        pose = m.Pose(k, k * 0.05, 0.0, 0.0, 0.0, roll, pitch, yaw, 0.0, 0.0, 0.0, *omega)
+        sink.write(keys.pose("bike-1", "t0_0"), m.POSE.encode(pose), T0_NS + k * 50_000_000)
+    sink.close()
+    assert main(["osi", str(path), "-o", str(tmp_path / "spin.osi.mcap")]) == 0
+    rate = next(betterosi.read(str(tmp_path / "spin.osi.mcap"), return_ground_truth=True))
+    rate = rate.moving_object[0].base.orientation_rate
+    dt = 1e-6
+    now = Rotation.from_euler("ZYX", [yaw, pitch, roll])
+    later = Rotation.from_rotvec(omega.astype(np.float16).astype(float) * dt) * now
+    yaw1, pitch1, roll1 = later.as_euler("ZYX")
+    expected = ((roll1 - roll) / dt, (pitch1 - pitch) / dt, (yaw1 - yaw) / dt)
+    assert (rate.roll, rate.pitch, rate.yaw) == pytest.approx(expected, abs=1e-4)
+    assert abs(rate.roll - omega[0]) > 0.01  # not the angular velocity copied through
