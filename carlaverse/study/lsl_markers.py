@@ -60,6 +60,7 @@ class MarkerStats:
     ignored: int = 0  # world events that are no marker (spawns, despawns)
     bad: int = 0  # payloads on world/events that are no world event
     dropped: int = 0  # events lost to a full queue
+    failed: int = 0  # markers the outlet refused (logged)
     clock_samples: int = 0
 
 
@@ -160,7 +161,11 @@ class SessionMarkers:
                 if self._stop.is_set():
                     return
                 continue
-            self._push_marker(*item)
+            try:
+                self._push_marker(*item)
+            except Exception as exc:  # one marker that cannot go must not end the others
+                self.stats.failed += 1
+                log.warning("LSL marker not published: %s: %s", type(exc).__name__, exc)
 
     def _push_clock(self, local_t: float) -> None:
         self._clock.push_sample([self._follower.to_session(local_t)], local_t)

@@ -115,3 +115,14 @@ def test_the_clock_stream_pairs_lsl_time_with_session_time(
         assert abs(session_t - (stamp + correction + SESSION_OFFSET_S)) < ACCURACY_S
     stamps = [stamp for _, stamp in received]
     assert all(0.1 < b - a < 0.4 for a, b in itertools.pairwise(stamps))  # 0.2 s
+
+
+def test_a_marker_that_cannot_be_written_is_counted_and_the_next_goes(
+    fabric: Fabric, markers: SessionMarkers
+) -> None:
+    inlet = _inlet(marker_stream_name("lsltest"))
+    markers.mark("odd", {"value": object()})  # type: ignore[dict-item]  # not JSON
+    markers.trial_ended("T3", outcome="completed")
+    ((values, _),) = _pull(inlet, 1)
+    assert json.loads(values[0])["type"] == "trial_end"
+    assert (markers.stats.failed, markers.stats.published) == (1, 1)
