@@ -298,3 +298,35 @@ def test_orientation_rate_is_the_rate_of_osi_s_angles(tmp_path: Path) -> None:
     expected = ((roll1 - roll) / dt, (pitch1 - pitch) / dt, (yaw1 - yaw) / dt)
     assert (rate.roll, rate.pitch, rate.yaw) == pytest.approx(expected, abs=1e-4)
     assert abs(rate.roll - omega[0]) > 0.01  # not the angular velocity copied through
+
+
+def test_lanes_of_one_road_are_neighbours_with_the_change_rules_as_markings() -> None:
+    # SUMO numbers an edge's lanes from the right (index 0 the rightmost: SUMO "Networks/SUMO
+    # Road Networks", lane indices), so E_1 is left of E_0. A lane change allowed across a
+    # boundary is a dashed line, one forbidden a solid line; the road's outer edges are not
+    # known (the map carries no markings). ":J_0_0" is a SUMO junction-internal lane.
+    from carlaverse.recording.osi_map import Lane, LaneBoundary, OsiIds, lanes
+
+    line = [(0.0, 0.0), (50.0, 0.0)]
+    road = m.MapReply(2, "two-lane", (0, -10, 60, 10), [
+        m.MapLane("E_0", "road", 3.2, line, change_left=True, successors=[":J_0_0"]),
+        m.MapLane("E_1", "road", 3.2, [(0.0, 3.2), (50.0, 3.2)], change_right=False),
+        m.MapLane(":J_0_0", "road", 3.2, [(50.0, 0.0), (55.0, 0.0)]),
+        m.MapLane("E_2", "sidewalk", 2.0, [(0.0, 5.8), (50.0, 5.8)]),
+    ])  # fmt: skip
+    ids = OsiIds()
+    out, boundaries = lanes(road, ids)
+    by_id = {lane.id.value: lane for lane in out}
+    e0, e1, junction, walk = (by_id[ids.of("lane", n)] for n in ("E_0", "E_1", ":J_0_0", "E_2"))
+    assert [a.value for a in e0.classification.left_adjacent_lane_id] == [e1.id.value]
+    assert [a.value for a in e1.classification.right_adjacent_lane_id] == [e0.id.value]
+    assert not e1.classification.left_adjacent_lane_id  # the sidewalk is no driving neighbour
+    assert e0.classification.lane_pairing[0].successor_lane_id.value == junction.id.value
+    types = Lane.Classification
+    assert (junction.classification.type, walk.classification.subtype) == (
+        types.TYPE_INTERSECTION, types.SUBTYPE_SIDEWALK)  # fmt: skip
+    marking = {b.id.value: b.classification.type for b in boundaries}
+    line_types = LaneBoundary.Classification
+    assert marking[e0.classification.left_lane_boundary_id[0].value] == line_types.TYPE_DASHED_LINE
+    assert marking[e1.classification.right_lane_boundary_id[0].value] == line_types.TYPE_SOLID_LINE
+    assert marking[e0.classification.right_lane_boundary_id[0].value] == line_types.TYPE_UNKNOWN
