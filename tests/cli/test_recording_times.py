@@ -13,6 +13,7 @@ import pytest
 from carlaverse import messages as m
 from carlaverse.cli import main
 from carlaverse.keys import Keys
+from carlaverse.recording.reading import is_finished
 from carlaverse.recording.sink import McapSink
 from carlaverse.recording.timeline import OutOfRange, RecordingSpan, recording_span
 
@@ -51,6 +52,22 @@ def test_the_span_is_on_the_session_clock(recording: Path) -> None:
     assert span.session_time(2.5, "--at") == pytest.approx(502.5, abs=1e-9)
     assert span.session_time(505.0, "--at-session", session=True) == 505.0
     assert span.from_start(507.25) == pytest.approx(7.25, abs=1e-9)
+
+
+def test_a_killed_recorders_file_has_its_span_read_through(tmp_path: Path) -> None:
+    # No summary (the recorder never closed it): the span comes from reading the samples,
+    # the same 500 ... 502 s the poses written say.
+    keys, path = Keys("rec"), tmp_path / "killed.mcap"
+    sink = McapSink(path, monotonic=time.monotonic)
+    for k in range(101):
+        pose = m.Pose(k, SESSION_T0_S + k / 50, 0.0, 0.0)
+        sink.write(keys.pose("ego-0", "t0_0"), m.POSE.encode(pose), T0_NS + k * 20_000_000)
+    sink.flush()  # the chunk is on disk; no close, so no summary
+    assert not is_finished(path)
+    span = recording_span(path)
+    assert span.start == pytest.approx(SESSION_T0_S, abs=1e-9)
+    assert span.end == pytest.approx(SESSION_T0_S + 2.0, abs=1e-9)
+    sink.close()
 
 
 @pytest.mark.parametrize(
