@@ -6,9 +6,12 @@ from pathlib import Path
 
 import msgpack
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from carlaverse import messages as m
 from carlaverse.config import ConfigError
+from carlaverse.hmi.questionnaire import QuestionnaireDesk
 from carlaverse.study import questionnaires as q
 
 # Kennedy, Lane, Berbaum & Lilienthal (1993), Int. J. Aviation Psychology 3(3):203-220, Table 1
@@ -230,3 +233,23 @@ def test_questionnaires_are_found_by_name_or_by_their_file(tmp_path: Path) -> No
     assert q.find_questionnaire("comfort.yaml", tmp_path).id == "comfort"
     with pytest.raises(ConfigError, match=r"sss: no such questionnaire: built in are \['nasa"):
         q.find_questionnaire("sss")
+
+
+answer_values = st.one_of(
+    st.integers(), st.text(max_size=30), st.booleans(), st.none(), st.floats()
+)
+
+
+@given(st.dictionaries(st.text(max_size=20), answer_values, max_size=8), st.booleans())
+def test_any_answer_set_from_outside_is_judged_never_raised(answers, final) -> None:
+    problems = q.check_answers(q.nasa_tlx().items, answers, final)
+    assert isinstance(problems, list)
+    if not problems and final:
+        q.score(q.nasa_tlx(), answers)  # a set the check lets through scores
+
+
+@given(st.binary(max_size=300))
+def test_any_bytes_on_the_ask_key_are_counted_or_shown_never_raised(payload: bytes) -> None:
+    desk = QuestionnaireDesk("p01", lambda _: None)
+    desk.receive_request(payload)
+    assert desk.requests_shown + sum(desk.requests_dropped.values()) == 1
