@@ -156,7 +156,6 @@ def summary(
     `…_at_s` times are seconds from the recording's start (`start`, session time)."""
     humans = [a.id for a in tracks.actors if a.human]
     critical = [p for p in pairs if p.min_ttc_s < th.ttc_s]
-    worst = min(pairs, key=lambda p: p.min_ttc_s, default=None)
     drac = max(pairs, key=lambda p: p.max_drac_mps2, default=None)
     return {
         "duration_s": float(tracks.t[-1] - tracks.t[0]) if len(tracks.t) > 1 else 0.0,
@@ -168,9 +167,8 @@ def summary(
         "human_pairs_ttc_below_threshold": sum(1 for p in critical if p.human),
         "contacts": sum(1 for p in pairs if p.min_gap_m == 0.0),
         "crossing_conflicts": len(conflicts),
-        "min_ttc_s": _finite(worst.min_ttc_s if worst else math.inf),
-        "min_ttc_at_s": _finite(worst.t_min_ttc - start if worst else math.nan),
-        "min_ttc_pair": [worst.a, worst.b] if worst and math.isfinite(worst.min_ttc_s) else None,
+        **_least_ttc("human_", [p for p in pairs if p.human], start),
+        **_least_ttc("", pairs, start),
         "min_pet_s": _finite(min((c.pet_s for c in conflicts), default=math.inf)),
         "max_drac_mps2": drac.max_drac_mps2 if drac else 0.0,
         "max_drac_at_s": _finite(drac.t_max_drac - start if drac else math.nan),
@@ -178,6 +176,19 @@ def summary(
         "pairs_drac_implausible": sum(1 for p in pairs if p.drac_implausible_s > 0),
         "standstill_mps": th.standstill_mps,
         "pairs_queued": sum(1 for p in pairs if p.queued_s > 0),
+    }
+
+
+def _least_ttc(prefix: str, pairs: list[PairMeasures], start: float) -> dict:
+    """The least TTC of `pairs`, when (seconds from the start) and between whom."""
+    worst = min(pairs, key=lambda p: p.min_ttc_s, default=None)
+    if worst is None or not math.isfinite(worst.min_ttc_s):
+        return {f"{prefix}min_ttc_s": None, f"{prefix}min_ttc_at_s": None,
+                f"{prefix}min_ttc_pair": None}  # fmt: skip
+    return {
+        f"{prefix}min_ttc_s": worst.min_ttc_s,
+        f"{prefix}min_ttc_at_s": worst.t_min_ttc - start,
+        f"{prefix}min_ttc_pair": [worst.a, worst.b],
     }
 
 

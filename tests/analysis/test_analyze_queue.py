@@ -125,7 +125,8 @@ def test_the_queue_at_standstill_is_no_encounter(analysis) -> None:
     assert summary["pairs_ttc_below_threshold"] == 1  # the participant's pair alone
     assert summary["human_pairs_ttc_below_threshold"] == 1
     assert summary["pairs_queued"] == 1 and summary["pairs_drac_implausible"] == 1
-    assert summary["min_ttc_pair"] == ["ego-0", "stopped"]
+    assert summary["min_ttc_pair"] == summary["human_min_ttc_pair"] == ["ego-0", "stopped"]
+    assert summary["human_min_ttc_s"] == pytest.approx(gap_m(3.0) / EGO_SPEED, abs=1e-4)
     assert summary["min_ttc_at_s"] == pytest.approx(3.0, abs=1e-6)
     assert summary["max_drac_mps2"] == pytest.approx(50 / gap_m(2.8), rel=1e-4)
     assert summary["max_drac_mps2"] <= summary["drac_limit_mps2"] == 10.0
