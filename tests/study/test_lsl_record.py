@@ -11,6 +11,8 @@ from pathlib import Path
 
 import jsonschema
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from mcap.reader import make_reader
 
 from carlaverse import messages as m
@@ -209,3 +211,28 @@ def test_without_an_authority_the_stream_says_it_has_no_session_time(
     assert stats.samples == 0
     assert stats.error == "no authority answered a clock query: no session time"
     assert read_metadata(tmp_path / "noauth.mcap")["lsl/ECG-noauth"]["error"] == stats.error
+
+
+@given(
+    st.lists(
+        st.tuples(
+            st.lists(st.floats(allow_nan=True, allow_infinity=True), min_size=0, max_size=4),
+            st.floats(allow_nan=True, allow_infinity=True),
+        ),
+        max_size=40,
+    ),
+    st.floats(-10.0, 10.0),
+)
+def test_every_chunk_splits_into_written_and_counted_samples(
+    chunk: list[tuple[list[float], float]], correction: float
+) -> None:
+    stats = StreamStats("X", "lsl/X")
+    mapper = SampleMapper(channel_count=3, stats=stats)
+    rows, stamps = [r for r, _ in chunk], [s for _, s in chunk]
+    out = mapper.map(rows, stamps, correction, to_session=lambda local: local + 7.0)
+    good = [(r, s) for r, s in chunk if len(r) == 3 and math.isfinite(s)]
+    assert len(out) + stats.bad_shape + stats.bad_time == len(chunk)
+    assert [s.seq for s in out] == list(range(len(good)))
+    for sample, (row, stamp) in zip(out, good, strict=True):
+        assert sample.t == stamp + correction + 7.0 and sample.lsl_t == stamp
+        assert sample.values == [v if math.isfinite(v) else None for v in row]
