@@ -236,3 +236,20 @@ def test_every_chunk_splits_into_written_and_counted_samples(
     for sample, (row, stamp) in zip(out, good, strict=True):
         assert sample.t == stamp + correction + 7.0 and sample.lsl_t == stamp
         assert sample.values == [v if math.isfinite(v) else None for v in row]
+
+
+def test_a_string_stream_is_recorded_as_text(fabric: Fabric, tmp_path: Path) -> None:
+    pylsl = lsl()
+    info = pylsl.StreamInfo("Gaze-events", "Markers", 1, 0.0, "string", "test-gaze-events")
+    outlet = pylsl.StreamOutlet(info)
+    path = tmp_path / "text.mcap"
+    sink = SharedSink(path, monotonic=time.monotonic)
+    recording = record_lsl(fabric.client, fabric.keys, sink, pylsl, ["Gaze-events"], 5)
+    assert outlet.wait_for_consumers(5) and recording.follower.wait_synced(5)
+    for text in ("fixation_start", "blink", "fixation_end"):
+        outlet.push_sample([text])
+    wait_until(lambda: recording.stats()[0].samples == 3, 10, "three text samples")
+    recording.stop()
+    sink.close()
+    samples = read_lsl(path)["lsl/Gaze-events"]
+    assert [s.values for s in samples] == [["fixation_start"], ["blink"], ["fixation_end"]]
