@@ -43,7 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=float,
         default=1.0,
         metavar="X",
-        help="time scale: 2 plays twice as fast (default 1)",
+        help="time scale: 2 plays twice as fast (default 1; nodes and viewers that join the "
+        "replay keep real time, so join one played at 1)",
     )
     parser.add_argument("--loop", action="store_true", help="start over at the end until Ctrl-C")
     parser.add_argument(
@@ -92,6 +93,12 @@ def _replay(args: argparse.Namespace) -> ReplayStats:
     target = args.session or default_target(recorded_session(channels, args.file))
     fabric = fabric_from_args(args)  # a --roster problem is said before anything else
     tell(f"replaying {args.file} into session {target}")
+    if args.speed != 1 and not args.no_queries:
+        tell(
+            f"--speed {args.speed:g}: a joined node's or viewer's session clock runs in real "
+            "time and drifts from this replay's (nodes refuse poses 5 s off their time); "
+            "to join the replay, play it at --speed 1"
+        )
     offset_ns = receive_offset_ns(args.file)
     session = open_session(fabric)
     replayer = Replayer(
