@@ -1,7 +1,8 @@
 """A recording as ASAM OSI ground truth: one `osi3.GroundTruth` per tick of a fixed grid.
 
 Moving objects are the participants' egos (`ego/<id>/pose`) and the authority's NPCs
-(`world/npc`); lanes, boundaries and signal heads come from the recorded map
+(`world/npc`), a vehicle's lights from its latest light bits (NPC rows, `ego/<id>/state`;
+`recording/osi_lights.py`); lanes, boundaries and signal heads come from the recorded map
 (`recording/osi_map.py`), signal states from `world/lights`.
 
 Frames. The project's world frame is OSI's global frame: x east, y north, z up, right-handed,
@@ -34,6 +35,7 @@ from osi3.osi_object_pb2 import MovingObject
 
 from carlaverse import keys as keyspace
 from carlaverse import messages as m
+from carlaverse.recording.osi_lights import ego_bits, fill_light_state
 from carlaverse.recording.osi_map import OsiIds, lanes, signal_heads, traffic_lights
 from carlaverse.recording.reading import iter_samples
 
@@ -67,6 +69,10 @@ class RecordedWorld:
     extents: dict[str, m.Extent] = field(default_factory=dict)
     humans: set[str] = field(default_factory=set)
     lights: list[tuple[float, dict[str, str]]] = field(default_factory=list)  # (t, id -> state)
+    # actor -> (t, messages.LIGHT_* bits) where they changed: NPC rows, an ego's EgoState
+    vehicle_lights: dict[str, list[tuple[float, int]]] = field(
+        default_factory=lambda: defaultdict(list)
+    )
     road_map: m.MapReply | None = None
     skipped: int = 0  # samples of our keys that did not decode
 
@@ -102,6 +108,9 @@ def _take(world: RecordedWorld, key: keyspace.ParsedKey, payload: bytes) -> None
         world.samples[key.node_id].append(np.array([[p.t, p.x, p.y, p.z, p.roll, p.pitch, p.yaw,
             p.vx, p.vy, p.vz, p.wx, p.wy, p.wz, p.ax, p.ay, p.az]]))  # fmt: skip
         world.humans.add(key.node_id)
+    elif key.area == "ego" and key.channel == "state":
+        state = m.EGO_STATE.decode(payload)
+        world.vehicle_lights[key.node_id].append((state.t, ego_bits(state)))
     elif key.area == "world" and key.channel == "npc":
         _take_batch(world, m.NPC_BATCH.decode(payload))
     elif key.area == "world" and key.channel == "lights":
@@ -128,6 +137,9 @@ def _take_batch(world: RecordedWorld, batch: m.NpcBatch) -> None:
     table[:, _C["wz"]] = rows["yaw_rate"]
     for npc_id, row, source in zip(batch.ids, table, rows, strict=True):
         world.samples[npc_id].append(row[None, :])
+        seen = world.vehicle_lights[npc_id]
+        if not seen or seen[-1][1] != int(source["lights"]):
+            seen.append((batch.t, int(source["lights"])))
         if npc_id not in world.extents and source["length"] > 0 and source["width"] > 0:
             size = (float(source["length"]), float(source["width"]), float(source["height"]))
             world.extents[npc_id] = m.Extent(*size) if size[2] > 0 else m.Extent(*size[:2])
@@ -198,12 +210,15 @@ def ground_truths(world: RecordedWorld, options: Options = Options()) -> Iterato
     objects = {a: _object_template(world, a, ids.of("actor", a)) for a in order}
     host = options.host or next((a for a in order if a in world.humans), None)
     light_times = [t for t, _ in world.lights]
+    vehicle_lights = {a: sorted(world.vehicle_lights.get(a, [])) for a in order}
     for k, t in enumerate(tick_times(tracks, options.rate_hz)):
         gt = _frame(float(t))
         for actor_id in order:
             row = tracks[actor_id].at(float(t))
             if row is not None:
-                _place(gt.moving_object.add(), objects[actor_id], row)
+                obj = gt.moving_object.add()
+                _place(obj, objects[actor_id], row)
+                _light(obj, vehicle_lights[actor_id], float(t))
                 if actor_id == host:
                     gt.host_vehicle_id.value = ids.of("actor", actor_id)
         if k == 0 or options.map_every_frame:
@@ -213,6 +228,13 @@ def ground_truths(world: RecordedWorld, options: Options = Options()) -> Iterato
         if at >= 0:
             gt.traffic_light.extend(traffic_lights(heads, world.lights[at][1]))
         yield gt
+
+
+def _light(obj: MovingObject, changes: list[tuple[float, int]], t: float) -> None:
+    """A vehicle's lights as its latest recorded bits at `t` say (none before the first)."""
+    at = bisect.bisect_right(changes, (t, 1 << 62)) - 1
+    if obj.type == MovingObject.TYPE_VEHICLE and at >= 0:
+        fill_light_state(obj.vehicle_classification.light_state, changes[at][1])
 
 
 def interface_version() -> osi_version_pb2.InterfaceVersion:

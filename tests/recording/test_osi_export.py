@@ -37,6 +37,8 @@ RATE_HZ = 20.0
 NPCS = 6
 EGO_EXTENTS = {"ego-0": m.Extent(4.6, 1.9, 1.45), "ego-1": m.Extent(1.8, 0.6, 1.7)}
 EGO_KINDS = {"ego-0": "car", "ego-1": "bicycle"}
+NPC0_LIGHTS = m.LIGHT_BRAKE | m.LIGHT_RIGHT_BLINKER  # npc-0 from t = 3 s
+EGO0_STATES = [(2.0, m.LIGHT_LOW_BEAM, "left"), (5.0, m.LIGHT_PARKING, "hazard")]  # (t, bits, ...)
 
 
 def write_recording(path: Path) -> None:
@@ -55,10 +57,16 @@ def write_recording(path: Path) -> None:
             sink.write(keys.pose(f"ego-{i}", "t0_0"), m.POSE.encode(ego_pose(i, k, t)), at)
         if k % 5 == 0:
             ids = [f"npc-{j}" for j in range(NPCS)]
-            batch = m.NpcBatch.pack(k, t, ids, npc_rows(NPCS, t))
+            rows = npc_rows(NPCS, t)
+            rows["lights"][0] = NPC0_LIGHTS if t >= 3.0 else 0
+            batch = m.NpcBatch.pack(k, t, ids, rows)
             sink.write(keys.world("npc"), m.NPC_BATCH.encode(batch), at)
         if k % 50 == 0:
             sink.write(keys.world("lights"), m.LIGHTS.encode(light_state(k, t)), at)
+        for when, lights, indicator in EGO0_STATES:
+            if k == round(when * 50):
+                state = m.EgoState(k, t, lights, indicator)
+                sink.write(keys.ego("ego-0", "state"), m.EGO_STATE.encode(state), at)
     sink.close()
 
 
@@ -330,3 +338,32 @@ def test_lanes_of_one_road_are_neighbours_with_the_change_rules_as_markings() ->
     assert marking[e0.classification.left_lane_boundary_id[0].value] == line_types.TYPE_DASHED_LINE
     assert marking[e1.classification.right_lane_boundary_id[0].value] == line_types.TYPE_SOLID_LINE
     assert marking[e0.classification.right_lane_boundary_id[0].value] == line_types.TYPE_UNKNOWN
+
+
+def test_vehicle_lights_follow_the_recorded_bits(exported) -> None:
+    # docs/protocol.md light bits; OSI LightState: a blinker is INDICATOR_STATE_LEFT/RIGHT,
+    # both at once the hazard WARNING; low beams are the head lights, and they and the
+    # position (parking) lights light the tail lights; brake lights NORMAL when braking.
+    _, _, frames = exported
+    indicator, generic = (
+        betterosi.MovingObjectVehicleClassificationLightStateIndicatorState,
+        betterosi.MovingObjectVehicleClassificationLightStateGenericLightState,
+    )
+    brake = betterosi.MovingObjectVehicleClassificationLightStateBrakeLightState
+    seen = set()
+    for frame in frames:
+        t = seconds(frame)
+        objects = {actor_of(o): o for o in frame.moving_object}
+        ego, npc = (objects[a].vehicle_classification.light_state for a in ("ego-0", "npc-0"))
+        if t < 2.0:
+            assert ego is None, t  # nothing recorded yet: no light state
+        elif t < 5.0:
+            assert (ego.indicator_state, ego.head_light, ego.tail_light) == (
+                indicator.LEFT, generic.ON, generic.ON), t  # fmt: skip
+        else:
+            assert (ego.indicator_state, ego.head_light, ego.tail_light) == (
+                indicator.WARNING, generic.OFF, generic.ON), t  # fmt: skip
+        want = (indicator.RIGHT, brake.NORMAL) if t >= 3.0 else (indicator.OFF, brake.OFF)
+        assert (npc.indicator_state, npc.brake_light_state) == want, t
+        seen.add((ego and ego.indicator_state, want))
+    assert len(seen) == 4  # before any state, left, left and braking NPC, hazard
