@@ -17,6 +17,7 @@ kill interrupted is logged `killed` and run again as a new attempt.
 
 from __future__ import annotations
 
+import secrets
 import threading
 import time
 from collections.abc import Callable
@@ -106,8 +107,12 @@ class StudyRunner:
         state, fingerprint = self.log.state, digest(self.study)
         if state.events == 0:
             roles = {p.id: p.role for p in self.study.participants}
+            # Sessions are named <study>-<run>-<trial>-a<attempt>: two runs of one study (two
+            # groups, a run begun again in a new folder) never share a session, nor a node's
+            # shared memory, which is named after its session.
             self.log.append("study", study=self.study.name, digest=fingerprint,
-                            trials=len(self.trials), participants=roles)  # fmt: skip
+                            run_id=secrets.token_hex(3), trials=len(self.trials),
+                            participants=roles)  # fmt: skip
             return
         if state.digest != fingerprint:
             raise StudyLogError(

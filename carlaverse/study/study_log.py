@@ -3,7 +3,7 @@
 The runner is its one writer. Every line has `event` and `t` (UTC, ISO 8601) and `unix`
 ([s]); the events (docs: README "Studies", the study log):
 
-    study        the run began: study name, digest of the study file, trial count
+    study        the run began: study name, digest of the study file, run_id, trial count
     resumed      a later run went on from the log
     trial_start  trial, attempt, session, kind, block, conditions, links, scenario, seed,
                  who (participant -> role), recording (path relative to the output folder)
@@ -45,6 +45,7 @@ class LogState:
     """What the log says has happened."""
 
     digest: str = ""
+    run_id: str = ""  # names this run's sessions apart from any other run of the study
     completed: set[str] = field(default_factory=set)
     attempts: dict[str, int] = field(default_factory=dict)  # trial -> attempts started
     open_trial: tuple[str, int] | None = None  # (trial, attempt) started, never ended
@@ -83,6 +84,7 @@ class StudyLog:
         event, trial = record.get("event"), str(record.get("trial", ""))
         if event == "study":
             s.digest = str(record.get("digest", ""))
+            s.run_id = str(record.get("run_id", ""))
         elif event == "trial_start":
             attempt = int(record.get("attempt", 1))
             s.attempts[trial] = max(s.attempts.get(trial, 0), attempt)

@@ -70,7 +70,7 @@ class TrialRun:
 
     def __init__(self, ctx: StudyContext, trial: Trial, attempt: int) -> None:
         self.ctx, self.trial, self.attempt = ctx, trial, attempt
-        self.session = f"{ctx.study.name}-{trial.id}-a{attempt}"
+        self.session = f"{ctx.study.name}-{ctx.log.state.run_id}-{trial.id}-a{attempt}"
         self.recording = ctx.out / TRIALS_DIR / f"{trial.id}.mcap"
         self.roles = {p.id: p.role for p in ctx.study.participants}
         by_id = {c.id: c for c in ctx.study.conditions}
