@@ -35,12 +35,14 @@ def draw(
     pairs: list[PairMeasures],
     conflicts: list[Conflict],
     th: Thresholds,
+    start: float = 0.0,
 ) -> None:
+    """The picture; each critical mark labelled with its time in seconds after `start`."""
     fig, ax = plt.subplots(figsize=(10, 10), dpi=110)
     if road_map is not None:
         _draw_map(ax, road_map)
     _draw_tracks(ax, tracks)
-    _mark_conflicts(ax, tracks, pairs, conflicts, th)
+    _mark_conflicts(ax, tracks, pairs, conflicts, th, start)
     ax.set_aspect("equal")
     ax.set_xlabel("x (east) [m]")
     ax.set_ylabel("y (north) [m]")
@@ -78,20 +80,29 @@ def _segments(tracks: Tracks, i: int) -> list[tuple[float, float]]:
     return list(zip(tracks.x[i, keep], tracks.y[i, keep], strict=True))
 
 
-def _mark_conflicts(ax, tracks: Tracks, pairs, conflicts, th: Thresholds) -> None:
+def _mark_conflicts(ax, tracks: Tracks, pairs, conflicts, th: Thresholds, start: float) -> None:
     critical = [p for p in pairs if p.min_ttc_s < th.ttc_s and not math.isnan(p.t_min_ttc)]
     for p in critical:
         k = int(abs(tracks.t - p.t_min_ttc).argmin())
         i = tracks.index(p.a)
         ax.scatter(tracks.x[i, k], tracks.y[i, k], marker="o", s=60, facecolors="none",
                    edgecolors="#d62728", zorder=4)  # fmt: skip
+        _label(ax, tracks.x[i, k], tracks.y[i, k], p.t_min_ttc - start)
     close = [c for c in conflicts if c.pet_s < th.ttc_s]
     if close:
         ax.scatter([c.x for c in close], [c.y for c in close], marker="x", s=70,
                    color="#d62728", zorder=5, label=f"PET < {th.ttc_s:g} s")  # fmt: skip
+    for c in close:
+        _label(ax, c.x, c.y, c.t_second_arrives - start)
     if critical:
         ax.scatter([], [], marker="o", facecolors="none", edgecolors="#d62728",
                    label=f"min TTC < {th.ttc_s:g} s")  # fmt: skip
+
+
+def _label(ax: plt.Axes, x: float, y: float, at_s: float) -> None:
+    """The moment beside its mark, as `render --at` takes it."""
+    ax.annotate(f"{at_s:.1f} s", (x, y), xytext=(5, 5), textcoords="offset points",
+                fontsize=7, color="#d62728", zorder=6)  # fmt: skip
 
 
 def write_html(path: Path, image: str, summary: dict, tables: Tables, source: str) -> None:

@@ -51,7 +51,7 @@ def analyze(
         export.write_table(table, out, name)
     summary = export.summary(tracks, pairs, conflicts, th, start)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    report.draw(out / "report.png", tracks, read.road_map, pairs, conflicts, th)
+    report.draw(out / "report.png", tracks, read.road_map, pairs, conflicts, th, start)
     shown = report.Tables(*(tables[k].to_pylist() for k in ("pairs", "conflicts", "actors")))
     report.write_html(out / "report.html", "report.png", summary, shown, str(recording))
     return summary
