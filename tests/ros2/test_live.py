@@ -14,12 +14,13 @@ from typing import Any
 import numpy as np
 
 from carlaverse import messages as m
+from carlaverse.procs import free_port
 from carlaverse.ros2 import types as ros_types
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.node_client import NodeClient, NodeSettings
 from carlaverse.transport.session import FabricSettings, open_session
 from tests.ros2.ros_side import ros_side
-from tests.support import Cluster, wait_until
+from tests.support import Cluster, _accepts, wait_until
 
 SPEED_MPS = 10.0
 YAW_RATE = 0.2  # [rad/s] turning left: counter-clockwise seen from above
@@ -96,6 +97,12 @@ def test_the_session_as_ros2_topics(cluster: Cluster, tmp_path: Path) -> None:
     ego = ego_client(cluster, "ego-1", north_east_pose)
     view = cluster.start("ros2", "view", "--session", "t", "--connect", cluster.endpoint,
                          "--duration", "40", "--json", name="ros2-view")  # fmt: skip
+    # The ROS side on a router of its own connected to the session's, as docs/protocol.md
+    # tells a ROS host to run rmw_zenohd.
+    ros_port = free_port()
+    ros_router = cluster.start("router", "--listen", f"tcp/127.0.0.1:{ros_port}", "--connect",
+                               cluster.endpoint, name="ros-router")  # fmt: skip
+    wait_until(lambda: _accepts(ros_port) or not ros_router.alive(), 30, "the ROS router")
     heard = Heard()
     seq = iter(range(1, 10**6))
 
@@ -104,17 +111,17 @@ def test_the_session_as_ros2_topics(cluster: Cluster, tmp_path: Path) -> None:
         outbox.npc(npc_batch(next(seq), t))
         outbox.lights(m.LightsState(next(seq), t, [m.TrafficLight("J1", "GrGr", 2, 4.5)]))
 
-    with ros_side(cluster.port, tmp_path / "msgs"):
+    with ros_side(ros_port, tmp_path / "msgs"):
         try:
             # `ros2 topic list -t`: every topic with its type, from the liveliness graph
             def all_listed() -> bool:
                 world_goes_on()
-                topics = listed_topics(cluster.port)
+                topics = listed_topics(ros_port)
                 return all(topics.get(n) == [ty] for n, ty in VIEW_TOPICS.items())
 
             wait_until(all_listed, 30, f"the ROS graph to list {VIEW_TOPICS}", poll=0.2)
             for topic, msg_type in VIEW_TOPICS.items():
-                heard.subscribe(cluster.port, topic, msg_type)
+                heard.subscribe(ros_port, topic, msg_type)
 
             def every_topic_heard() -> bool:
                 world_goes_on()
