@@ -241,6 +241,11 @@ def test_the_file_is_an_osi_trace_by_the_spec(exported) -> None:
         read = list(channel_reader)
     assert len(read) == len(frames)
     assert type(read[0]).__name__ == "GroundTruth" and read[0].lane
+    # and osi-python's own trace reader
+    from osi3trace.osi_trace import OSITrace
+
+    official = list(OSITrace(str(trace), "GroundTruth", topic="ground_truth"))
+    assert [g.SerializeToString() for g in official] == [g.SerializeToString() for g in read]
 
 
 def test_user_errors_are_one_line(exported, tmp_path: Path, capsys) -> None:
