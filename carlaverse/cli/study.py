@@ -58,6 +58,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "to greet participants by name on this console only",
     )  # fmt: skip
     run.add_argument(
+        "--link-bind", default="127.0.0.1", metavar="ADDR",
+        help="where the participants' link relays listen (default loopback; a study whose "
+        "participants' machines connect from elsewhere names this host's address)",
+    )  # fmt: skip
+    run.add_argument(
         "--backend", default="sim",
         help="devices of locally launched nodes (default sim; '' for real ones)",
     )  # fmt: skip
@@ -123,7 +128,9 @@ def _run(args: argparse.Namespace) -> int:
         greet = load_people(args.people, [args.file.parent, args.out],
                             [p.id for p in study.participants])  # fmt: skip
     stop = stop_on_signals()
-    settings = RunSettings(args.file, args.out, list(args.connect), args.backend, greet)
+    settings = RunSettings(
+        args.file, args.out, list(args.connect), args.backend, greet, args.link_bind
+    )
     runner = StudyRunner(study, settings, stop, say("study"))
     try:
         result = runner.run()

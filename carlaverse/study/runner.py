@@ -49,6 +49,7 @@ class RunSettings:
     connect: list[str] = field(default_factory=list)  # a router; overrides the study's
     backend: str = "sim"  # the devices of locally launched nodes
     greet: dict[str, str] = field(default_factory=dict)  # pseudonym -> person, console only
+    link_bind: str = "127.0.0.1"  # where the participants' relays listen
 
 
 @dataclass(frozen=True)
@@ -84,7 +85,9 @@ class StudyRunner:
         if not todo:
             return self._result("done")
         router = self._router()
-        links = ParticipantLinks(self.study.participants, router, seed=self.study.design.seed)
+        links = ParticipantLinks(
+            self.study.participants, router, self.settings.link_bind, self.study.design.seed
+        )
         session = open_session(FabricSettings(connect=[router]))
         briefer = Briefer(session, self.study.name, [p.id for p in self.study.participants])
         try:
