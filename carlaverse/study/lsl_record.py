@@ -209,7 +209,8 @@ class _StreamThread:
                 return
             while not self._stop.is_set():
                 self._pull(timeout_s=0.1)
-            self._pull(timeout_s=0.0)  # what arrived before the stop
+            while self._pull(timeout_s=0.0):  # what arrived before the stop
+                pass
         except Exception as exc:  # a broken stream ends its own recording, never the others
             self.stats.error = f"{type(exc).__name__}: {exc}"
             log.error("LSL stream %s stopped: %s", self.stats.name, self.stats.error)
@@ -217,10 +218,11 @@ class _StreamThread:
             self.stats.clock_bound_s = self._follower.uncertainty_s
             self._inlet.close_stream()
 
-    def _pull(self, timeout_s: float) -> None:
+    def _pull(self, timeout_s: float) -> int:
+        """Pull and write one chunk; how many samples it held (bad ones included)."""
         values, stamps = self._inlet.pull_chunk(timeout=timeout_s, max_samples=CHUNK_MAX)
         if not stamps:
-            return
+            return 0
         received_ns = self._wall_ns()
         correction = self._correction()
         samples = self._mapper.map(values, stamps, correction, self._follower.to_session)
@@ -231,6 +233,7 @@ class _StreamThread:
                 self.stats.first_t = samples[0].t
             self.stats.samples += len(samples)
             self.stats.last_t = samples[-1].t
+        return len(stamps)
 
     def _correction(self) -> float:
         """liblsl's latest estimate (it re-probes in the background); the last one if a
