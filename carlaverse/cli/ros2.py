@@ -94,10 +94,13 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     return _report(command, args, summary, out)
 
 
-def _config(args: argparse.Namespace) -> Any:
+def _config(args: argparse.Namespace) -> AvConfig | Ros2BridgeConfig:
     """The role's config: its file, then the flags; errors name the flag or the field."""
-    config_type = AvConfig if args.role == "av" else Ros2BridgeConfig
-    config = load_config(args.config, config_type) if args.config else config_type()
+    config: AvConfig | Ros2BridgeConfig
+    if args.role == "av":
+        config = load_config(args.config, AvConfig) if args.config else AvConfig()
+    else:
+        config = load_config(args.config, Ros2BridgeConfig) if args.config else Ros2BridgeConfig()
     node = config.node
     node_changes: dict[str, Any] = {}
     if args.node_id:
@@ -120,7 +123,7 @@ def _config(args: argparse.Namespace) -> Any:
     build_config(fabric)
     ros2 = _ros2(args, config.ros2)
     changes: dict[str, Any] = {"node": node, "fabric": fabric, "ros2": ros2}
-    if args.role == "av" and args.odom_topic:
+    if isinstance(config, AvConfig) and args.odom_topic:
         changes["av"] = AvSettings(args.odom_topic, config.av.odom_timeout_s)
     return msgspec.convert(
         msgspec.to_builtins(msgspec.structs.replace(config, **changes)), type(config)
