@@ -36,7 +36,7 @@ WRAPPED = "the elements inside it are read (it is a container)"
 # element -> (status, what is read, or the refusal's message)
 EXPLICIT: dict[str, tuple[str, str]] = {
     # the file
-    "OpenSCENARIO": (PARTLY, "a scenario definition; a file without <Storyboard> is refused: "
+    "OpenSCENARIO": (PARTLY, "a scenario definition; a file without `Storyboard` is refused: "
                      "`<OpenSCENARIO> holds no <Storyboard>: a catalog or a parameter "
                      "distribution is not a scenario`"),
     "OpenScenario": (PARTLY, "as OpenSCENARIO (the root element's other spelling)"),
@@ -96,7 +96,7 @@ EXPLICIT: dict[str, tuple[str, str]] = {
                           "true (centres only) is not supported…`, `event 'NAME': "
                           "DistanceCondition relativeDistanceType '…' is not supported…`); "
                           "coordinateSystem and routingAlgorithm are not read"),
-    "ReachPositionCondition": (PARTLY, "`distance` to a WorldPosition < tolerance"),
+    "ReachPositionCondition": (PARTLY, "`distance < tolerance` to a WorldPosition"),
     "TimeToCollisionCondition": (PARTLY, "a `ttc` measure between footprints, to an entity "
                                  "only, freespace true only (`event 'NAME': "
                                  "TimeToCollisionCondition with freespace false (footprints "
@@ -291,7 +291,7 @@ def _inherited(name: str, anchors: set[str], refused: dict[str, str]) -> tuple[s
     outside the storyboard."""
     by_status: dict[str, list[str]] = defaultdict(list)
     for anchor in sorted(anchors - {""}):
-        by_status[_status_of(anchor, refused)].append(f"<{anchor}>")
+        by_status[_status_of(anchor, refused)].append(f"`{anchor}`")
     unexpected = by_status.keys() - {REFUSED, NOT_READ}
     if unexpected:
         raise CoverageError(f"{name} sits in a {'/'.join(unexpected)} element: add it to EXPLICIT")
