@@ -5,7 +5,8 @@ trigger, its `StartTrigger` the condition (condition groups OR-ed, conditions wi
 AND-ed), its actions the trigger's actions. Actors are referenced by name: an entity called
 `bike-1` is the participant `bike-1`, an NPC's entity name is its NPC id. What does not map
 is refused with the element's name and where it is; nothing is silently dropped. The
-supported elements are listed in `SUPPORTED` (and in README.md):
+supported elements are listed in `SUPPORTED` (and in README.md); every element of the 1.x
+schemas, with what is read of it, in docs/openscenario.md (`openscenario_coverage`):
 
     carlaverse scenario: openscenario: study.xosc    # relative to the scenario file
 """

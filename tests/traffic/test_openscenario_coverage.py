@@ -145,6 +145,14 @@ def test_every_element_of_every_1x_schema_has_a_row() -> None:
 # --------------------------------------------------------------------------- what is read
 
 
+def test_the_importer_s_own_list_is_supported_in_the_table() -> None:
+    from carlaverse.traffic.openscenario import SUPPORTED as IMPORTER
+
+    assert {name: ROWS[name].status for name in IMPORTER} == {
+        name: SUPPORTED if name == "SimulationTimeCondition" else PARTLY for name in IMPORTER
+    }
+
+
 def _everything_supported(path: Path) -> Path:
     """One file with every supported or partly supported element, each used as the table
     says it is read (and with the parts it says are not read set to something)."""
