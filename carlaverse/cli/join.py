@@ -36,6 +36,7 @@ from carlaverse.node_runtime import (
     node_kinds,
     run_node,
 )
+from carlaverse.shm import BlockInUse
 from carlaverse.transport.node_client import JoinRefused, NodeSettings
 from carlaverse.transport.session import (
     FabricError,
@@ -153,7 +154,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         return fail("join", f"{node_id} gave up: {_stopped_waiting(exc)}", Exit.NOT_ADMITTED)
     except FabricError as exc:
         return fail("join", str(exc), Exit.FABRIC)
-    except (ValueError, ConfigError) as exc:
+    except (ValueError, ConfigError, BlockInUse) as exc:
         return fail("join", f"{args.kind}: {exc}")
     return _report(args, summary, stop, out)
 
