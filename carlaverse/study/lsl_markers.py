@@ -117,12 +117,16 @@ class SessionMarkers:
 
     # ------------------------------------------------------------------ what is marked
 
-    def trial_started(self, trial: str, **fields: str | float) -> None:
-        """Mark a trial's start now (session time when the worker stamps it)."""
-        self.mark("trial_start", {"trial": trial, **fields})
+    def trial_started(
+        self, trial: str, session_t: float | None = None, **fields: str | float
+    ) -> None:
+        """Mark a trial's start at session time `session_t` [s] (None: now)."""
+        self.mark("trial_start", {"trial": trial, **fields}, session_t)
 
-    def trial_ended(self, trial: str, **fields: str | float) -> None:
-        self.mark("trial_end", {"trial": trial, **fields})
+    def trial_ended(
+        self, trial: str, session_t: float | None = None, **fields: str | float
+    ) -> None:
+        self.mark("trial_end", {"trial": trial, **fields}, session_t)
 
     def mark(
         self,

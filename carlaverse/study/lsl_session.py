@@ -79,13 +79,18 @@ class LslSession:
             ).start()
         return self
 
-    def trial_started(self, trial: str, **fields: str | float) -> None:
+    def trial_started(
+        self, trial: str, session_t: float | None = None, **fields: str | float
+    ) -> None:
+        """A `trial_start` marker at session time `session_t` [s] (None: now)."""
         if self.markers is not None:
-            self.markers.trial_started(trial, **fields)
+            self.markers.trial_started(trial, session_t, **fields)
 
-    def trial_ended(self, trial: str, **fields: str | float) -> None:
+    def trial_ended(
+        self, trial: str, session_t: float | None = None, **fields: str | float
+    ) -> None:
         if self.markers is not None:
-            self.markers.trial_ended(trial, **fields)
+            self.markers.trial_ended(trial, session_t, **fields)
 
     def stop(self) -> list[StreamStats]:
         """Stop recording (its stats go into the sink as metadata), then the markers (what

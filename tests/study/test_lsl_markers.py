@@ -122,7 +122,11 @@ def test_a_marker_that_cannot_be_written_is_counted_and_the_next_goes(
 ) -> None:
     inlet = _inlet(marker_stream_name("lsltest"))
     markers.mark("odd", {"value": object()})  # type: ignore[dict-item]  # not JSON
-    markers.trial_ended("T3", outcome="completed")
-    ((values, _),) = _pull(inlet, 1)
-    assert json.loads(values[0])["type"] == "trial_end"
+    end_t = fabric.session_now() - 0.5  # the runner knows when the trial ended
+    markers.trial_ended("T3", end_t, outcome="completed")
+    ((values, stamp),) = _pull(inlet, 1)
+    body = json.loads(values[0])
+    assert (body["type"], body["t"], body["outcome"]) == ("trial_end", end_t, "completed")
+    correction = inlet.time_correction(timeout=5.0)
+    assert abs(stamp + correction - (end_t - SESSION_OFFSET_S)) < ACCURACY_S
     assert (markers.stats.failed, markers.stats.published) == (1, 1)
