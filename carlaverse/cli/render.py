@@ -249,9 +249,14 @@ def _render_recording(args: argparse.Namespace, config: Any, stop: threading.Eve
     from carlaverse.render.renderer import Renderer
 
     world = RecordedWorld(args.source)
-    origin = recording_span(args.source).start
+    span = recording_span(args.source)
+    origin = span.start
     shown = Shown(recording_start=origin)
     start = _start_time(args)
+    past_s = start + args.duration - span.end
+    if args.out.suffix.lower() == ".mp4" and past_s > 0:
+        say("render")(f"the clip runs {past_s:.1f} s past the recording's end "
+                      f"({span.valid()}): nothing was recorded for its last frames")  # fmt: skip
     road_map = recorded_map(args.source)
     first = world.frame(start)
     if args.camera == FREE and road_map is None and not first.actors:

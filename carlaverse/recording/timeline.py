@@ -77,6 +77,10 @@ class RecordingSpan:
     def duration(self) -> float:
         return self.end - self.start
 
+    def valid(self) -> str:
+        """The range in words, its end rounded down so what is printed lies inside."""
+        return f"valid 0.0–{math.floor(self.duration * 10) / 10:.1f} s from start"
+
     def from_start(self, session_t: float) -> float:
         """[s] from the recording's start to the session time `session_t`."""
         return session_t - self.start
@@ -88,8 +92,7 @@ class RecordingSpan:
         if self.start - SPAN_SLACK_S <= t <= self.end + SPAN_SLACK_S:
             return t
         where = "past the recording's end" if t > self.end else "before the recording's start"
-        # the end rounded down: the range printed is inside the recording to the digit
-        valid = f"valid 0.0–{math.floor(self.duration * 10) / 10:.1f} s from start"
+        valid = self.valid()
         if session:
             valid = f"valid {self.start:.3f}–{self.end:.3f} s session time ({valid})"
         raise OutOfRange(f"{flag} {value:g} s is {where}: {valid}")

@@ -170,6 +170,16 @@ def test_at_counts_seconds_from_the_recordings_start(
     assert not np.array_equal(_png(at), _png(later))  # the NPCs moved 4 m along the road
 
 
+def test_a_clip_past_the_end_is_said(recording: Path, tmp_path: Path, capsys) -> None:
+    # the recording spans -0.003 ... 1.98 s of session time, 1.983 s: a clip from 1.8 s
+    # for 0.5 s runs 1.8 + 0.5 - 1.983 = 0.317 s past it
+    argv = ["render", str(recording), "--at", "1.8", "--duration", "0.5", "--fps", "4",
+            "--width", "64", "--height", "36", "--out", str(tmp_path / "late.mp4")]  # fmt: skip
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "the clip runs 0.3 s past the recording's end (valid 0.0–1.9 s from start)" in err
+
+
 def test_at_flags_are_checked(recording: Path, tmp_path: Path, capsys) -> None:
     out = str(tmp_path / "x.png")
     assert main(["render", str(recording), "--at", "-1", "--out", out]) == 2
