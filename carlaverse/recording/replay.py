@@ -173,7 +173,8 @@ class Replayer:
 
     def preload(self, samples: Iterable[RecordedSample]) -> None:
         """Serve the first recorded reply of each authority query from the start, before the
-        replay reaches it (a viewer asks for the map as it joins). Before `prepare`: a node
+        replay reaches it (a viewer asks for the map as it joins), and know every recorded
+        snapshot's nodes (what each is: kind, actor, extent). Before `prepare`: a node
         that joined before it would be told there is no map."""
         if self.authority is None:
             return
@@ -181,7 +182,11 @@ class Replayer:
         for sample in samples:
             key = self._target_key(sample.key)
             parsed = parse_cached(key) if key is not None else None
-            if parsed is not None and parsed.area == "authority" and parsed.channel not in seen:
+            if parsed is None or parsed.area != "authority":
+                continue
+            if parsed.channel == "snapshot":  # what each recorded node is, from the start
+                self.authority.world.know(sample.payload)
+            if parsed.channel not in seen:
                 seen.add(parsed.channel)
                 self.authority.recorded_reply(parsed.channel, sample.payload)
 

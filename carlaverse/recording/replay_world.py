@@ -56,9 +56,10 @@ class ReplayedWorld:
             self._recorded_snapshot(payload)
 
     def clear(self) -> None:
-        """Forget everything: a new pass starts from the recording's beginning."""
+        """Forget what was played: a new pass starts from the recording's beginning (what
+        each node is stays known)."""
         with self._lock:
-            for table in (self._poses, self._states, self._world, self._infos):
+            for table in (self._poses, self._states, self._world):
                 table.clear()
             self.present.clear()
 
@@ -97,7 +98,13 @@ class ReplayedWorld:
         elif isinstance(event, m.Despawned):
             self._presence(event.node_id, False)
 
-    def _recorded_snapshot(self, payload: bytes) -> None:
+    def know(self, payload: bytes) -> None:
+        """What each node of a recorded snapshot is, whenever the recording has it: a node's
+        kind and extent do not change, and a spawn event alone may not say (a replay
+        read ahead for this before it plays). Who is present it does not change."""
+        self._recorded_snapshot(payload, present=False)
+
+    def _recorded_snapshot(self, payload: bytes, present: bool = True) -> None:
         try:
             snapshot = m.SNAPSHOT.decode(payload)
         except m.MessageError:
@@ -107,7 +114,8 @@ class ReplayedWorld:
             for ego in snapshot.egos:
                 if ego.node_id != AUTHORITY_ID:
                     self._infos[ego.node_id] = _without_pose(ego)
-                    self.present.add(ego.node_id)
+                    if present:
+                        self.present.add(ego.node_id)
 
     # ------------------------------------------------------------ the snapshot
 

@@ -203,15 +203,18 @@ def _assert_near(errors: dict[str, list[float]], what: str, count: int) -> None:
 
 
 def test_the_renderers_world_of_a_replay_is_the_recording_at_its_time(
-    recording: tuple[Path, Truth], hub: Hub
+    recording: tuple[Path, Truth], hub: Hub, tmp_path: Path
 ) -> None:
     from carlaverse.render.live import LiveWorld
     from carlaverse.transport.settings import NodeSettings
     from carlaverse.world.remote_actor import InterpolationSettings
 
     path, truth = recording
-    proc = hub.replay(path)
+    again = tmp_path / "again.mcap"  # the replay recorded, as a live session is
     session = open_session(FabricSettings(connect=[hub.endpoint]))
+    recorder = Recorder(session, Keys(TARGET), McapSink(again, monotonic=time.monotonic))
+    recorder.start()
+    proc = hub.replay(path)
     past = InterpolationSettings(render_mode="past")
     node = NodeSettings(node_id="probe", session=TARGET, interpolation=past)
     world = LiveWorld(session, node, own=None).start()
@@ -225,8 +228,11 @@ def test_the_renderers_world_of_a_replay_is_the_recording_at_its_time(
             frames.append((world.client.world.render_time(frame.t), frame))
             stop.wait(0.03)
         lights = world.client.world.lights
+        world.close()
+        assert proc.wait(60) == 0, proc.output()[-2000:]
     finally:
         world.close()
+        recorder.stop()
         session.close()
     assert road_map is not None and road_map.name == "synthetic-cross"
     first, last = truth.span
@@ -234,6 +240,24 @@ def test_the_renderers_world_of_a_replay_is_the_recording_at_its_time(
     _assert_near(_errors(frames, truth, EGOS), "egos", len(EGOS))
     _assert_near(_errors(frames, truth, None), "npcs", 4)
     assert lights is not None and lights.lights[0].state == truth.light_at(frames[-1][1].t)
+    # An analysis of the replay, recorded, finds who the recording's own analysis finds,
+    # as the same kind of road user on the same lanes (the times differ: each file starts
+    # when its recorder did).
+    assert _actors(path, tmp_path / "first") == _actors(again, tmp_path / "again")
+
+
+def _actors(recording: Path, out: Path) -> list[tuple[str, ...]]:
+    """`carlaverse analyze`'s actors table: who, human or not, kind and lanes."""
+    import csv
+
+    from carlaverse.cli import main
+
+    assert main(["analyze", str(recording), "--out", str(out)]) == 0
+    with (out / "actors.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert {r["actor"] for r in rows} >= {*EGOS, "npc-0"}
+    return sorted((r["actor"], r["human"], r["kind"], r["first_lane"], r["last_lane"])
+                  for r in rows)  # fmt: skip
 
 
 SIZE = ("--width", "160", "--height", "90")
