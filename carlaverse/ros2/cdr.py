@@ -70,8 +70,74 @@ def encode(definition: MsgDef, value: Mapping[str, Any]) -> bytes:
 
 
 def _write_message(writer: _Writer, definition: MsgDef, value: Mapping[str, Any]) -> None:
+    for op in _plan(definition):
+        if isinstance(op, _Run):
+            op.write(writer, value)
+        else:
+            path, field = op
+            _write_field(writer, field, _get(value, path))
+
+
+class _Run:
+    """Consecutive primitives of a message, its nested single fields flattened (a Pose is
+    7 doubles): packed in one call with the padding their offset needs, which depends only on
+    where the run starts modulo 8 (the largest alignment), so each start gets one format."""
+
+    def __init__(self) -> None:
+        self.leaves: list[tuple[tuple[str, ...], str]] = []  # (path, primitive)
+        self._packers: dict[int, struct.Struct] = {}
+
+    def packer(self, residue: int) -> struct.Struct:
+        packer = self._packers.get(residue)
+        if packer is None:
+            parts, offset = ["<"], residue
+            for _, name in self.leaves:
+                size = PRIMITIVE_SIZES[name]
+                pad = -offset % size
+                parts.append(f"{pad}x{_FORMATS[name]}" if pad else _FORMATS[name])
+                offset += pad + size
+            packer = self._packers[residue] = struct.Struct("".join(parts))
+        return packer
+
+    def write(self, writer: _Writer, value: Mapping[str, Any]) -> None:
+        values = [_get(value, path) or 0 for path, _ in self.leaves]
+        writer.buf += self.packer((len(writer.buf) - 4) % 8).pack(*values)
+
+
+_Op = _Run | tuple[tuple[str, ...], Field]
+_PLANS: dict[str, list[_Op]] = {}  # by type name: a definition's hash walks all it holds
+
+
+def _plan(definition: MsgDef) -> list[_Op]:
+    """How to write a message: runs of primitives, and each string or collection."""
+    plan = _PLANS.get(definition.name)
+    if plan is None:
+        plan = _PLANS[definition.name] = []
+        _flatten(definition, (), plan)
+    return plan
+
+
+def _flatten(definition: MsgDef, prefix: tuple[str, ...], plan: list[_Op]) -> None:
     for field in definition.fields:
-        _write_field(writer, field, value.get(field.name))
+        path = (*prefix, field.name)
+        nested = field.nested
+        if field.collection == "single" and nested is not None:
+            _flatten(nested, path, plan)
+        elif field.collection == "single" and field.type != "string":
+            if not plan or not isinstance(plan[-1], _Run):
+                plan.append(_Run())
+            plan[-1].leaves.append((path, str(field.type)))
+        else:
+            plan.append((path, field))
+
+
+def _get(value: Any, path: tuple[str, ...]) -> Any:
+    """The value at `path` in nested dicts; None where a level is missing."""
+    for key in path:
+        if not value:
+            return None
+        value = value.get(key)
+    return value
 
 
 def _write_field(writer: _Writer, field: Field, value: Any) -> None:
@@ -83,13 +149,27 @@ def _write_field(writer: _Writer, field: Field, value: Any) -> None:
         writer.primitive("uint32", len(items))
     elif len(items) not in (0, field.size):
         raise CdrError(f"{field.name}: a fixed array of {field.size}, got {len(items)}")
-    else:
-        items = items or [None] * field.size
-    if field.type in ("uint8", "byte") and isinstance(items, bytes | bytearray):
+    if field.nested is None and field.type != "string":
+        _write_primitives(writer, str(field.type), items, field.size)
+        return
+    for item in items or [None] * field.size:
+        _write_one(writer, field, item)
+
+
+def _write_primitives(writer: _Writer, name: str, items: Any, size: int) -> None:
+    """A collection of primitives in one piece: aligned once, then packed together (a
+    covariance's 36 doubles are one `pack`, an absent one 288 zero bytes)."""
+    if name in ("uint8", "byte") and isinstance(items, bytes | bytearray):
         writer.buf += items  # one byte each, no alignment
         return
-    for item in items:
-        _write_one(writer, field, item)
+    count = len(items) or size
+    if not count:
+        return
+    writer.align(PRIMITIVE_SIZES[name])
+    if not len(items):  # an absent fixed array: zeros
+        writer.buf += bytes(PRIMITIVE_SIZES[name] * count)
+        return
+    writer.buf += struct.pack(f"<{count}{_FORMATS[name]}", *items)
 
 
 def _write_one(writer: _Writer, field: Field, value: Any) -> None:
