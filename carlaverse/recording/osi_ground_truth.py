@@ -246,8 +246,9 @@ def interface_version() -> osi_version_pb2.InterfaceVersion:
 def _frame(t: float) -> GroundTruth:
     gt = GroundTruth()
     gt.version.CopyFrom(interface_version())
-    ns = round(t * 1e9)
-    gt.timestamp.seconds, gt.timestamp.nanos = divmod(ns, 10**9)
+    whole = math.floor(t)  # split first: t * 1e9 would lose the nanoseconds of an epoch time
+    seconds, nanos = divmod(whole * 10**9 + round((t - whole) * 1e9), 10**9)
+    gt.timestamp.seconds, gt.timestamp.nanos = seconds, nanos
     return gt
 
 
