@@ -56,7 +56,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--standstill", type=float, default=0.5, metavar="MPS",
                         help="both slower than this [m/s]: at rest in a queue, left out of "
                         "TTC and DRAC (default 0.5); NPCs coming to rest together are left out "
-                        "of TTC too")  # fmt: skip
+                        "of TTC too; 0 measures every instant")  # fmt: skip
     parser.add_argument("--drac-limit", type=float, default=10.0, metavar="MPS2",
                         help="DRAC above this [m/s²] is flagged implausible, not a headline "
                         "(default 10: above mu g = 9.8 for mu = 1, no tyre brakes "
@@ -72,9 +72,11 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     from carlaverse.analysis.run import AnalysisError, analyze
     from carlaverse.analysis.surrogate import Thresholds
 
-    for name in ("rate", "ttc", "near", "pet_max", "standstill", "drac_limit"):
+    for name in ("rate", "ttc", "near", "pet_max", "drac_limit"):
         if not getattr(args, name) > 0:
             return fail(NAME, f"--{name.replace('_', '-')} must be > 0, got {getattr(args, name)}")
+    if not args.standstill >= 0:  # 0: nothing counts as standing, every instant is measured
+        return fail(NAME, f"--standstill must be >= 0, got {args.standstill}")
     if not args.recording.is_file():
         return fail(NAME, f"{args.recording}: no such recording")
     th = Thresholds(ttc_s=args.ttc, near_m=args.near, pet_max_s=args.pet_max,

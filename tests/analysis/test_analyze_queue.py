@@ -16,6 +16,7 @@ import pyarrow.parquet as pq
 import pytest
 
 from carlaverse import messages as m
+from carlaverse.cli import main
 from carlaverse.keys import Keys
 from carlaverse.recording.sink import McapSink
 
@@ -150,3 +151,23 @@ def test_every_id_is_explained_and_times_count_from_the_start(analysis) -> None:
     assert "queue-creeper (car" not in page  # the queue does not fill the pairs table
     assert "NPC-only pairs never on a collision course are not listed here: 1" in page
     assert "μg = 9.8 m/s² for μ = 1" in page and "slower than 0.5 m/s" in page
+
+
+def test_without_the_queue_rule_the_creeping_queue_is_critical(
+    analysis, tmp_path: Path, capfd: pytest.CaptureFixture[str]
+) -> None:
+    # --standstill 0: nothing counts as standing, so the creeper's approach is measured as any
+    # other: the 1.5 m gap closes at 0.4 m/s to 0.3 m at t = 3 s, TTC 0.3 / 0.4 = 0.75 s.
+    mcap = next(analysis[1].parent.glob("*.mcap"))
+    done = subprocess.run(
+        [sys.executable, "-m", "carlaverse", "analyze", str(mcap), "--out", str(tmp_path),
+         "--standstill", "0"], capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-3000:]
+    queue = pq.read_table(tmp_path / "pairs.parquet").to_pylist()[1]
+    assert queue["min_ttc_s"] == pytest.approx(0.3 / CREEP_MPS, abs=1e-3)
+    assert queue["queued_s"] == 0.0
+    assert json.loads(done.stdout)["pairs_ttc_below_threshold"] == 2
+    argv = ["analyze", str(mcap), "--out", str(tmp_path), "--standstill", "-1"]
+    assert main(argv) == 2
+    assert "--standstill must be >= 0, got -1.0" in capfd.readouterr().err
