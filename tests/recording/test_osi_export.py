@@ -372,3 +372,14 @@ def test_vehicle_lights_follow_the_recorded_bits(exported) -> None:
         assert (npc.indicator_state, npc.brake_light_state) == want, t
         seen.add((ego and ego.indicator_state, want))
     assert len(seen) == 4  # before any state, left, left and braking NPC, hazard
+
+
+def test_map_every_frame_and_another_host(exported, tmp_path: Path) -> None:
+    recording, _, _ = exported
+    out = tmp_path / "every.osi.mcap"
+    argv = ["osi", str(recording), "-o", str(out), "--osi-map-every-frame", "--osi-host", "ego-1"]
+    assert main(argv) == 0
+    frames = list(betterosi.read(str(out), return_ground_truth=True))
+    assert all(len(f.lane) == 5 and len(f.lane_boundary) == 10 for f in frames)
+    ego1 = {actor_of(o): o.id.value for o in frames[0].moving_object}["ego-1"]
+    assert {f.host_vehicle_id.value for f in frames} == {ego1}
