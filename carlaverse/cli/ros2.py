@@ -64,6 +64,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     av.add_argument("--odom-topic", help="the AV's nav_msgs/Odometry topic (default /av/odom)")
     av.add_argument("--actor-kind", choices=ACTOR_KINDS, help="what the AV is (default car)")
     av.add_argument("--extent", metavar="L,W,H", help="the AV's box [m], e.g. 4.6,1.9,1.5")
+    av.add_argument("--no-world", action="store_true",
+                    help="publish only the AV's collisions, not the world (when a `ros2 view` "
+                    "serves the same domain: /clock and /tf would come from both)")  # fmt: skip
 
 
 def run(args: argparse.Namespace) -> int:
@@ -123,8 +126,10 @@ def _config(args: argparse.Namespace) -> AvConfig | Ros2BridgeConfig:
     build_config(fabric)
     ros2 = _ros2(args, config.ros2)
     changes: dict[str, Any] = {"node": node, "fabric": fabric, "ros2": ros2}
-    if isinstance(config, AvConfig) and args.odom_topic:
-        changes["av"] = AvSettings(args.odom_topic, config.av.odom_timeout_s)
+    if isinstance(config, AvConfig):
+        av = config.av
+        changes["av"] = AvSettings(args.odom_topic or av.odom_topic, av.odom_timeout_s,
+                                   av.world and not args.no_world)  # fmt: skip
     return msgspec.convert(
         msgspec.to_builtins(msgspec.structs.replace(config, **changes)), type(config)
     )  # converted again, so the settings' own checks run on the flags' values too

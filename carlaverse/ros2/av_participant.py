@@ -45,6 +45,9 @@ class AvSettings(StrictStruct):
     odom_topic: str = "/av/odom"
     # [s] odometry older than this is not sent on: the AV went quiet
     odom_timeout_s: Annotated[float, msgspec.Meta(gt=0, le=10)] = 0.5
+    # publish the world (`bridge.Ros2View`) too; off when a `ros2 view` serves the same
+    # domain, which would otherwise get /clock and /tf from both
+    world: bool = True
 
     def __post_init__(self) -> None:
         check_topic(self.odom_topic, "odom_topic")
@@ -125,13 +128,13 @@ class AvParticipantNode:
     def step(self, client: NodeClient, now: float) -> None:
         if self._node is None:  # the session exists from the first step on
             self._start(client)
-        assert self._collisions is not None and self.view is not None
+        assert self._collisions is not None
         while client.impulses:
             impulse = client.impulses.popleft()
             self._collisions.publish(w.collision(impulse, self.config.ros2.map_frame),
                                      round(now * 1e9))  # fmt: skip
             self.impulses_sent += 1
-        if now >= self._next_t:
+        if self.view is not None and now >= self._next_t:
             self._next_t = next_due(self._next_t, now, 1.0 / self.config.ros2.rate_hz)
             self.view.publish(now)
 
@@ -139,7 +142,8 @@ class AvParticipantNode:
         s = self.config.ros2
         self._node = node = RosNode(client.session, s.node_name, domain=s.domain_id)
         self._collisions = node.publisher(self.collisions_topic, t.COLLISION_IMPULSE)
-        self.view = Ros2View(client, node, s)
+        if self.config.av.world:
+            self.view = Ros2View(client, node, s)
         node.subscription(self.config.av.odom_topic, t.ODOMETRY, self.on_odometry)
 
     def close(self) -> None:

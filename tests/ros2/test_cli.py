@@ -36,3 +36,16 @@ def test_help_names_the_roles_and_the_doc(capsys: pytest.CaptureFixture[str]) ->
     out = capsys.readouterr().out
     assert "rmw_zenoh" in out and "view" in out and "av" in out
     assert "docs/protocol.md" in out
+
+
+def test_no_world_leaves_the_world_to_a_view_in_the_same_domain() -> None:
+    import argparse
+
+    from carlaverse.cli import ros2
+
+    parser = argparse.ArgumentParser()
+    ros2.add_arguments(parser)
+    argv = ["av", "--id", "av-1", "--odom-topic", "/car/odom", "--connect", "tcp/127.0.0.1:9"]
+    config = ros2._config(parser.parse_args([*argv, "--no-world"]))
+    assert (config.av.odom_topic, config.av.world) == ("/car/odom", False)
+    assert ros2._config(parser.parse_args(argv)).av.world
