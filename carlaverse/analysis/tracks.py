@@ -19,7 +19,7 @@ import numpy as np
 from carlaverse import keys as keyspace
 from carlaverse import messages as m
 from carlaverse.recording.reading import iter_samples
-from carlaverse.recording.timeline import recording_span
+from carlaverse.recording.timeline import recording_start_time
 
 Progress = Callable[[int], None]  # called with the number of samples read so far
 
@@ -97,7 +97,7 @@ def read_recording(
 ) -> Recording:
     """Tracks, events and map of a recording, in one pass over it (recordings run to GBs)."""
     raw = _collect(Path(path), progress)
-    start = recording_span(path).start if raw.read else 0.0
+    start = recording_start_time(path)  # reads up to the first pose, not the file again
     return Recording(_tracks(raw, rate_hz, max_gap_s), raw.events, raw.road_map, start)
 
 

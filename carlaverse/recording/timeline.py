@@ -57,7 +57,8 @@ def receive_offset_ns(path: str | Path) -> int:
 
 def recording_start_time(path: str | Path) -> float:
     """Session time [s] at which the recording starts: when its first sample was received
-    (a recorder usually starts before the nodes, so this is before the first pose)."""
+    (a recorder usually starts before the nodes, so this is before the first pose). The same
+    as `recording_span(path).start`, without finding the end."""
     first = next(iter_samples(path), None)  # in ns until the end: 1e18 ns do not fit a float
     return (first.log_time_ns - receive_offset_ns(path)) / 1e9 if first else 0.0
 
