@@ -42,7 +42,9 @@ EXPLICIT: dict[str, tuple[str, str]] = {
     "OpenScenario": (PARTLY, "as OpenSCENARIO (the root element's other spelling)"),
     "Catalog": (REFUSED, "a catalog file has no storyboard: `<OpenSCENARIO> holds no "
                 "<Storyboard>: a catalog or a parameter distribution is not a scenario`"),
-    "ParameterValueDistribution": (REFUSED, "as Catalog: not a scenario"),
+    "ParameterValueDistribution": (REFUSED, "a parameter variation file has no storyboard: "
+                                   "`<OpenSCENARIO> holds no <Storyboard>: a catalog or a "
+                                   "parameter distribution is not a scenario`"),
     "FileHeader": (NOT_READ, "file information"),
     "ParameterDeclarations": (NOT_READ, "declarations are not read; a `$name` reference or "
                               "`${expression}` in the storyboard is refused: `<…>: parameter "

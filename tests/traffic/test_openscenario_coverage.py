@@ -368,6 +368,13 @@ def _catalog(path: Path) -> Path:
     return path
 
 
+def _distribution(path: Path) -> Path:
+    stochastic = xosc.Stochastic(10, 7)
+    stochastic.add_distribution("speed", xosc.UniformDistribution(xosc.Range(5, 15)))
+    xosc.ParameterValueDistribution("speeds", "lab", "study.xosc", stochastic).write_xml(str(path))
+    return path
+
+
 def _wind(path: Path) -> Path:
     env = environment(wind=xosc.Wind(0.5, 3.0))
     return scenario(path, event("e", moving(), xosc.EnvironmentAction(env)))
@@ -400,6 +407,7 @@ ROAD = xosc.RoadPosition(10, 0, 1)
 STATED_CASES: list[tuple[str, Callable[[Path], Path]]] = [
     ("OpenSCENARIO", _catalog),
     ("Catalog", _catalog),
+    ("ParameterValueDistribution", _distribution),
     ("ParameterDeclarations", _parameter_reference),
     ("CatalogReference", lambda p: scenario(p, event("e", moving(),
         xosc.EnvironmentAction(xosc.CatalogReference("EnvironmentCatalog", "noon")))) ),
