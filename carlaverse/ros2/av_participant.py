@@ -156,5 +156,6 @@ class AvParticipantNode:
         dropped = self.dropped.snapshot()
         if self._node is not None:
             dropped |= self._node.dropped.snapshot()
+        world = self.view.report() if self.view is not None else {}
         return {"odometry_heard": self.odometry_heard, "impulses_sent": self.impulses_sent,
-                "odometry_dropped": dropped}  # fmt: skip
+                "odometry_dropped": dropped, **world}  # fmt: skip

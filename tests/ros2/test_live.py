@@ -134,7 +134,9 @@ def test_the_session_as_ros2_topics(cluster: Cluster, tmp_path: Path) -> None:
         finally:
             heard.close()
     assert view.stop() == 0, view.output()[-3000:]
-    assert view.json()["extra"]["ros2_frames"] > 0
+    report = view.json()["extra"]
+    assert report["ros2_frames"] > 0 and report["ros2_dropped"] == {}
+    assert 0 < report["ros2_frame_ms_p50"] <= report["ros2_frame_ms_max"]
 
 
 def _check_view_messages(heard: Heard, now: float) -> None:
