@@ -136,7 +136,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         node_settings = getattr(node, "node_settings", node_settings)
         with (
             node_view(args, node, node_settings, fabric) as view,  # --view: its own process
-            node_hmi(args, args.kind, node, say("join")) as hmi,  # --hmi: a thread of its own
+            node_hmi(args, args.kind, node, say("join"), node_settings) as hmi,  # a thread
             node_audio(args, node, node_id) as audio,  # --audio: a process the client feeds
         ):
             summary = run_node(

@@ -4,7 +4,10 @@ or malformed sets are counted and dropped, never raised."""
 
 from __future__ import annotations
 
+import json
+import os
 import threading
+import urllib.request
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -17,8 +20,13 @@ from carlaverse.hmi.wire import Answer
 from carlaverse.keys import Keys
 from carlaverse.study import questionnaires as q
 from carlaverse.study.answers import AnswerStore, latest_answers, read_answers
-from carlaverse.study.asking import QuestionnaireRound, QuestionnaireTimeout
+from carlaverse.study.asking import (
+    QuestionnaireIncomplete,
+    QuestionnaireRound,
+    QuestionnaireTimeout,
+)
 from carlaverse.transport.session import FabricSettings, open_session
+from tests.hmi.live import node_with_hmi
 from tests.support import Cluster, wait_until
 
 KEYS = Keys("t")
@@ -58,13 +66,15 @@ def fabric(cluster: Cluster) -> Iterator[tuple[Cluster, QuestionnaireLink, Pages
 
 
 def in_background(round_: QuestionnaireRound, timeout_s: float) -> dict[str, Any]:
-    out: dict[str, Any] = {}
+    out: dict[str, Any] = {"stop": threading.Event()}
 
     def run() -> None:
         try:
-            out["records"] = round_.run(timeout_s)
+            out["records"] = round_.run(timeout_s, out["stop"])
         except QuestionnaireTimeout as exc:
             out["timeout"] = exc
+        except QuestionnaireIncomplete as exc:
+            out["incomplete"] = exc
 
     out["thread"] = threading.Thread(target=run, daemon=True)
     out["thread"].start()
@@ -160,3 +170,24 @@ def test_the_desk_refuses_bad_page_answers_and_bad_requests_naming_why() -> None
     assert desk.answer(Answer("t4.ssq", {"fatigue": 1}, final=True)).startswith(
         "answer: item 'general_discomfort': required")  # fmt: skip
     assert desk.answers_rejected == {"questionnaire": 1, "answer": 2} and not sent
+
+
+def test_a_walk_node_without_pages_of_its_own_serves_the_questionnaire(tmp_path: Path) -> None:
+    """`join walk --hmi 0`: the walker has no dashboard, its HMI is the questionnaire page."""
+    node_id = f"w{os.getpid()}"
+    with node_with_hmi(tmp_path, "walk", node_id) as (cluster, node, url):
+        assert f"HMI at {url}questionnaire" in "".join(node.stderr)  # its home page
+        with urllib.request.urlopen(url + "questionnaire", timeout=10) as page:
+            assert b"No questionnaire is open" in page.read()
+        store = AnswerStore(tmp_path / "answers.jsonl")
+        with QuestionnaireRound(session(cluster), KEYS, store, [node_id], q.ssq(), "t5") as r:
+            run = in_background(r, 30.0)
+            wait_until(lambda: status(url).get("questionnaires_shown") == 1, 20, "the SSQ shown")
+            run["stop"].set()
+            run["thread"].join(10)
+    assert run["incomplete"].missing == [node_id]
+
+
+def status(url: str) -> dict[str, Any]:
+    with urllib.request.urlopen(url + "api/status", timeout=10) as response:
+        return json.loads(response.read())  # type: ignore[no-any-return]
