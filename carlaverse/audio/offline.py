@@ -25,7 +25,7 @@ from carlaverse.audio.track import PoseTrack
 from carlaverse.audio.wav import WavWriter
 from carlaverse.keys import KeySpaceError, parse
 from carlaverse.recording.reading import iter_samples
-from carlaverse.recording.timeline import recording_span
+from carlaverse.recording.timeline import recording_start_time
 
 TAIL_S = 0.1  # [s] rendered after the emitters of the last scene have faded out
 PROGRESS_BLOCKS = 200  # blocks between progress reports (about 2 s of audio)
@@ -99,7 +99,7 @@ def render_recording(path: str | Path, listener: str, out: str | Path, config: A
     stop = scenes[-1].t + config.stale_after_s + TAIL_S
     stop = stop if duration is None else min(begin + duration, stop)
     scenes = _sounding_from(scenes, begin)
-    origin = recording_span(path).start
+    origin = recording_start_time(path)
     if stop <= begin:
         raise NothingToRender(f"{path}: audio/{listener} has faded out by {begin - origin:.2f} s "
                               f"from start (its last scene is at "

@@ -63,7 +63,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     from carlaverse.audio.offline import NothingToRender, render_recording
     from carlaverse.config import ConfigError, load_config
     from carlaverse.recording.sink import RecordingError
-    from carlaverse.recording.timeline import OutOfRange, recording_span
+    from carlaverse.recording.timeline import OutOfRange, recording_start_time
 
     try:
         config = load_config(args.config, AudioConfig) if args.config else AudioConfig()
@@ -77,9 +77,9 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
             return fail("audio", f"{args.recording}: no such recording")
         if args.duration is not None and not args.duration > 0:
             return fail("audio", f"--duration {args.duration:g}: give seconds > 0")
-        span = recording_span(args.recording)
+        origin = recording_start_time(args.recording)
         summary = render_recording(args.recording, args.listener, args.out, config,
-                                   _progress(span.start), start=_start(args, span),
+                                   _progress(origin), start=_start(args),
                                    duration=args.duration)  # fmt: skip
     except (ConfigError, NothingToRender, HrtfError, RecordingError, OSError,
             OutOfRange) as exc:  # fmt: skip
@@ -93,11 +93,15 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     return 0
 
 
-def _start(args: argparse.Namespace, span: Any) -> float | None:
-    """Session time [s] to start at (None: the first scene); OutOfRange outside the span."""
+def _start(args: argparse.Namespace) -> float | None:
+    """Session time [s] to start at (None: the first scene); OutOfRange outside the
+    recording."""
+    from carlaverse.recording.timeline import recording_span
+
     if args.at is not None:
-        return span.session_time(args.at, "--at")
+        return recording_span(args.recording).session_time(args.at, "--at")
     if args.at_session is not None:
+        span = recording_span(args.recording)
         return span.session_time(args.at_session, "--at-session", session=True)
     return None
 
