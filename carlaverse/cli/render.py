@@ -244,19 +244,21 @@ def _config(args: argparse.Namespace):  # -> RenderConfig
 
 def _render_recording(args: argparse.Namespace, config: Any, stop: threading.Event) -> Shown:
     from carlaverse.recording.reading import recorded_map
-    from carlaverse.recording.timeline import recording_span
+    from carlaverse.recording.timeline import recording_span, recording_start_time
     from carlaverse.render.recording import RecordedWorld
     from carlaverse.render.renderer import Renderer
 
     world = RecordedWorld(args.source)
-    span = recording_span(args.source)
-    origin = span.start
+    origin = recording_start_time(args.source)
     shown = Shown(recording_start=origin)
     start = _start_time(args)
-    past_s = start + args.duration - span.end
-    if args.out.suffix.lower() == ".mp4" and past_s > 0:
-        say("render")(f"the clip runs {past_s:.1f} s past the recording's end "
-                      f"({span.valid()}): nothing was recorded for its last frames")  # fmt: skip
+    if args.out.suffix.lower() == ".mp4":
+        span = recording_span(args.source)
+        past_s = start + args.duration - span.end
+        if past_s > 0:
+            say("render")(f"the clip runs {past_s:.1f} s past the recording's end "
+                          f"({span.valid()}): nothing was recorded for its last "
+                          "frames")  # fmt: skip
     road_map = recorded_map(args.source)
     first = world.frame(start)
     if args.camera == FREE and road_map is None and not first.actors:
