@@ -32,7 +32,8 @@ def add_hmi_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("web HMI (served by the node)")
     group.add_argument(
         "--hmi", type=int, metavar="PORT",
-        help="serve the dashboard/touchscreen pages on PORT (0: any free port)",
+        help="serve the dashboard/touchscreen pages on PORT (0: any free port); a study's "
+        "questionnaires show on whichever page is open (walk: the /questionnaire page only)",
     )  # fmt: skip
     group.add_argument(
         "--hmi-bind", default="127.0.0.1", metavar="ADDR",
