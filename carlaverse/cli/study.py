@@ -30,6 +30,7 @@ EXIT_OF_OUTCOME = {
     "done": Exit.OK,
     "not_started": Exit.NOT_ADMITTED,
     "aborted": Exit.FAILED,
+    "stopped": Exit.FAILED,
     "failed": Exit.FAILED,
 }
 
@@ -63,8 +64,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "participants' machines connect from elsewhere names this host's address)",
     )  # fmt: skip
     run.add_argument(
-        "--backend", default="sim",
-        help="devices of locally launched nodes (default sim; '' for real ones)",
+        "--backend", default=None,
+        help="the nodes' devices (default: sim for a local launch, the real ones for an "
+        "external one; '' for the real ones)",
     )  # fmt: skip
     agent = sub.add_parser("agent", help="a participant's agent: runs their node per trial")
     agent.add_argument("--study", required=True, help="the study's name")

@@ -40,6 +40,7 @@ ROUTER_READY = "router "  # what `router` prints once it listens
 READY_TIMEOUT_S = 30.0  # [s]
 PAUSE_LOOK_S = 0.2  # [s] between looks at the control file while paused
 AGENT_SAYS = "carlaverse study agent: "  # how an agent's own lines begin
+RUN_AGAIN = ("redo", "lost")  # outcomes after which the same trial runs again at once
 
 
 @dataclass
@@ -47,7 +48,7 @@ class RunSettings:
     study_path: Path
     out: Path
     connect: list[str] = field(default_factory=list)  # a router; overrides the study's
-    backend: str = "sim"  # the devices of locally launched nodes
+    backend: str | None = None  # the nodes' devices; None: sim when launched locally, else real
     greet: dict[str, str] = field(default_factory=dict)  # pseudonym -> person, console only
     link_bind: str = "127.0.0.1"  # where the participants' relays listen
 
@@ -158,13 +159,18 @@ class StudyRunner:
             log=self.log, router=router, links=links, set_brief=briefer.set,
             idle_briefs=briefer.idle, spawn=self._spawn,
             take_command=lambda: control.take(self.out), stopped=self.stop.is_set,
-            say=self.say, backend=self.settings.backend,
+            say=self.say, backend=self._backend(),
         )  # fmt: skip
 
     def _relay_agent(self, line: str) -> None:
         """An agent's own lines (its node joining, stopping, failing) on the run's console."""
         if line.startswith(AGENT_SAYS):
             self.say(line[len(AGENT_SAYS) :].strip())
+
+    def _backend(self) -> str:
+        if self.settings.backend is not None:
+            return self.settings.backend
+        return "sim" if self.study.launch == "local" else ""
 
     def _spawn(
         self, argv: list[str], name: str, on_stderr: Callable[[str], None] | None = None
@@ -180,27 +186,31 @@ class StudyRunner:
         queue = list(todo)
         while queue:
             trial = queue[0]
-            if not self._wait_unpaused(ctx):
-                return self._result("stopped", "stopped while paused")
+            ended = self._wait_unpaused(ctx)
+            if ended:
+                return self._result(ended, f"{ended} before trial {trial.id}")
             self._greet(trial)
             attempt = self.log.state.attempts.get(trial.id, 0) + 1
             outcome = TrialRun(ctx, trial, attempt).run()
             self._children = [c for c in self._children if c.running]
             if outcome == COMPLETED:
                 queue.pop(0)
-            elif outcome != "redo":
+            elif outcome not in RUN_AGAIN:
                 return self._result(outcome, f"trial {trial.id} {outcome}")
         return self._result("done")
 
-    def _wait_unpaused(self, ctx: StudyContext) -> bool:
+    def _wait_unpaused(self, ctx: StudyContext) -> str:
+        """ "" once the next trial may start; else how the run ends (stopped, aborted)."""
         while not self.stop.is_set():
             command = control.take(self.out)
+            if command is not None and command.name == "abort":
+                return "aborted"  # nothing runs to abort: the run ends before the next trial
             if command is not None:
                 self._between_trials(ctx, command)
             if not ctx.paused:
-                return True
+                return ""
             time.sleep(PAUSE_LOOK_S)
-        return False
+        return "stopped"
 
     def _between_trials(self, ctx: StudyContext, command: control.Command) -> None:
         if command.name == "note":
@@ -208,8 +218,6 @@ class StudyRunner:
         elif command.name in ("pause", "resume"):
             ctx.paused = command.name == "pause"
             self.log.append("paused" if ctx.paused else "unpaused", trial="")
-        elif command.name == "abort":
-            self.stop.set()  # nothing runs to abort: the run stops before the next trial
 
     def _greet(self, trial: Trial) -> None:
         """Who sits where, for the operator; the only place the pseudonym mapping is used."""

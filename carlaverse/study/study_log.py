@@ -8,8 +8,8 @@ The runner is its one writer. Every line has `event` and `t` (UTC, ISO 8601) and
     trial_start  trial, attempt, session, kind, block, conditions, links, scenario, seed,
                  who (participant -> role), recording (path relative to the output folder)
     trial_live   every role present: the trial's clock starts (present: participant -> node)
-    trial_end    trial, attempt, outcome (completed | aborted | redo | killed | not_started |
-                 failed), reason, view_error (participant -> other -> figures)
+    trial_end    trial, attempt, outcome (completed | aborted | redo | lost | killed |
+                 not_started | failed), reason, view_error (participant -> other -> figures)
     note         trial (or ""), text
     paused / unpaused / stopped
 

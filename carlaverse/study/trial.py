@@ -41,6 +41,7 @@ AUTHORITY_READY = "authority of session "  # what `authority` prints once it tic
 READY_TIMEOUT_S = 60.0  # [s] for the authority to tick (SUMO, the map) on a loaded host
 LEAVE_TIMEOUT_S = 8.0  # [s] for the nodes to leave once the briefs go idle
 LOOK_S = 0.05  # [s] between looks at presence and control while waiting
+LOST_S = 3.0  # [s] a participant not drawn this long is lost (the trial is run again)
 METADATA_NAME = "carlaverse.study.trial"
 TRIALS_DIR = "trials"
 
@@ -82,6 +83,7 @@ class TrialRun:
         self._authority: Child | None = None
         self._probes: dict[str, ViewProbe] = {}
         self._watch: ViewProbe | None = None
+        self._last_seen: dict[str, float] = {}  # [s] monotonic: when each was last drawn
 
     def run(self) -> str:
         scenario = write_scenario(
@@ -160,6 +162,7 @@ class TrialRun:
             return outcome
         self.ctx.log.append("trial_live", trial=self.trial.id, attempt=self.attempt,
                             session_t=round(self._watch.client.now(), 3))  # fmt: skip
+        self._last_seen = dict.fromkeys(self.roles, time.monotonic())
         self.ctx.say(f"trial {self.trial.id} live: every role present")
         return self._live()
 
@@ -199,7 +202,7 @@ class TrialRun:
         end = time.monotonic() + s.duration_s
         next_probe = time.monotonic()
         while time.monotonic() < end:
-            ended = self._interrupted()
+            ended = self._interrupted() or self._lost()
             if ended is not None:
                 return ended
             if time.monotonic() >= next_probe:
@@ -208,6 +211,19 @@ class TrialRun:
                 next_probe += period
             time.sleep(min(LOOK_S, max(0.0, min(end, next_probe) - time.monotonic())))
         return COMPLETED, ""
+
+    def _lost(self) -> tuple[str, str] | None:
+        """`lost` once a participant has not been drawn for LOST_S (their node or link went):
+        the trial did not run as its conditions say, and is run again."""
+        assert self._watch is not None
+        now = time.monotonic()
+        for pid in self._watch.sample():
+            self._last_seen[pid] = now
+        gone = sorted(p for p in self.roles if now - self._last_seen.get(p, now) > LOST_S)
+        if not gone:
+            return None
+        named = ", ".join(f"{pid} ({self.roles[pid]})" for pid in gone)
+        return "lost", f"{named} gone for {LOST_S:g} s"
 
     def _interrupted(self) -> tuple[str, str] | None:
         """An outcome if a signal or a control command ends the trial now."""

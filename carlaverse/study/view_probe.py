@@ -43,14 +43,17 @@ class ViewProbe:
         self.client = NodeClient(self._session, settings, MonotonicClock()).start()
 
     def sample(self) -> set[str]:
-        """Record where the view draws each other participant now; the ids it draws."""
+        """Record where the view draws each other participant now; the ids it draws from a
+        live stream (a stale actor is drawn where it was last heard of: still a sample of what
+        the participant sees, but no sign that the other is there)."""
         self.client.update()
         now = self.client.now()
         drawn = set()
         for view in self.client.world.ego_views(now):
             if view.actor_id in self.others:
                 self.samples.append(ViewSample(now, view.actor_id, view.x, view.y))
-                drawn.add(view.actor_id)
+                if not view.stale:
+                    drawn.add(view.actor_id)
         return drawn
 
     def close(self) -> None:
