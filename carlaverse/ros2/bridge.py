@@ -26,10 +26,12 @@ import msgspec
 from carlaverse.config import StrictStruct
 from carlaverse.ros2 import types as t
 from carlaverse.ros2 import world_msgs as w
+from carlaverse.ros2.ego_catalog import EgoCatalog
 from carlaverse.ros2.keys import check_node_name, check_topic, ros_token
 from carlaverse.ros2.node import RosNode, RosPublisher
 from carlaverse.transport.node_client import NodeClient, NodeSettings, PoseSource
 from carlaverse.transport.session import FabricSettings
+from carlaverse.world.remote_actor import ActorView
 
 log = logging.getLogger(__name__)
 
@@ -67,6 +69,7 @@ class Ros2View:
         self.lights = node.publisher(f"{prefix}/traffic_lights", t.TRAFFIC_LIGHT_ARRAY)
         self.odometry: dict[str, RosPublisher] = {}
         self.marker_ids: dict[str, int] = {}
+        self.catalog = EgoCatalog(client)
         self.frames = 0
         self.publish_s: deque[float] = deque(maxlen=1000)  # [s] each frame's cost, newest
         self._lights_seq = -1
@@ -85,10 +88,7 @@ class Ros2View:
         world, frame = self.client.world, self.settings.map_frame
         stamp_ns = round(now * 1e9)
         render_t = world.render_time(now)
-        egos = [
-            w.ego_state(view, world.egos[view.actor_id].kind, self._yaw_rate(view.actor_id))
-            for view in world.ego_views(now)
-        ]
+        egos = [self._ego(view) for view in world.ego_views(now)]
         npc_frame = world.npc_frame(now)
         npcs = list(w.npc_states(npc_frame)) if npc_frame is not None else []
         actors = egos + npcs
@@ -104,6 +104,13 @@ class Ros2View:
         if lights is not None and lights.seq != self._lights_seq:
             self._lights_seq = lights.seq
             self.lights.publish(w.traffic_lights(lights, frame), stamp_ns)
+
+    def _ego(self, view: ActorView) -> w.ActorState:
+        info = self.catalog.lookup(view.actor_id)
+        if info is None:  # until the catalogue knows it: the kind its world view may have
+            return w.ego_state(view, self.client.world.egos[view.actor_id].kind,
+                               self._yaw_rate(view.actor_id))  # fmt: skip
+        return w.ego_state(view, info[0], self._yaw_rate(view.actor_id), info[1])
 
     def _yaw_rate(self, ego_id: str) -> float:
         stream = self.client.world.streams.get(ego_id)

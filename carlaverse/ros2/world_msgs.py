@@ -52,8 +52,11 @@ class ActorState:
         return f"{ros_token(self.actor_id)}/base_link"
 
 
-def ego_state(view: ActorView, kind: str, yaw_rate: float) -> ActorState:
-    extent = m.KIND_EXTENTS.get(kind or "car", m.KIND_EXTENTS["other"])
+def ego_state(
+    view: ActorView, kind: str, yaw_rate: float, extent: m.Extent | None = None
+) -> ActorState:
+    """An ego as drawn; without its own extent, the typical one of its kind."""
+    extent = extent or m.KIND_EXTENTS.get(kind or "car", m.KIND_EXTENTS["other"])
     return ActorState(view.actor_id, kind, True, view.x, view.y, view.z, view.roll,
                       view.pitch, view.yaw, view.vx, view.vy, view.vz, yaw_rate,
                       extent)  # fmt: skip

@@ -23,6 +23,7 @@ from tests.ros2.ros_side import ros_side
 from tests.support import Cluster, _accepts, wait_until
 
 SPEED_MPS = 10.0
+CAR = m.Extent()
 YAW_RATE = 0.2  # [rad/s] turning left: counter-clockwise seen from above
 NORTH_EAST = math.pi / 4  # [rad] from east toward north
 # [rad/s] the view's ego turns left slowly: its drawn yaw, projected ahead by up to 0.5 s,
@@ -54,10 +55,13 @@ def npc_batch(seq: int, t: float) -> m.NpcBatch:
     return m.NpcBatch.pack(seq, t, ["npc-7"], rows)
 
 
-def ego_client(cluster: Cluster, node_id: str, source: Any) -> NodeClient:
+def ego_client(
+    cluster: Cluster, node_id: str, source: Any, kind: str = "car", extent: m.Extent = CAR
+) -> NodeClient:
     session = open_session(FabricSettings(connect=[cluster.endpoint]))
     cluster.sessions.append(session)
-    settings = NodeSettings(node_id=node_id, session="t", kind="scripted", actor_kind="car")
+    settings = NodeSettings(node_id=node_id, session="t", kind="scripted", actor_kind=kind,
+                            extent=extent)  # fmt: skip
     client = NodeClient(session, settings, MonotonicClock()).start(pose_source=source)
     cluster.sessions.append(client)
     return client
@@ -131,6 +135,19 @@ def test_the_session_as_ros2_topics(cluster: Cluster, tmp_path: Path) -> None:
 
             wait_until(every_topic_heard, 20, "a message on every topic", poll=0.1)
             _check_view_messages(heard, ego.now())
+            # an ego that joins after the view: its kind and box come from the authority
+            truck = m.KIND_EXTENTS["truck"]
+            ego_client(cluster, "ego-2", north_east_pose, "truck", truck)
+
+            def truck_box() -> Any:
+                objects = heard.last("/carlaverse/objects")
+                return next((d for d in objects.detections if d.id == "ego-2"), None)
+
+            late = wait_until(lambda: (d := truck_box()) and d.bbox.size.x == truck.length and d,
+                              10, "the late ego's own box")  # fmt: skip
+            assert late.results[0].hypothesis.class_id == "truck"
+            size = late.bbox.size
+            assert (size.x, size.y, size.z) == (truck.length, truck.width, truck.height)
         finally:
             heard.close()
     assert view.stop() == 0, view.output()[-3000:]
