@@ -12,6 +12,7 @@
 // { requestId, answers, submitted }.
 
 const THANKS_MS = 2500; // how long "Thank you" stays before the page behind comes back
+const RETRY_MS = 4000; // Submit comes back if the node has not thanked by then
 let open = null; // { requestId, root, answers, submit, required }
 
 export function show(hmi, frame) {
@@ -51,7 +52,13 @@ function build(hmi, request, given) {
   state.submit.textContent = "Submit";
   state.submit.addEventListener("click", () => {
     state.submit.disabled = true; // until the node answers: no double submit
+    const refusals = hmi.rejected.length;
     send(true);
+    setTimeout(() => {
+      if (open !== state || state.thanked) return; // thanked, or replaced
+      refresh(state); // no thanks: refused or lost on the way (a reconnect), try again
+      if (hmi.rejected.length > refusals) state.left.textContent = hmi.rejected.at(-1);
+    }, RETRY_MS);
   });
   refresh(state);
   return state;
@@ -113,6 +120,7 @@ function refresh(state) {
 
 function thank(hmi) {
   const root = open.root;
+  open.thanked = true;
   hmi.questionnaire = { ...hmi.questionnaire, submitted: true };
   root.replaceChildren();
   root.classList.add("q-done");
