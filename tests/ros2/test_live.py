@@ -253,9 +253,14 @@ def test_a_ros2_av_drives_in_the_session(cluster: Cluster, tmp_path: Path) -> No
     obs = cluster.observer()
     heard = Heard()
     with ros_side(cluster.port, tmp_path / "msgs"):
-        # `ros2 topic list -t` shows the AV's subscription once it is admitted and listening
-        wait_until(lambda: listed_topics(cluster.port).get("/av/odom") == ["nav_msgs/msg/Odometry"],
-                   30, "the AV's subscription in the ROS graph", poll=0.2)  # fmt: skip
+        # `ros2 topic list -t` shows the AV's subscription and its collisions once it is
+        # admitted and listening
+        av_topics = {
+            "/av/odom": ["nav_msgs/msg/Odometry"],
+            "/carlaverse/av_1/collisions": ["carlaverse_msgs/msg/CollisionImpulse"],
+        }
+        wait_until(lambda: av_topics.items() <= listed_topics(cluster.port).items(), 30,
+                   "the AV's topics in the ROS graph", poll=0.2)  # fmt: skip
         driver = PathDriver(cluster.port)
         try:
             heard.subscribe(cluster.port, "/carlaverse/av_1/collisions",
