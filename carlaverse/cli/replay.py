@@ -78,11 +78,14 @@ def run(args: argparse.Namespace) -> int:
         return fail("replay", str(exc), Exit.FABRIC)
     except RecordingError as exc:
         return fail("replay", str(exc), Exit.FAILED)
-    withheld = f", {stats.withheld} commands withheld" if stats.withheld else ""
+    extra = f", {stats.withheld} commands withheld" if stats.withheld else ""
+    joins = stats.answered["join/accepted"], stats.answered["join/refused"]
+    if any(joins):  # a re-join (after a --loop pass) counts again
+        extra += f"; joins: {joins[0]} admitted, {joins[1]} refused"
     tell(
         f"replayed {stats.published} samples on {len(stats.per_key)} keys in {stats.passes} "
         f"pass(es); {stats.late} late (worst {stats.max_late_s * 1e3:.1f} ms), "
-        f"{stats.skipped} skipped{withheld}"
+        f"{stats.skipped} skipped{extra}"
     )
     return Exit.OK
 

@@ -83,6 +83,8 @@ class ReplayStats:
     skipped: int = 0  # keys outside the key space (recorded by a newer carlaverse)
     withheld: int = 0  # command samples not sent (impulse, override) without with_commands
     per_key: Counter[str] = field(default_factory=Counter)
+    # what the replay's authority answered: join/accepted, join/refused, <query>/bad_request
+    answered: Counter[str] = field(default_factory=Counter)
 
 
 def _qos(metadata: Mapping[str, str]) -> dict[str, Any]:
@@ -205,6 +207,7 @@ class Replayer:
         self._drop_tokens()
         if self.authority is not None:
             self.authority.close()
+            self.stats.answered.update(self.authority.counts)
             self.authority = None
 
     def _one_pass(self, samples: Iterable[RecordedSample], stop: threading.Event) -> None:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import statistics
 import threading
 import time
@@ -296,6 +297,7 @@ def test_render_and_view_of_a_replay_show_the_recording(
     passes = Keys(TARGET).world("events")
     _wait_heard(hub.endpoint, passes, 2 * RECORDED_S + 30, "a pass to start over")
     assert replay.stop() == 0, replay.output()[-2000:]
+    assert re.search(r"joins: [1-9][0-9]* admitted, 0 refused", replay.output()), "the render"
     assert view.stop() == 0, view.output()[-2000:]
     first, last = truth.span
     assert first <= t <= last, f"the render's session time {t} is not the recording's"
