@@ -3,6 +3,7 @@ OSI, read back with betterosi and held to the analysis, the recording and the de
 
 from __future__ import annotations
 
+import itertools
 import math
 import subprocess
 import sys
@@ -18,8 +19,27 @@ from carlaverse.keys import parse
 from carlaverse.recording.reading import iter_samples, recorded_map
 
 RATE_HZ = 10.0
-# demo_plan: scripted-i drives a circle about the origin of radius 25 + 6 (i - 1) m
+# demo_plan: scripted-i drives a circle about the origin of radius 25 + 6 (i - 1) m, at
+# 14 m/s (i odd) or 12 m/s
 RADII_M = {"scripted-1": 25.0, "scripted-2": 31.0, "scripted-3": 37.0}
+SPEED_MPS = {"scripted-1": 14.0, "scripted-2": 12.0, "scripted-3": 14.0}
+
+
+def chord_sag_m(recording: Path) -> dict[str, float]:
+    """[m] how far inside its circle a straight line between two recorded poses of each car
+    can fall: R (1 - cos(v gap / 2R)) for its longest gap (a loaded machine sends late)."""
+    times: dict[str, list[float]] = {}
+    for sample in iter_samples(recording):
+        key = parse(sample.key)
+        if (key.area, key.channel) == ("ego", "pose") and key.node_id in RADII_M:
+            times.setdefault(key.node_id, []).append(m.POSE.decode(sample.payload).t)
+    sag = {}
+    for node, ts in times.items():
+        ts.sort()
+        gap = max((b - a for a, b in itertools.pairwise(ts) if b - a <= 0.5), default=0.0)
+        r = RADII_M[node]
+        sag[node] = r * (1 - math.cos(SPEED_MPS[node] * gap / (2 * r)))
+    return sag
 
 
 @pytest.fixture(scope="module")
@@ -48,6 +68,7 @@ def test_every_road_user_matches_the_analysis_and_the_cars_their_circles(demo) -
     tracks = read_tracks(recording, rate_hz=RATE_HZ)
     assert len(frames) == len(tracks.t) > 25
     worst, samples, circle = 0.0, 0, 0.0
+    sag = chord_sag_m(recording)
     for k, frame in enumerate(frames):
         # session time here counts from the epoch: a float64 of it resolves 0.24 µs
         assert abs(seconds(frame) - tracks.t[k]) < 1e-6
@@ -57,9 +78,11 @@ def test_every_road_user_matches_the_analysis_and_the_cars_their_circles(demo) -
             i, p = tracks.index(actor_id), obj.base.position
             worst = max(worst, math.hypot(p.x - tracks.x[i, k], p.y - tracks.y[i, k]))
             samples += 1
-            if actor_id in RADII_M:
-                circle = max(circle, abs(math.hypot(p.x, p.y) - RADII_M[actor_id]))
-    assert worst < 1e-3 and circle < 0.01, (worst, circle)
+            if actor_id in RADII_M:  # inside by at most the chord's sag, plus float32's mm
+                off = abs(math.hypot(p.x, p.y) - RADII_M[actor_id])
+                assert off < sag[actor_id] + 1e-3, (actor_id, off, sag[actor_id])
+                circle = max(circle, off)
+    assert worst < 1e-3, worst
     print(f"demo: {samples} object samples in {len(frames)} frames, max deviation from the "
           f"analysis {worst * 1e3:.6f} mm, from the circles {circle * 1e3:.2f} mm")  # fmt: skip
 
