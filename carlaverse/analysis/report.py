@@ -109,7 +109,7 @@ def write_html(path: Path, image: str, summary: dict, tables: Tables, source: st
     """The page: summary, how to read it, the picture, then pairs (humans first), conflicts
     and who the road users named in them are. Times in seconds from the recording's start."""
     pairs = [p for p in tables.pairs if p["human"] or math.isfinite(p["min_ttc_s"])][:MAX_ROWS]
-    conflicts = sorted(tables.conflicts, key=lambda c: c["pet_s"])[:MAX_ROWS]
+    conflicts = tables.conflicts[:MAX_ROWS]
     named = {p[s] for p in pairs for s in ("a", "b")} | {c[s] for c in conflicts
                                                         for s in ("first", "second")}  # fmt: skip
     actors = [a for a in tables.actors if a["human"] or a["actor"] in named]
@@ -121,7 +121,7 @@ def write_html(path: Path, image: str, summary: dict, tables: Tables, source: st
         "<h2>Pairs: with a participant first, then lowest TTC</h2>",
         _table(["a", "b", "min TTC [s]", "at [s]", "time below [s]", "min gap [m]",
                 "max DRAC [m/s²]", "left out"], [_pair_row(p) for p in pairs]),
-        "<h2>Crossing conflicts, lowest PET first</h2>",
+        "<h2>Crossing conflicts: with a participant first, then lowest PET</h2>",
         _table(["first", "second", "x [m]", "y [m]", "second arrives at [s]", "PET [s]",
                 "angle [°]"],
                [[c["first"], c["second"], _fmt(c["x"]), _fmt(c["y"]),
@@ -146,7 +146,7 @@ class Tables:
     """The rows the page shows, as the tables on disk hold them (`export`)."""
 
     pairs: list[dict]  # in `surrogate.by_concern` order
-    conflicts: list[dict]
+    conflicts: list[dict]  # in `surrogate.conflicts_by_concern` order
     actors: list[dict]
 
 

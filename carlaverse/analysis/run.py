@@ -8,7 +8,7 @@ from pathlib import Path
 
 from carlaverse.analysis import export, report
 from carlaverse.analysis.lanes import LaneIndex
-from carlaverse.analysis.surrogate import Thresholds, measure
+from carlaverse.analysis.surrogate import Thresholds, conflicts_by_concern, measure
 from carlaverse.analysis.tracks import read_recording
 from carlaverse.recording.sink import RecordingError
 
@@ -34,7 +34,8 @@ def analyze(
         raise AnalysisError(f"{recording}: no poses or NPC batches in this recording")
     span = f"{tracks.t[0] - read.start:.1f} to {tracks.t[-1] - read.start:.1f} s from start"
     progress(f"{len(tracks.actors)} road users from {span}; measuring")
-    pairs, conflicts = measure(tracks, th)
+    pairs, found = measure(tracks, th)
+    conflicts = conflicts_by_concern(found)  # the tables list a participant's first
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:

@@ -76,6 +76,7 @@ class Conflict:
     t_second_arrives: float  # [s] session time the second's footprint reaches it
     pet_s: float
     angle_deg: float  # between the paths at the point
+    human: bool = False  # at least one of the two is a participant
 
 
 def measure(
@@ -136,6 +137,11 @@ def pair_measures(tracks: Tracks, i: int, j: int, th: Thresholds) -> PairMeasure
 def by_concern(pairs: list[PairMeasures]) -> list[PairMeasures]:
     """Pairs with a human first, then by least TTC, then by least gap."""
     return sorted(pairs, key=lambda p: (not p.human, p.min_ttc_s, p.min_gap_m))
+
+
+def conflicts_by_concern(conflicts: list[Conflict]) -> list[Conflict]:
+    """Conflicts with a human first, then by least PET."""
+    return sorted(conflicts, key=lambda c: (not c.human, c.pet_s))
 
 
 def _standstill(v: np.ndarray, limit_mps: float) -> np.ndarray:
@@ -240,6 +246,7 @@ def _conflict(tracks: Tracks, a: tuple, b: tuple, angle: float) -> Conflict | No
     return Conflict(
         tracks.actors[first].id, tracks.actors[second].id, float(point[0]), float(point[1]),
         first_leaves, second_arrives, max(0.0, second_arrives - first_leaves), float(angle),
+        tracks.actors[first].human or tracks.actors[second].human,
     )  # fmt: skip
 
 

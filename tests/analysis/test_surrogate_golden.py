@@ -13,6 +13,7 @@ from carlaverse.analysis.lanes import LaneIndex
 from carlaverse.analysis.surrogate import (
     Thresholds,
     by_concern,
+    conflicts_by_concern,
     crossing_conflicts,
     measure,
     pair_measures,
@@ -238,3 +239,20 @@ def test_npcs_pulling_up_into_a_queue_are_no_encounter(human: bool) -> None:
         assert p.queued_s == pytest.approx(4.1, abs=1e-9)  # every one of the 41 samples
         # DRAC of the approach stays: at t = 0, 5^2 / (2 * 7.5)
         assert p.max_drac_mps2 == pytest.approx(25 / 15, rel=1e-9)
+
+
+def test_crossing_conflicts_with_a_human_come_first() -> None:
+    # Two copies of the perpendicular crossing above (PET 0.595 s), one 100 m north with
+    # slower crossers (the bike at 2.5 m/s: it reaches the point 6 s after 0, the car's
+    # footprint cleared it at 2.225 s, PET (6 - 0.36) - 2.225 = 3.415 s). Only the slow copy
+    # has a participant: it comes first though its PET is larger.
+    tr = tracks(8.0, ("car", CAR, lambda t: straight(t, -20, 0, 0.0, 10)),
+                ("bike", BIKE, lambda t: straight(t, 0, -15, math.pi / 2, 5)),
+                ("human-car", CAR, lambda t: straight(t, -20, 100, 0.0, 10)),
+                ("slow-bike", BIKE, lambda t: straight(t, 0, 85, math.pi / 2, 2.5)))  # fmt: skip
+    tr.actors[:] = [dataclasses.replace(a, human=a.id == "human-car") for a in tr.actors]
+    found = conflicts_by_concern(measure(tr, Thresholds())[1])
+    assert [(c.first, c.second, c.human) for c in found] == [
+        ("human-car", "slow-bike", True), ("car", "bike", False)]  # fmt: skip
+    assert found[0].pet_s == pytest.approx(6 - 0.9 / 2.5 - 2.225, abs=1e-9)
+    assert found[1].pet_s == pytest.approx(0.595, abs=1e-9)
