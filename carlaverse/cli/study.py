@@ -75,6 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                        help="the participant's link (the runner prints it)")  # fmt: skip
     agent.add_argument("--exit-with-parent", action="store_true",
                        help="end when the process that started it ends (local launch)")  # fmt: skip
+    status = sub.add_parser("status", help="where a run stands: each trial from its log")
+    status.add_argument("out", type=Path, help="the run's output folder")
+    status.add_argument("--json", action="store_true", help="as JSON")
     steer = sub.add_parser("control", help="steer a running study (pause, resume, abort ...)")
     steer.add_argument("out", type=Path, help="the run's output folder")
     steer.add_argument("command", nargs="+", help=f"one of {', '.join(control.COMMANDS)}")
@@ -82,7 +85,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     action = {"validate": _validate, "plan": _plan, "run": _run, "agent": _agent,
-              "control": _control}[args.action]  # fmt: skip
+              "status": _status, "control": _control}[args.action]  # fmt: skip
     try:
         return action(args)
     except (ConfigError, StudyLogError, KeySpaceError) as exc:
@@ -180,6 +183,26 @@ def _watch_parent(stop: threading.Event) -> None:
                 stop.set()
 
     threading.Thread(target=watch, name="parent-watch", daemon=True).start()
+
+
+def _status(args: argparse.Namespace) -> int:
+    from carlaverse.study.status import run_status
+
+    try:
+        status = run_status(args.out)
+    except FileNotFoundError:
+        return fail("study", f"{args.out}: no study log here (study-log.jsonl)")
+    if args.json:
+        print_json(status)
+        return Exit.OK
+    print(f"study {status.study}: {status.state}, {status.completed} of the trials begun "
+          "completed")  # fmt: skip
+    for row in status.trials:
+        views = " ".join(f"{pair} {p95:.2f} m" for pair, p95 in row.view_p95_m.items())
+        conditions = ",".join(f"{p}={c}" for p, c in row.conditions.items())
+        print(f"{row.trial:<6} attempt {row.attempts}  {row.outcome:<11} {conditions}  "
+              f"{row.started[11:19]}-{row.ended[11:19]}  {views}".rstrip())  # fmt: skip
+    return Exit.OK
 
 
 def _control(args: argparse.Namespace) -> int:

@@ -10,6 +10,7 @@ import pytest
 
 from carlaverse.cli import main
 from carlaverse.study import control
+from carlaverse.study.study_log import StudyLog
 
 STUDY = """
 name: dyad
@@ -106,3 +107,24 @@ def test_control_hands_one_command_over(tmp_path: Path, capsys: pytest.CaptureFi
     (tmp_path / control.CONTROL_NAME).write_text("pause now\n")  # written by hand, wrongly
     taken = control.take(tmp_path)
     assert taken is not None and taken.name == "note" and "pause takes no text" in taken.text
+
+
+def test_status_reads_the_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["study", "status", str(tmp_path)]) == 2
+    assert "no study log here" in capsys.readouterr().err
+    log = StudyLog(tmp_path / "study-log.jsonl")
+    log.append("study", study="dyad", digest="d", run_id="abc", trials=2)
+    log.append("trial_start", trial="t01", attempt=1, conditions={"P01": "direct"},
+               recording="trials/t01.mcap")  # fmt: skip
+    log.append("trial_end", trial="t01", attempt=1, outcome="completed",
+               view_error={"P01": {"P02": {"samples": 9, "p50_m": 0.1, "p95_m": 0.25,
+                                           "max_m": 0.3}}})  # fmt: skip
+    log.append("trial_start", trial="t02", attempt=1, conditions={"P01": "lagged"},
+               recording="trials/t02.mcap")  # fmt: skip
+    log.append("paused", trial="t02")
+    assert main(["study", "status", str(tmp_path), "--json"]) == 0
+    status = json.loads(capsys.readouterr().out)
+    assert status["state"] == "paused" and status["completed"] == 1
+    first, second = status["trials"]
+    assert first["view_p95_m"] == {"P01>P02": 0.25} and first["recording"] == "trials/t01.mcap"
+    assert second["outcome"] == "running"

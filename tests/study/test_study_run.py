@@ -31,6 +31,7 @@ from carlaverse.procs import Child, stop_children
 from carlaverse.procs import start as start_child
 from carlaverse.study import control
 from carlaverse.study.leftovers import CHILDREN_NAME
+from carlaverse.study.status import run_status
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -190,6 +191,16 @@ def test_study_killed_mid_trial_resumes_and_completes(tmp_path: Path) -> None:
         for word in person.split():
             assert word not in everything
     assert "P01" in _mcap_text(trials / "t03.mcap") and "P02" in everything
+
+    # `study status` tells the same story from the log
+    status = run_status(out)
+    assert (status.state, status.completed) == ("ended", 4)
+    assert [(r.trial, r.attempts, r.outcome) for r in status.trials] == [
+        ("t01", 1, "completed"), ("t02", 2, "completed"), ("t03", 2, "completed"),
+        ("t04", 1, "completed")]  # fmt: skip
+    assert status.trials[2].notes == ["P02 sneezed"]
+    assert status.trials[1].recording == "trials/t02.mcap"
+    assert set(status.trials[0].view_p95_m) == {"P01>P02", "P02>P01"}
 
     # The killed run's router, authority and agents were stopped by the second run.
     assert not [pid for pid in left_by_first if _alive(pid)]
