@@ -33,6 +33,7 @@ import pytest
 from mcap.reader import make_reader
 
 from carlaverse import messages
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.keys import Keys
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.sink import McapSink
@@ -216,6 +217,7 @@ def test_the_renderers_world_of_a_replay_is_the_recording_at_its_time(
     recorder = Recorder(session, Keys(TARGET), McapSink(again, monotonic=time.monotonic))
     recorder.start()
     proc = hub.replay(path)
+    driver = hub.start("join", "scripted", "--id", "intruder", "--session", TARGET)
     past = InterpolationSettings(render_mode="past")
     node = NodeSettings(node_id="probe", session=TARGET, interpolation=past)
     world = LiveWorld(session, node, own=None).start()
@@ -236,6 +238,9 @@ def test_the_renderers_world_of_a_replay_is_the_recording_at_its_time(
         recorder.stop()
         session.close()
     assert road_map is not None and road_map.name == "synthetic-cross"
+    # a node that would drive is refused, in one line naming why
+    assert driver.wait(60) == Exit.REFUSED, driver.output()[-2000:]
+    assert "only observers join it" in driver.output(), driver.output()[-2000:]
     first, last = truth.span
     assert all(first - 1 <= t <= last + 1 for t, _ in frames), "frames at recorded session time"
     _assert_near(_errors(frames, truth, EGOS), "egos", len(EGOS))
