@@ -20,6 +20,7 @@ the items that were asked.
 
 from __future__ import annotations
 
+import random
 from collections import Counter
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -116,8 +117,11 @@ TLX_PAIRS = tuple(combinations(TLX_IDS, 2))  # the 15 pairwise comparisons
 TLX_PAIR_PREFIX = "pair."
 
 
-def nasa_tlx(weighted: bool = True) -> Questionnaire:
-    """NASA-TLX: six ratings 0-100 in steps of 5; with `weighted`, the 15 pairwise choices."""
+def nasa_tlx(weighted: bool = True, seed: int | None = None) -> Questionnaire:
+    """NASA-TLX: six ratings 0-100 in steps of 5; with `weighted`, the 15 pairwise choices.
+    With `seed` (e.g. per participant and trial) the pairs come in a shuffled order, each
+    with its two sides in a shuffled order, as the TLX procedure presents them; the same
+    seed gives the same order."""
     names = {key: name for key, name, _, _ in TLX_SUBSCALES}
     items = [
         m.QuestionnaireItem(key, f"{name}: {question}", "scale", 0, 100, 5, anchors.split("|"))
@@ -127,7 +131,7 @@ def nasa_tlx(weighted: bool = True) -> Questionnaire:
         items += [
             m.QuestionnaireItem(pair_item_id(a, b), "Which contributed more to the workload?",
                                 "choice", labels=[names[a], names[b]])
-            for a, b in TLX_PAIRS
+            for a, b in _pair_order(seed)
         ]  # fmt: skip
     return Questionnaire(
         "nasa-tlx" if weighted else "raw-tlx", "NASA Task Load Index", tuple(items), _score_tlx,
@@ -135,7 +139,17 @@ def nasa_tlx(weighted: bool = True) -> Questionnaire:
     )  # fmt: skip
 
 
+def _pair_order(seed: int | None) -> list[tuple[str, str]]:
+    pairs = list(TLX_PAIRS)
+    if seed is None:
+        return pairs
+    rng = random.Random(seed)
+    rng.shuffle(pairs)
+    return [(b, a) if rng.random() < 0.5 else (a, b) for a, b in pairs]
+
+
 def pair_item_id(a: str, b: str) -> str:
+    """The item of the pair shown as `a` (answer 0) or `b` (answer 1)."""
     return f"{TLX_PAIR_PREFIX}{a}.{b}"
 
 
@@ -158,9 +172,9 @@ def tlx_weights(chosen: Mapping[tuple[str, str], str]) -> dict[str, int]:
 
 def _score_tlx(answers: Answers) -> dict[str, float]:
     ratings = {key: _rating(answers, key) for key in TLX_IDS}
-    scores = {f"{key}": float(value) for key, value in ratings.items()}
+    scores = {key: float(value) for key, value in ratings.items()}
     scores["raw_tlx"] = round(sum(ratings.values()) / len(ratings), 4)
-    pairs = {(a, b): _pick(answers, a, b) for a, b in TLX_PAIRS if pair_item_id(a, b) in answers}
+    pairs = _picks(answers)
     if pairs:  # the raw-only form asks none
         weights = tlx_weights(pairs)
         scores |= {f"weight_{key}": float(w) for key, w in weights.items()}
@@ -169,11 +183,16 @@ def _score_tlx(answers: Answers) -> dict[str, float]:
     return scores
 
 
-def _pick(answers: Answers, a: str, b: str) -> str:
-    index = answers[pair_item_id(a, b)]
-    if index not in (0, 1):
-        raise ValueError(f"NASA-TLX pair {a}/{b}: answer {index!r} is not 0 or 1")
-    return (a, b)[index]  # type: ignore[index]
+def _picks(answers: Answers) -> dict[tuple[str, str], str]:
+    """(shown first, shown second) -> the subscale picked, read from the pair items' ids."""
+    picks = {}
+    for key, index in answers.items():
+        if key.startswith(TLX_PAIR_PREFIX):
+            a, _, b = key.removeprefix(TLX_PAIR_PREFIX).partition(".")
+            if index not in (0, 1) or isinstance(index, bool):
+                raise ValueError(f"NASA-TLX pair {a}/{b}: answer {index!r} is not 0 or 1")
+            picks[(a, b)] = (a, b)[int(index)]
+    return picks
 
 
 def _rating(answers: Answers, key: str) -> int:

@@ -253,3 +253,26 @@ def test_any_bytes_on_the_ask_key_are_counted_or_shown_never_raised(payload: byt
     desk = QuestionnaireDesk("p01", lambda _: None)
     desk.receive_request(payload)
     assert desk.requests_shown + sum(desk.requests_dropped.values()) == 1
+
+
+NAMES = {
+    "Mental Demand": "mental", "Physical Demand": "physical", "Temporal Demand": "temporal",
+    "Performance": "performance", "Effort": "effort", "Frustration": "frustration",
+}  # fmt: skip
+
+
+def test_seeded_pairs_come_shuffled_and_score_the_same_by_what_was_picked() -> None:
+    shown = q.nasa_tlx(seed=7)
+    pairs = [i for i in shown.items if i.kind == "choice"]
+    sides = [tuple(NAMES[label] for label in i.labels) for i in pairs]
+    assert len(sides) == 15 and {frozenset(s) for s in sides} == {frozenset(p) for p in q.TLX_PAIRS}
+    assert sides != [tuple(p) for p in q.TLX_PAIRS]  # another order than the definition's
+    assert any(s not in q.TLX_PAIRS for s in sides)  # and some pairs shown the other way round
+    assert [i.id for i in q.nasa_tlx(seed=7).items] == [i.id for i in shown.items]
+    assert [i.id for i in q.nasa_tlx(seed=8).items] != [i.id for i in shown.items]
+    # The participant picks, by the label shown, the side earlier in PREFERENCE: the weights
+    # and the weighted score are those worked by hand above (59).
+    answers: dict[str, int | str] = dict(TLX_RATINGS)
+    for item, (a, b) in zip(pairs, sides, strict=True):
+        answers[item.id] = 0 if PREFERENCE.index(a) < PREFERENCE.index(b) else 1
+    assert q.score(shown, answers)["weighted_tlx"] == pytest.approx(59.0)
