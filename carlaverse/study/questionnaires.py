@@ -232,19 +232,23 @@ def score(questionnaire: Questionnaire, answers: Answers) -> dict[str, float]:
     return questionnaire.scorer(answers) if questionnaire.scorer is not None else {}
 
 
-BUILT_IN: dict[str, Callable[[], Questionnaire]] = {
-    "ssq": ssq,
-    "nasa-tlx": nasa_tlx,
-    "raw-tlx": lambda: nasa_tlx(weighted=False),
+# name -> the questionnaire, given a seed for what it shuffles (only the TLX pairs do)
+BUILT_IN: dict[str, Callable[[int | None], Questionnaire]] = {
+    "ssq": lambda seed: ssq(),
+    "nasa-tlx": lambda seed: nasa_tlx(weighted=True, seed=seed),
+    "raw-tlx": lambda seed: nasa_tlx(weighted=False),
 }
 
 
-def find_questionnaire(name: str, relative_to: Path | None = None) -> Questionnaire:
+def find_questionnaire(
+    name: str, relative_to: Path | None = None, seed: int | None = None
+) -> Questionnaire:
     """A built-in questionnaire by name (`ssq`, `nasa-tlx`, `raw-tlx`), or one of a study's
     own from its YAML file (a path, relative to `relative_to`, e.g. the study file's folder).
+    `seed`: for a form that shuffles (the NASA-TLX pairs), e.g. one per participant and trial.
     ConfigError naming `name` and the choices otherwise."""
     if name in BUILT_IN:
-        return BUILT_IN[name]()
+        return BUILT_IN[name](seed)
     if not name.endswith((".yaml", ".yml")):
         raise ConfigError(name, f"no such questionnaire: built in are {sorted(BUILT_IN)}, "
                           "or name a YAML file of your own (e.g. comfort.yaml)")  # fmt: skip

@@ -229,6 +229,7 @@ def test_a_bad_custom_questionnaire_is_one_line_naming_the_file_and_field(
 def test_questionnaires_are_found_by_name_or_by_their_file(tmp_path: Path) -> None:
     assert q.find_questionnaire("ssq").id == "ssq"
     assert len(q.find_questionnaire("raw-tlx").items) == 6
+    assert q.find_questionnaire("nasa-tlx", seed=7) == q.nasa_tlx(seed=7) != q.nasa_tlx()
     (tmp_path / "comfort.yaml").write_text(CUSTOM)
     assert q.find_questionnaire("comfort.yaml", tmp_path).id == "comfort"
     with pytest.raises(ConfigError, match=r"sss: no such questionnaire: built in are \['nasa"):
