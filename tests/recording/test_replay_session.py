@@ -5,11 +5,12 @@ then `carlaverse replay` plays it as a process, and while it plays:
 
 - the renderer's own world source (`render.live.LiveWorld`, an observer that joins) is
   admitted, gets the recorded map, and draws egos, NPCs and the light where the recording
-  had them at the frame's session time;
-- `carlaverse render NAME-replay --connect` writes a frame riding in a recorded ego, at a
-  session time inside the recording's;
-- `carlaverse view --session NAME-replay` logs the egos (not only their raw samples) at the
-  recorded poses.
+  had them at the frame's session time; a node that would drive is refused; the replay,
+  recorded as a live session is, analyses as the recording does;
+- looping: `carlaverse render NAME-replay --connect` writes a frame riding in a recorded ego,
+  at a session time inside the recording's, that looks like the recording's own frame then;
+  `carlaverse view --session NAME-replay` logs the egos (not only their raw samples) at the
+  recorded poses, through a pass that starts over.
 
 The truth is read from the MCAP file with the mcap library and the JSON each message carries
 beside its raw bytes (`{"msg": {...}}`), not through carlaverse's reader or codecs.
