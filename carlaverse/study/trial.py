@@ -64,6 +64,7 @@ class StudyContext:
     say: Callable[[str], None]
     backend: str = "sim"  # the node backend the agents are told ("" for the real devices)
     paused: bool = False  # an operator's pause: no next trial until resume
+    monotonic: Callable[[], float] = time.monotonic  # [s] the clock presence is judged by
 
 
 class TrialRun:
@@ -162,7 +163,7 @@ class TrialRun:
             return outcome
         self.ctx.log.append("trial_live", trial=self.trial.id, attempt=self.attempt,
                             session_t=round(self._watch.client.now(), 3))  # fmt: skip
-        self._last_seen = dict.fromkeys(self.roles, time.monotonic())
+        self._last_seen = dict.fromkeys(self.roles, self.ctx.monotonic())
         self.ctx.say(f"trial {self.trial.id} live: every role present")
         return self._live()
 
@@ -216,7 +217,7 @@ class TrialRun:
         """`lost` once a participant has not been drawn for LOST_S (their node or link went):
         the trial did not run as its conditions say, and is run again."""
         assert self._watch is not None
-        now = time.monotonic()
+        now = self.ctx.monotonic()
         for pid in self._watch.sample():
             self._last_seen[pid] = now
         gone = sorted(p for p in self.roles if now - self._last_seen.get(p, now) > LOST_S)
