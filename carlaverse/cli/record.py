@@ -87,8 +87,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     osi.add_argument(
         "--osi",
         action="store_true",
-        help="when the recording ends, also write its ground truth as an OSI trace, "
-        "NAME.osi.mcap beside NAME.mcap (an OSI trace holds OSI messages only)",
+        help="when the recording ends (or is recovered), also write its ground truth as an "
+        "OSI trace, NAME.osi.mcap beside NAME.mcap (an OSI trace holds OSI messages only)",
     )
     add_osi_options(osi)
     add_lsl_arguments(parser)
@@ -101,12 +101,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     try:
+        if args.osi and (problem := check_osi_options(args)):  # before, not after, an hour
+            return fail("record", problem)
         if args.recover:
             return _recover(args)
         if not args.session:
             return fail("record", "--session NAME is required (or --recover IN.mcap)")
-        if args.osi and (problem := check_osi_options(args)):  # before, not after, an hour
-            return fail("record", problem)
         return _record(args)
     except (KeySpaceError, ConfigError) as exc:  # ConfigError: a --roster problem
         return fail("record", str(exc))
@@ -128,7 +128,7 @@ def _recover(args: argparse.Namespace) -> int:
         f"{report.attachments} attachments, {report.metadata} metadata records from "
         f"{args.recover} ({state}) into {args.output}"
     )
-    return Exit.OK
+    return export_osi(args.output, args, "record") if args.osi else Exit.OK
 
 
 def _record(args: argparse.Namespace) -> int:
