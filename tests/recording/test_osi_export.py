@@ -383,3 +383,13 @@ def test_map_every_frame_and_another_host(exported, tmp_path: Path) -> None:
     assert all(len(f.lane) == 5 and len(f.lane_boundary) == 10 for f in frames)
     ego1 = {actor_of(o): o.id.value for o in frames[0].moving_object}["ego-1"]
     assert {f.host_vehicle_id.value for f in frames} == {ego1}
+
+
+def test_record_recover_osi_exports_the_recovered_file(exported, tmp_path: Path) -> None:
+    recording, _, frames = exported
+    out = tmp_path / "clean.mcap"
+    argv = ["record", "--recover", str(recording), "-o", str(out), "--osi", "--osi-rate", "20"]
+    assert main(argv) == 0
+    again = list(betterosi.read(str(tmp_path / "clean.osi.mcap"), return_ground_truth=True))
+    assert len(again) == len(frames)
+    assert [len(f.moving_object) for f in again] == [len(f.moving_object) for f in frames]
