@@ -157,8 +157,8 @@ def _notes(summary: dict, hidden: int) -> str:
         f"{summary['recording_start']:.3f} s); <code>carlaverse render FILE --at S</code> "
         "shows that moment.",
         f"Queued: instants with both road users slower than {summary['standstill_mps']:g} m/s "
-        "(cars waiting nose to tail at a stop line), and NPCs pulling up into a queue (at "
-        "rest together soon after, no contact: the traffic model's car-following) are "
+        "(cars waiting nose to tail at a stop line), and NPCs pulling up into a queue (soon "
+        "at rest nose to tail, untouched: the traffic model's car-following) are "
         f"left out of TTC and time below, standing ones out of DRAC too (pairs with such "
         f"instants: "
         f"{summary['pairs_queued']}). A participant pulling up behind a queue keeps its TTC.",

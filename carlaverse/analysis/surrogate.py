@@ -14,7 +14,8 @@
   `drac_implausible_s` and kept out of `max_drac_mps2`, the headline; `peak_drac_mps2` keeps it.
 - Queued: while both are slower than `standstill_mps`, cars waiting nose to tail at a stop
   line creep a few centimetres towards each other; and two NPCs pulling up into a queue (the
-  follower braking to rest behind the one ahead, both at rest within `ttc_horizon_s`, no
+  follower braking to rest behind the one ahead: both at rest within `ttc_horizon_s`, then
+  at most `queue_gap_m` apart and heading the same way within `QUEUE_HEADING_DEG`, with no
   contact on the way) give a constant-velocity TTC near 1 s on every red light, though the
   traffic model's car-following stops them at its minimum gap by construction. Either would
   fill the TTC list with "encounters" nobody was in, so those instants are left out of TTC and
@@ -36,6 +37,8 @@ import numpy as np
 from carlaverse.analysis import footprints
 from carlaverse.analysis.tracks import Tracks
 
+QUEUE_HEADING_DEG = 30.0  # [deg] two at rest heading the same way within this: one queue
+
 
 @dataclass(frozen=True, slots=True)
 class Thresholds:
@@ -47,6 +50,7 @@ class Thresholds:
     standstill_mps: float = 0.5  # [m/s] both slower than this: at rest, not an encounter
     # [m/s²] mu g for mu = 1 is 9.81: a larger DRAC is beyond any tyre's friction limit
     drac_limit_mps2: float = 10.0
+    queue_gap_m: float = 5.0  # [m] at rest at most this far apart, nose to tail: a queue
 
 
 @dataclass(frozen=True, slots=True)
@@ -115,7 +119,7 @@ def pair_measures(tracks: Tracks, i: int, j: int, th: Thresholds) -> PairMeasure
         footprints.corners(cb["p"], cb["yaw"], b.length, b.width),
     )
     still = _standstill(ca["v"], th.standstill_mps) & _standstill(cb["v"], th.standstill_mps)
-    queued = still if a.human or b.human else still | _settling(still, gap, t, th.ttc_horizon_s)
+    queued = still if a.human or b.human else still | _pulling_up(ca, cb, still, gap, t, th)
     ttc[queued] = np.inf
     peak = _drac(offset, rel_v, gap)
     peak[still] = 0.0
@@ -148,14 +152,27 @@ def _standstill(v: np.ndarray, limit_mps: float) -> np.ndarray:
     return np.hypot(v[:, 0], v[:, 1]) < limit_mps
 
 
-def _settling(still: np.ndarray, gap: np.ndarray, t: np.ndarray, horizon_s: float) -> np.ndarray:
-    """Instants from which the two come to rest together within `horizon_s` without touching
-    on the way: one pulling up behind the other."""
-    idx = np.arange(len(still))
-    next_still = _next_index(still)
+def _pulling_up(ca: dict, cb: dict, still: np.ndarray, gap: np.ndarray, t: np.ndarray,
+                th: Thresholds) -> np.ndarray:  # fmt: skip
+    """Instants from which the two come to stand in one queue: at rest, close, aligned."""
+    in_queue = still & (gap <= th.queue_gap_m) & _aligned(ca["yaw"], cb["yaw"])
+    return _settling(in_queue, gap, t, th.ttc_horizon_s)
+
+
+def _aligned(yaw_a: np.ndarray, yaw_b: np.ndarray) -> np.ndarray:
+    """Heading the same way within QUEUE_HEADING_DEG."""
+    difference = np.angle(np.exp(1j * (yaw_a - yaw_b)))
+    return np.abs(difference) <= math.radians(QUEUE_HEADING_DEG)
+
+
+def _settling(in_queue: np.ndarray, gap: np.ndarray, t: np.ndarray, horizon_s: float) -> np.ndarray:
+    """Instants from which the two stand in one queue (`in_queue`) within `horizon_s`
+    without touching on the way: one pulling up behind the other."""
+    idx = np.arange(len(in_queue))
+    next_queue = _next_index(in_queue)
     next_contact = _next_index(gap <= 0.0)
-    ahead = np.where(next_still < len(t), t[np.minimum(next_still, len(t) - 1)] - t, np.inf)
-    return (ahead <= horizon_s) & (next_contact > next_still) & (idx < next_still)
+    ahead = np.where(next_queue < len(t), t[np.minimum(next_queue, len(t) - 1)] - t, np.inf)
+    return (ahead <= horizon_s) & (next_contact > next_queue) & (idx < next_queue)
 
 
 def _next_index(mask: np.ndarray) -> np.ndarray:

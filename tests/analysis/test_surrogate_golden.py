@@ -256,3 +256,18 @@ def test_crossing_conflicts_with_a_human_come_first() -> None:
         ("human-car", "slow-bike", True), ("car", "bike", False)]  # fmt: skip
     assert found[0].pet_s == pytest.approx(6 - 0.9 / 2.5 - 2.225, abs=1e-9)
     assert found[1].pet_s == pytest.approx(0.595, abs=1e-9)
+
+
+def test_coming_to_rest_beside_a_crossing_car_is_no_queue() -> None:
+    # The same braking NPC, but the car it stops 2.5 m short of faces north (waiting on the
+    # cross street): its west side at x = 0, where the other's rear was. At rest they are not
+    # one queue (headings 90 degrees apart), so the approach keeps its TTC, as worked out in
+    # the test above, and only the standing instants (t >= 1.9 s) are queued.
+    users = [("follower", CAR, braking_to_rest),
+             ("crossing", CAR, lambda t: straight(t, CAR[1] / 2, 0, math.pi / 2, 0.0))]  # fmt: skip
+    tr = tracks(4.0, *users)
+    tr.actors[:] = [dataclasses.replace(a, human=False) for a in tr.actors]
+    p = pair_measures(tr, 0, 1, Thresholds())
+    assert p.min_gap_m == pytest.approx(2.5, abs=1e-9)
+    assert p.min_ttc_s == pytest.approx(0.5 * (1.4 + 2 / 1.4), abs=1e-9)
+    assert p.queued_s == pytest.approx(2.2, abs=1e-9)
