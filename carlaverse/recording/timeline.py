@@ -89,6 +89,8 @@ class RecordingSpan:
     def session_time(self, value: float, flag: str, *, session: bool = False) -> float:
         """The session time of `value` given to `flag`: seconds from the start (default) or,
         with `session`, a session time. OutOfRange names the valid range when it is outside."""
+        if not math.isfinite(value):
+            raise OutOfRange(f"{flag} {value}: give seconds, {self.valid()}")
         t = value if session else self.start + value
         if self.start - SPAN_SLACK_S <= t <= self.end + SPAN_SLACK_S:
             return t

@@ -77,6 +77,7 @@ def test_a_killed_recorders_file_has_its_span_read_through(tmp_path: Path) -> No
         (-1.0, False, "--at -1 s is before the recording's start: valid 0.0–10.0 s from start"),
         (20.0, True, "--at 20 s is before the recording's start: valid 500.000–510.000 s "
                      "session time (valid 0.0–10.0 s from start)"),
+        (float("nan"), False, "--at nan: give seconds, valid 0.0–10.0 s from start"),
     ],
 )  # fmt: skip
 def test_a_time_outside_names_the_valid_range(value: float, session: bool, says: str) -> None:
