@@ -14,10 +14,12 @@ import threading
 from collections.abc import Mapping
 from pathlib import Path
 
+import zenoh
+
 from carlaverse.cli.common import add_fabric_args, fabric_from_args, fail, tell
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
-from carlaverse.keys import KeySpaceError, check_token, parse
+from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, check_token, parse
 from carlaverse.recording.reading import iter_samples, read_channels
 from carlaverse.recording.replay import Replayer, ReplayStats, default_target
 from carlaverse.recording.sink import RecordingError
@@ -78,6 +80,8 @@ def run(args: argparse.Namespace) -> int:
         return fail("replay", str(exc), Exit.FABRIC)
     except RecordingError as exc:
         return fail("replay", str(exc), Exit.FAILED)
+    except AuthorityRunning as exc:
+        return fail("replay", str(exc), Exit.USAGE)
     extra = f", {stats.withheld} commands withheld" if stats.withheld else ""
     joins = stats.answered["join/accepted"], stats.answered["join/refused"]
     if any(joins):  # a re-join (after a --loop pass) counts again
@@ -115,6 +119,8 @@ def _replay(args: argparse.Namespace) -> ReplayStats:
     try:
         if args.connect and not await_mesh(session, stop):
             raise FabricError(f"could not reach {', '.join(args.connect)} within 10 s")
+        if not args.no_queries:
+            _check_no_authority(session, Keys(target))
         replayer.preload(iter_samples(args.file, topics=_authority_keys(channels)))
         replayer.prepare(channels, recording_start_time(args.file))
         replayer.wait_for_subscribers(stop)  # best effort: a session may have no listener yet
@@ -122,6 +128,22 @@ def _replay(args: argparse.Namespace) -> ReplayStats:
     finally:
         replayer.close()
         session.close()
+
+
+class AuthorityRunning(Exception):
+    """The target session has a live authority, and the replay would answer for one too."""
+
+
+def _check_no_authority(session: zenoh.Session, keys: Keys) -> None:
+    """Refuse to stand in for an authority that is there: both would answer every join and
+    clock query, and a live driving node could be refused by the replay."""
+    for reply in session.liveliness().get(keys.node(AUTHORITY_ID), timeout=1.0):
+        if reply.ok is not None:
+            raise AuthorityRunning(
+                f"session {keys.session!r} has a live authority: the replay would answer its "
+                "joins and clock too; pass --no-queries to replay into it, or --session NAME "
+                "for a session of its own"
+            )
 
 
 def _authority_keys(channels: Mapping[str, object]) -> list[str]:

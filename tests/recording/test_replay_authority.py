@@ -1,26 +1,33 @@
 """The replay's stand-in authority, in one process: its clock, its snapshot, who it admits,
-and a world view that follows a looping replay's next pass."""
+a world view that follows a looping replay's next pass, and no replay beside a live
+authority."""
 
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
 import zenoh
 
 from carlaverse import messages as m
+from carlaverse.cli import main
+from carlaverse.cli.exit_codes import Exit
 from carlaverse.keys import Keys
 from carlaverse.recording.reading import RecordedSample
 from carlaverse.recording.replay import Replayer
 from carlaverse.recording.replay_clock import ReplayClock
+from carlaverse.recording.sink import McapSink
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.node_client import JoinRefused, NodeClient
 from carlaverse.transport.session import FabricSettings, open_session
 from carlaverse.transport.settings import NodeSettings
 from carlaverse.world.remote_actor import InterpolationSettings
 from carlaverse.world.world_view import WorldView
+from tests.support import free_port
 
 RECORDED = Keys("rec")
 TARGET = Keys("rec-replay")
@@ -156,3 +163,27 @@ def test_a_world_view_follows_a_replay_that_starts_over() -> None:
     assert car.x == pytest.approx(10.0 * render_t, abs=0.01)  # on pass 2's path, at its time
     frame = view.npc_frame(2.0)
     assert frame is not None and frame.x[0] == pytest.approx(-10.0 * render_t, abs=0.01)
+
+
+def test_a_replay_does_not_answer_beside_a_live_authority(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Both would answer every join: a live driving node could be refused by the replay."""
+    path = tmp_path / "rec.mcap"
+    sink = McapSink(path, monotonic=time.monotonic)
+    for sample in _samples():
+        sink.write(sample.key, sample.payload, sample.log_time_ns)
+    sink.close()
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    live = open_session(FabricSettings(listen=[endpoint]))
+    token = live.liveliness().declare_token(Keys("lab").node("authority"))
+    try:
+        code = main(["replay", str(path), "--session", "lab", "--connect", endpoint])
+    finally:
+        token.undeclare()
+        live.close()
+    assert code == Exit.USAGE
+    said = capsys.readouterr().err.splitlines()[-1]
+    assert said.startswith("carlaverse replay: session 'lab' has a live authority") and (
+        "pass --no-queries" in said
+    ), said
