@@ -185,7 +185,10 @@ def test_a_walk_node_without_pages_of_its_own_serves_the_questionnaire(tmp_path:
             wait_until(lambda: status(url).get("questionnaires_shown") == 1, 20, "the SSQ shown")
             run["stop"].set()
             run["thread"].join(10)
+            node.stop()  # SIGINT: the node leaves and prints its summary
     assert run["incomplete"].missing == [node_id]
+    # The node's exit summary counts it too (after the link let go of the HMI).
+    assert node.json()["extra"]["hmi"]["questionnaires_shown"] == 1
 
 
 def status(url: str) -> dict[str, Any]:
