@@ -47,7 +47,8 @@ def draw(
     ax.set_xlabel("x (east) [m]")
     ax.set_ylabel("y (north) [m]")
     ax.legend(loc="upper right", fontsize=8)
-    ax.set_title(f"{len(tracks.actors)} road users, {len(conflicts)} crossing conflicts")
+    span = f"{tracks.t[0] - start:.1f}–{tracks.t[-1] - start:.1f} s from start"  # never empty
+    ax.set_title(f"{len(tracks.actors)} road users, {len(conflicts)} crossing conflicts, {span}")
     fig.tight_layout()
     fig.savefig(path)
     plt.close(fig)
