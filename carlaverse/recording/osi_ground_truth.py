@@ -109,8 +109,8 @@ def _take(world: RecordedWorld, key: keyspace.ParsedKey, payload: bytes) -> None
             p.vx, p.vy, p.vz, p.wx, p.wy, p.wz, p.ax, p.ay, p.az]]))  # fmt: skip
         world.humans.add(key.node_id)
     elif key.area == "ego" and key.channel == "state":
-        state = m.EGO_STATE.decode(payload)
-        world.vehicle_lights[key.node_id].append((state.t, ego_bits(state)))
+        ego_state = m.EGO_STATE.decode(payload)
+        world.vehicle_lights[key.node_id].append((ego_state.t, ego_bits(ego_state)))
     elif key.area == "world" and key.channel == "npc":
         _take_batch(world, m.NPC_BATCH.decode(payload))
     elif key.area == "world" and key.channel == "lights":

@@ -7,11 +7,13 @@ into the blinker bits first (`ego_bits`), so both sources read the same way.
 
 from __future__ import annotations
 
+from typing import Any
+
 from osi3.osi_object_pb2 import MovingObject
 
 from carlaverse import messages as m
 
-LightState = MovingObject.VehicleClassification.LightState
+LightState = MovingObject.VehicleClassification.LightState  # a protobuf class (untyped)
 _BLINKERS = {"off": 0, "left": m.LIGHT_LEFT_BLINKER, "right": m.LIGHT_RIGHT_BLINKER,
              "hazard": m.LIGHT_LEFT_BLINKER | m.LIGHT_RIGHT_BLINKER}  # fmt: skip
 
@@ -35,8 +37,8 @@ def _indicator(bits: int) -> int:
     return LightState.INDICATOR_STATE_OFF
 
 
-def fill_light_state(out: LightState, bits: int) -> None:  # type: ignore[valid-type]
-    """Set every field of `out` the bits say something about."""
+def fill_light_state(out: Any, bits: int) -> None:
+    """Set every field of `out` (a LightState) the bits say something about."""
     out.indicator_state = _indicator(bits)
     out.head_light = _on(bits, m.LIGHT_LOW_BEAM)
     out.high_beam = _on(bits, m.LIGHT_HIGH_BEAM)
