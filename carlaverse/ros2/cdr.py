@@ -84,14 +84,14 @@ class _Run:
     where the run starts modulo 8 (the largest alignment), so each start gets one format."""
 
     def __init__(self) -> None:
-        self.leaves: list[tuple[tuple[str, ...], str]] = []  # (path, primitive)
+        self.leaves: list[tuple[tuple[str, ...], str, float]] = []  # (path, primitive, default)
         self._packers: dict[int, struct.Struct] = {}
 
     def packer(self, residue: int) -> struct.Struct:
         packer = self._packers.get(residue)
         if packer is None:
             parts, offset = ["<"], residue
-            for _, name in self.leaves:
+            for _, name, _ in self.leaves:
                 size = PRIMITIVE_SIZES[name]
                 pad = -offset % size
                 parts.append(f"{pad}x{_FORMATS[name]}" if pad else _FORMATS[name])
@@ -100,7 +100,7 @@ class _Run:
         return packer
 
     def write(self, writer: _Writer, value: Mapping[str, Any]) -> None:
-        values = [_get(value, path) or 0 for path, _ in self.leaves]
+        values = [_or(_get(value, path), default) for path, _, default in self.leaves]
         writer.buf += self.packer((len(writer.buf) - 4) % 8).pack(*values)
 
 
@@ -126,9 +126,14 @@ def _flatten(definition: MsgDef, prefix: tuple[str, ...], plan: list[_Op]) -> No
         elif field.collection == "single" and field.type != "string":
             if not plan or not isinstance(plan[-1], _Run):
                 plan.append(_Run())
-            plan[-1].leaves.append((path, str(field.type)))
+            plan[-1].leaves.append((path, str(field.type), field.default))
         else:
             plan.append((path, field))
+
+
+def _or(value: Any, default: float) -> Any:
+    """`value`, or the field's default where the message leaves it out."""
+    return default if value is None else value
 
 
 def _get(value: Any, path: tuple[str, ...]) -> Any:
@@ -179,7 +184,7 @@ def _write_one(writer: _Writer, field: Field, value: Any) -> None:
     elif field.type == "string":
         writer.string(value or "")
     else:
-        writer.primitive(str(field.type), value or 0)
+        writer.primitive(str(field.type), _or(value, field.default))
 
 
 # --------------------------------------------------------------------------- decoding

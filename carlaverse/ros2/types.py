@@ -45,6 +45,7 @@ class Field:
     type: str | MsgDef  # a primitive's name, or a nested message
     collection: Collection = "single"
     size: int = 0  # elements of a fixed array
+    default: float = 0  # a primitive's value when a message leaves it out (the .msg default)
 
     @property
     def nested(self) -> MsgDef | None:
@@ -58,8 +59,9 @@ class MsgDef:
 
 
 def msg(name: str, *fields: tuple[Any, ...]) -> MsgDef:
-    """A definition from `(name, type)`, `(name, type, "sequence")` or
-    `(name, type, "array", size)` tuples, in the `.msg` file's order."""
+    """A definition from `(name, type)`, `(name, type, "sequence")`,
+    `(name, type, "array", size)` or `(name, type, "single", 0, default)` tuples, in the
+    `.msg` file's order."""
     return MsgDef(name, tuple(Field(*f) for f in fields))
 
 
@@ -79,7 +81,7 @@ COLOR = msg("std_msgs/msg/ColorRGBA", ("r", "float32"), ("g", "float32"), ("b", 
 POINT = msg("geometry_msgs/msg/Point", ("x", "float64"), ("y", "float64"), ("z", "float64"))
 VECTOR3 = msg("geometry_msgs/msg/Vector3", ("x", "float64"), ("y", "float64"), ("z", "float64"))
 QUATERNION = msg("geometry_msgs/msg/Quaternion", ("x", "float64"), ("y", "float64"),
-                 ("z", "float64"), ("w", "float64"))  # fmt: skip
+                 ("z", "float64"), ("w", "float64", "single", 0, 1))  # fmt: skip
 POSE = msg("geometry_msgs/msg/Pose", ("position", POINT), ("orientation", QUATERNION))
 TWIST = msg("geometry_msgs/msg/Twist", ("linear", VECTOR3), ("angular", VECTOR3))
 POSE_COV = msg("geometry_msgs/msg/PoseWithCovariance", ("pose", POSE),

@@ -175,3 +175,32 @@ def test_every_padding_matches_rosbags(
     theirs = store.deserialize_cdr(ours, "visualization_msgs/msg/MarkerArray")
     assert bytes(store.serialize_cdr(theirs, "visualization_msgs/msg/MarkerArray")) == ours
     assert theirs.markers[1].ns == ns and theirs.markers[1].pose.position.z == -2.0
+
+
+def test_cdr_bytes_are_ros2_pyterfaces_bytes() -> None:
+    """ros2-pyterfaces' own serialiser (cydr, compiled on first use: skipped without it) writes
+    the same bytes, down to the defaults ROS gives a field left out (a Quaternion's w is 1)."""
+    pytest.importorskip("cydr", reason="ros2-pyterfaces' CDR backend (pip install cydr)")
+    import numpy as np
+    from ros2_pyterfaces.cydr.builtin_interfaces.msg import Time
+    from ros2_pyterfaces.cydr.nav_msgs.msg import Odometry
+    from ros2_pyterfaces.cydr.std_msgs.msg import Header
+
+    assert cdr.encode(t.ODOMETRY, {}) == bytes(Odometry().serialize())
+    stamp = Time(sec=np.int32(1_700_000_000), nanosec=np.uint32(250_000_000))
+    header = Header(stamp=stamp, frame_id=b"map")
+    theirs = Odometry(header=header, child_frame_id=b"ego_1/base_link")
+    theirs.pose.pose.position.x = np.float64(12.5)
+    theirs.pose.pose.orientation.z = np.float64(math.sin(0.3))
+    theirs.pose.pose.orientation.w = np.float64(math.cos(0.3))
+    theirs.pose.covariance[:] = [0.01 * k for k in range(36)]
+    theirs.twist.twist.linear.x = np.float64(8.0)
+    ours = {
+        "header": {"stamp": {"sec": 1_700_000_000, "nanosec": 250_000_000}, "frame_id": "map"},
+        "child_frame_id": "ego_1/base_link",
+        "pose": {"pose": {"position": {"x": 12.5},
+                          "orientation": {"z": math.sin(0.3), "w": math.cos(0.3)}},
+                 "covariance": [0.01 * k for k in range(36)]},
+        "twist": {"twist": {"linear": {"x": 8.0}}},
+    }  # fmt: skip
+    assert cdr.encode(t.ODOMETRY, ours) == bytes(theirs.serialize())
