@@ -170,6 +170,9 @@ def _condition(ev: _Event, c: ET.Element) -> str:
     if body.tag == "SimulationTimeCondition":
         return f"t {_rule(ev, body)} {float(body.get('value', 0))}"
     if body.tag == "StoryboardElementStateCondition":
+        kind = body.get("storyboardElementType", "event")
+        if kind != "event":  # fired_<name> counts events' triggers only
+            raise ev.refuse(f"StoryboardElementStateCondition on a {kind} (events only)")
         return f"fired_{_identifier(body.get('storyboardElementRef', ''))} > 0"
     triggering = c.find(".//TriggeringEntities")
     if triggering is None:  # a value condition other than the two above

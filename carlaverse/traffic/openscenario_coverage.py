@@ -89,8 +89,10 @@ EXPLICIT: dict[str, tuple[str, str]] = {
     "EntityRef": (SUPPORTED, "an actor by name: a participant's or NPC's id"),
     # conditions
     "SimulationTimeCondition": (SUPPORTED, "`t` (scenario seconds) compared with value"),
-    "StoryboardElementStateCondition": (PARTLY, "`fired_<ref> > 0`: the reference is taken as "
-                                        "an event, and the state is not read"),
+    "StoryboardElementStateCondition": (PARTLY, "`fired_<ref> > 0` for an event; the state is "
+                                        "not read; another element type is refused: `event "
+                                        "'NAME': StoryboardElementStateCondition on a … (events "
+                                        "only) is not supported…`"),
     "SpeedCondition": (PARTLY, "a `speed` measure compared with value; direction is not read"),
     "DistanceCondition": (PARTLY, "a `distance` measure from the entity's centre to a "
                           "WorldPosition: freespace false and a euclidean relativeDistanceType "

@@ -428,6 +428,9 @@ STATED_CASES: list[tuple[str, Callable[[Path], Path]]] = [
     ("DistanceCondition", lambda p: scenario(p, event("e", xosc.DistanceCondition(
         5, LT, POINT, freespace=False,
         distance_type=xosc.RelativeDistanceType.lateral)))),
+    ("StoryboardElementStateCondition", lambda p: scenario(p, value_event(
+        "e", xosc.StoryboardElementStateCondition(xosc.StoryboardElementType.act, "act",
+                                                  xosc.StoryboardElementState.endTransition)))),
     ("TimeToCollisionCondition", lambda p: scenario(p, event("e", xosc.TimeToCollisionCondition(
         3, LT, freespace=False, entity="car-1")))),
     ("TimeToCollisionConditionTarget", lambda p: scenario(p, event(
