@@ -1,8 +1,9 @@
 """Steering a running study from outside: one command at a time through a control file.
 
-`carlaverse study control OUT pause|resume|abort|redo|note TEXT` writes the command to
-`OUT/control` (write, then rename, so the runner never reads half a command); the runner takes
-it (reads, then deletes) at its next look, a few times a second:
+`carlaverse study control OUT pause|resume|abort|redo|note TEXT` writes the command to a file
+of its own, `OUT/control-<time>-<pid>.cmd` (written, then renamed, so the runner never reads
+half a command, and two commands sent at once are both kept); the runner takes the oldest
+(reads, then deletes) at its next look, a few times a second:
 
 - pause: finish the current trial, then start no next one until `resume`;
 - resume: go on after a pause;
@@ -15,10 +16,11 @@ it (reads, then deletes) at its next look, a few times a second:
 from __future__ import annotations
 
 import os
+import time
 from dataclasses import dataclass
 from pathlib import Path
 
-CONTROL_NAME = "control"
+CONTROL_PREFIX, CONTROL_SUFFIX = "control-", ".cmd"
 COMMANDS = ("pause", "resume", "abort", "redo", "note")
 
 
@@ -45,22 +47,29 @@ def send(out: Path, line: str) -> Command:
     command = parse_command(line)
     if not out.is_dir():
         raise ValueError(f"{out}: no such study output folder")
-    staging = out / f".{CONTROL_NAME}.{os.getpid()}"
+    name = f"{CONTROL_PREFIX}{time.time_ns():020d}-{os.getpid()}{CONTROL_SUFFIX}"
+    staging = out / f".{name}"
     staging.write_text(line.strip() + "\n")
-    os.replace(staging, out / CONTROL_NAME)
+    os.replace(staging, out / name)
     return command
 
 
+def pending(out: Path) -> list[Path]:
+    """The commands waiting in `out`, oldest first."""
+    return sorted(out.glob(f"{CONTROL_PREFIX}*{CONTROL_SUFFIX}"))
+
+
 def take(out: Path) -> Command | None:
-    """The command waiting in `out`, taken (the file removed); None if there is none. A bad
-    command comes back as a note saying so, so it is seen in the log and not lost."""
-    path = out / CONTROL_NAME
-    try:
-        line = path.read_text()
-        path.unlink()
-    except FileNotFoundError:
-        return None
-    try:
-        return parse_command(line)
-    except ValueError as exc:
-        return Command("note", f"ignored control command: {exc}")
+    """The oldest command waiting in `out`, taken (its file removed); None if there is none.
+    A bad command comes back as a note saying so, so it is seen in the log and not lost."""
+    for path in pending(out):
+        try:
+            line = path.read_text()
+            path.unlink()
+        except FileNotFoundError:
+            continue  # taken by another reader meanwhile
+        try:
+            return parse_command(line)
+        except ValueError as exc:
+            return Command("note", f"ignored control command: {exc}")
+    return None

@@ -104,9 +104,15 @@ def test_control_hands_one_command_over(tmp_path: Path, capsys: pytest.CaptureFi
     assert control.take(tmp_path) is None  # taken once
     assert main(["study", "control", str(tmp_path), "explode"]) == 2
     assert "unknown study command 'explode'" in capsys.readouterr().err
-    (tmp_path / control.CONTROL_NAME).write_text("pause now\n")  # written by hand, wrongly
+    (tmp_path / "control-0-1.cmd").write_text("pause now\n")  # written by hand, wrongly
     taken = control.take(tmp_path)
     assert taken is not None and taken.name == "note" and "pause takes no text" in taken.text
+    # two commands sent at once are both kept, and taken in the order sent
+    control.send(tmp_path, "note first")
+    control.send(tmp_path, "pause")
+    assert control.take(tmp_path) == control.Command("note", "first")
+    assert control.take(tmp_path) == control.Command("pause")
+    assert control.take(tmp_path) is None
 
 
 def test_status_reads_the_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

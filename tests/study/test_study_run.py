@@ -77,7 +77,7 @@ def _send(out: Path, command: str) -> None:
     in-process so it lands within the short trial; then wait until the runner took it."""
     control.send(out, command)
     deadline = time.monotonic() + 30
-    while (out / "control").exists():
+    while control.pending(out):
         assert time.monotonic() < deadline, f"the runner did not take {command}"
         time.sleep(0.05)
 
