@@ -82,8 +82,13 @@ def _refuse_outside_the_events(root: ET.Element) -> None:
         raise Refused(
             f"Init action <{init[0].tag}> is not supported: the scenario YAML places actors"
         )
+    events = {event.get("name") for event in board.iter("Event")}
     for element in board.iter():
         _refuse_element(element)
+        ref = element.get("storyboardElementRef")
+        if element.get("storyboardElementType") == "event" and ref not in events:
+            raise Refused(f"StoryboardElementStateCondition refers to {ref!r}, no event of this "
+                          "storyboard")  # fmt: skip
 
 
 def _refuse_element(element: ET.Element) -> None:

@@ -90,9 +90,11 @@ EXPLICIT: dict[str, tuple[str, str]] = {
     # conditions
     "SimulationTimeCondition": (SUPPORTED, "`t` (scenario seconds) compared with value"),
     "StoryboardElementStateCondition": (PARTLY, "`fired_<ref> > 0` for an event; the state is "
-                                        "not read; another element type is refused: `event "
-                                        "'NAME': StoryboardElementStateCondition on a … (events "
-                                        "only) is not supported…`"),
+                                        "not read; another element type, or an event the file "
+                                        "lacks, is refused: `event 'NAME': "
+                                        "StoryboardElementStateCondition on a … (events only) is "
+                                        "not supported…`, `StoryboardElementStateCondition refers "
+                                        "to '…', no event of this storyboard`"),
     "SpeedCondition": (PARTLY, "a `speed` measure compared with value; direction is not read"),
     "DistanceCondition": (PARTLY, "a `distance` measure from the entity's centre to a "
                           "WorldPosition: freespace false and a euclidean relativeDistanceType "

@@ -431,6 +431,9 @@ STATED_CASES: list[tuple[str, Callable[[Path], Path]]] = [
     ("StoryboardElementStateCondition", lambda p: scenario(p, value_event(
         "e", xosc.StoryboardElementStateCondition(xosc.StoryboardElementType.act, "act",
                                                   xosc.StoryboardElementState.endTransition)))),
+    ("StoryboardElementStateCondition", lambda p: scenario(p, value_event(
+        "e", xosc.StoryboardElementStateCondition(xosc.StoryboardElementType.event, "nowhere",
+                                                  xosc.StoryboardElementState.endTransition)))),
     ("TimeToCollisionCondition", lambda p: scenario(p, event("e", xosc.TimeToCollisionCondition(
         3, LT, freespace=False, entity="car-1")))),
     ("TimeToCollisionConditionTarget", lambda p: scenario(p, event(
