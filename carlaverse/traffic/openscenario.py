@@ -62,6 +62,7 @@ def import_triggers(path: Path) -> list[TriggerSpec]:
     try:
         _refuse_outside_the_events(root)
         triggers = [_event(e, act_time) for e, act_time in _events(root)]
+        _refuse_twins(triggers)
     except Refused as exc:
         raise ConfigError(str(path), str(exc)) from exc
     except ValueError as exc:  # a number that is none (float("fast")): the element is named
@@ -89,6 +90,15 @@ def _refuse_outside_the_events(root: ET.Element) -> None:
         if element.get("storyboardElementType") == "event" and ref not in events:
             raise Refused(f"StoryboardElementStateCondition refers to {ref!r}, no event of this "
                           "storyboard")  # fmt: skip
+
+
+def _refuse_twins(triggers: list[dict[str, Any]]) -> None:
+    """Each event is a trigger named after it: two events may not share a name."""
+    ids = [t["id"] for t in triggers]
+    twins = sorted({i for i in ids if ids.count(i) > 1})
+    if twins:
+        raise Refused(f"events named {twins[0]!r} (as a trigger id) more than once: name each "
+                      "event apart")  # fmt: skip
 
 
 def _refuse_element(element: ET.Element) -> None:

@@ -74,7 +74,8 @@ EXPLICIT: dict[str, tuple[str, str]] = {
     "Maneuver": (SUPPORTED, "its Events"),
     "Event": (PARTLY, "one trigger named after it; maximumExecutionCount > 1 repeats it; "
               "priority is not read; an Event without a StartTrigger is refused: `event 'NAME': an "
-              "event without a StartTrigger is not supported…`"),
+              "event without a StartTrigger is not supported…`, as are two of one name: "
+              "`events named '…' (as a trigger id) more than once: name each event apart`"),
     "Action": (SUPPORTED, WRAPPED),
     "StartTrigger": (SUPPORTED, "the trigger's condition"),
     "ConditionGroup": (SUPPORTED, "condition groups OR-ed, conditions within a group AND-ed"),

@@ -419,6 +419,7 @@ STATED_CASES: list[tuple[str, Callable[[Path], Path]]] = [
         "stop", 0, xosc.ConditionEdge.rising, xosc.SimulationTimeCondition(9, GT),
         triggeringpoint="stop"))),
     ("Event", _without_start_trigger),
+    ("Event", lambda p: scenario(p, event("twice", moving()), event("twice", moving()))),
     ("Condition", lambda p: scenario(p, event("e", moving(), delay=1))),
     ("Condition", lambda p: scenario(p, event("e", moving(),
                                               edge=xosc.ConditionEdge.falling))),
