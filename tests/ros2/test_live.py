@@ -298,6 +298,19 @@ def test_a_ros2_av_drives_in_the_session(cluster: Cluster, tmp_path: Path) -> No
             heard.close()
         # silent AV: despawned by the same rule as any silent node (despawn timeout 3 s)
         wait_until(lambda: _despawned(obs, "av-1"), 15, "the silent AV's despawn", poll=0.1)
+        # ... and back when its odometry is: the node joined again meanwhile
+        gone_t = next(d.t for d in obs.world.despawns if d.actor_id == "av-1")
+        driver = PathDriver(cluster.port)
+
+        def back() -> bool:
+            obs.update()
+            actor = obs.world.egos.get("av-1")
+            return actor is not None and actor.newest is not None and actor.newest.t > gone_t
+
+        try:
+            wait_until(back, 15, "the AV back in the observer's world", poll=0.05)
+        finally:
+            driver.close()
     assert av.stop() == 0
     report = av.json()["extra"]
     assert report["odometry_heard"] >= 25 and report["impulses_sent"] == 1
