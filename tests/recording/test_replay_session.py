@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import zenoh
 from mcap.reader import make_reader
 
 from carlaverse import messages
@@ -181,37 +182,36 @@ def _errors(
     return out
 
 
-# The probe draws in `past` mode, each actor interpolated between its samples at one render
-# time a little behind its clock (a view drawn in `present` mode projects the newest sample
-# by its yaw rate and acceleration, and the synthetic egos turn without the centripetal
-# acceleration that needs: it would draw them off their circles by the recording's fault).
-# Interpolating 50 Hz samples of a 20 m circle at 10 m/s is exact to ~1e-5 m (Hermite with
-# the sampled velocities); a frame whose render time ran past the newest sample (a stall of
-# this loaded test process) dead-reckons and may be off by centimetres to decimetres, so
-# most frames, not all, are held to the tight bound. A session clock off by a whole second
-# (the time of day, or the recording's log time) would put the egos 10 m away, or the view
-# would refuse their poses outright (the fault this test was written for).
-MEDIAN_M = 0.05  # [m]
-MOST_M = 0.2  # [m] what 80 % of the frames are within
+# Two probes draw: in `present` mode, as `carlaverse render` and a node's view do, each actor
+# projected from its newest sample to now by its velocity, yaw rate and acceleration; in
+# `past` mode, as `carlaverse view` does, interpolated between samples at a render time a
+# little behind. On a circle of 20 m at 10 m/s both are exact to ~1e-5 m (Hermite with the
+# sampled velocities; the projection by the circle's own yaw rate and acceleration, in
+# float16 on the wire: ~0.05 %). What error there is comes from time: past mode draws at
+# its own render time, so only a frame whose render time ran past the newest sample (a
+# stall of this loaded test process) dead-reckons; present mode draws at the session clock,
+# synchronised with the replay's over loopback (error RTT/2, well under a millisecond idle,
+# ms under load: 10 ms are 0.1 m at 10 m/s). So most frames, not all, are held to the bound.
+# A session clock off by a whole second (the time of day, or the recording's log time)
+# would put the egos 10 m away, or the view would refuse their poses outright (the fault
+# this test was written for).
+BOUNDS = {"past": (0.05, 0.2), "present": (0.15, 0.5)}  # [m] median, 80 % of the frames
 
 
-def _assert_near(errors: dict[str, list[float]], what: str, count: int) -> None:
+def _assert_near(errors: dict[str, list[float]], what: str, count: int, mode: str = "past") -> None:
     assert len(errors) == count, f"{what}: drawn {sorted(errors)}"
     for actor_id, values in errors.items():
         assert len(values) >= 10, f"{actor_id}: only {len(values)} frames"
         median, most = statistics.median(values), float(np.percentile(values, 80))
-        summary = f"{actor_id}: median {median:.4f} m, 80 % within {most:.4f} m of the recording"
+        summary = f"{what}, {actor_id}: median {median:.4f} m, 80 % within {most:.4f} m"
         print(summary)  # the margins, for a human reading -s output
-        assert median < MEDIAN_M and most < MOST_M, summary
+        median_m, most_m = BOUNDS[mode]
+        assert median < median_m and most < most_m, summary
 
 
 def test_the_renderers_world_of_a_replay_is_the_recording_at_its_time(
     recording: tuple[Path, Truth], hub: Hub, tmp_path: Path
 ) -> None:
-    from carlaverse.render.live import LiveWorld
-    from carlaverse.transport.settings import NodeSettings
-    from carlaverse.world.remote_actor import InterpolationSettings
-
     path, truth = recording
     again = tmp_path / "again.mcap"  # the replay recorded, as a live session is
     session = open_session(FabricSettings(connect=[hub.endpoint]))
@@ -219,23 +219,27 @@ def test_the_renderers_world_of_a_replay_is_the_recording_at_its_time(
     recorder.start()
     proc = hub.replay(path)
     driver = hub.start("join", "scripted", "--id", "intruder", "--session", TARGET)
-    past = InterpolationSettings(render_mode="past")
-    node = NodeSettings(node_id="probe", session=TARGET, interpolation=past)
-    world = LiveWorld(session, node, own=None).start()
-    stop, frames = threading.Event(), []
+    probes = {mode: _probe(session, mode) for mode in ("present", "past")}
+    stop = threading.Event()
+    frames: dict[str, list[tuple[float, Any]]] = {mode: [] for mode in probes}
     try:
         deadline = time.monotonic() + 20
-        road_map = world.wait_for_map(deadline, stop)  # admitted, and the recorded map
-        world.wait_for_actors(deadline, stop, actor_id=EGOS[0])
-        while proc.alive() and len(frames) < 60:
-            frame = world.frame()  # drawn at the view's render time for the frame's `t`
-            frames.append((world.client.world.render_time(frame.t), frame))
+        road_map = probes["past"].wait_for_map(deadline, stop)  # admitted, the recorded map
+        for world in probes.values():
+            world.wait_for_map(deadline, stop)
+            world.wait_for_actors(deadline, stop, actor_id=EGOS[0])
+        while proc.alive() and len(frames["past"]) < 60:
+            for mode, world in probes.items():
+                frame = world.frame()  # drawn at the view's render time for the frame's `t`
+                frames[mode].append((world.client.world.render_time(frame.t), frame))
             stop.wait(0.03)
-        lights = world.client.world.lights
-        world.close()
+        lights = probes["past"].client.world.lights
+        for world in probes.values():
+            world.close()
         assert proc.wait(60) == 0, proc.output()[-2000:]
     finally:
-        world.close()
+        for world in probes.values():
+            world.close()
         recorder.stop()
         session.close()
     assert road_map is not None and road_map.name == "synthetic-cross"
@@ -243,14 +247,27 @@ def test_the_renderers_world_of_a_replay_is_the_recording_at_its_time(
     assert driver.wait(60) == Exit.REFUSED, driver.output()[-2000:]
     assert "only observers join it" in driver.output(), driver.output()[-2000:]
     first, last = truth.span
-    assert all(first - 1 <= t <= last + 1 for t, _ in frames), "frames at recorded session time"
-    _assert_near(_errors(frames, truth, EGOS), "egos", len(EGOS))
-    _assert_near(_errors(frames, truth, None), "npcs", 4)
-    assert lights is not None and lights.lights[0].state == truth.light_at(frames[-1][1].t)
+    for mode, drawn in frames.items():
+        assert all(first - 1 <= t <= last + 1 for t, _ in drawn), f"{mode}: not recorded time"
+        _assert_near(_errors(drawn, truth, EGOS), f"{mode} egos", len(EGOS), mode)
+        _assert_near(_errors(drawn, truth, None), f"{mode} npcs", 4, mode)
+    last_frame = frames["past"][-1][1]
+    assert lights is not None and lights.lights[0].state == truth.light_at(last_frame.t)
     # An analysis of the replay, recorded, finds who the recording's own analysis finds,
     # as the same kind of road user on the same lanes (the times differ: each file starts
     # when its recorder did).
     assert _actors(path, tmp_path / "first") == _actors(again, tmp_path / "again")
+
+
+def _probe(session: zenoh.Session, mode: str) -> Any:
+    """The renderer's world source (`LiveWorld`), drawing in `mode`, joined to the replay."""
+    from carlaverse.render.live import LiveWorld
+    from carlaverse.transport.settings import NodeSettings
+    from carlaverse.world.remote_actor import InterpolationSettings
+
+    draw = InterpolationSettings(render_mode=mode)  # type: ignore[arg-type]
+    node = NodeSettings(node_id=f"probe-{mode}", session=TARGET, interpolation=draw)
+    return LiveWorld(session, node, own=None).start()
 
 
 def _actors(recording: Path, out: Path) -> list[tuple[str, ...]]:
