@@ -74,6 +74,8 @@ def run(args: argparse.Namespace) -> int:
     if not args.recording.is_file():
         return fail(NAME, f"{args.recording}: no such recording")
     output = args.output or sibling_path(args.recording)
+    if output.suffix != ".mcap":  # the OSI trace file spec: multi-channel traces are .mcap
+        return fail(NAME, f"-o {output}: an OSI multi-channel trace file ends in .mcap")
     if output.resolve() == args.recording.resolve():
         return fail(NAME, f"-o {output} is the recording itself: name another file")
     return export(args.recording, output, args)

@@ -253,10 +253,12 @@ def test_user_errors_are_one_line(exported, tmp_path: Path, capsys) -> None:
     assert main(["osi", str(tmp_path / "none.mcap")]) == 2
     assert main(["osi", str(recording), "-o", str(recording)]) == 2
     assert main(["osi", str(recording), "-o", str(tmp_path / "o.mcap"), "--osi-rate", "0"]) == 2
+    assert main(["osi", str(recording), "-o", str(tmp_path / "o.osi")]) == 2
     assert main(["osi", str(recording), "-o", str(tmp_path / "o.mcap"), "--osi-host", "x"]) == 1
     lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 4 and all(line.startswith("carlaverse osi: ") for line in lines), lines
-    assert "no such ego" in lines[3] and "ego-0, ego-1" in lines[3]
+    assert len(lines) == 5 and all(line.startswith("carlaverse osi: ") for line in lines), lines
+    assert "ends in .mcap" in lines[3]
+    assert "no such ego" in lines[4] and "ego-0, ego-1" in lines[4]
 
 
 def test_a_leaning_rider_s_box_centre_leans_with_it(tmp_path: Path) -> None:
