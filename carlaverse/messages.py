@@ -204,6 +204,8 @@ FEW_ROWS = 8
 def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
     """Consecutive 64-byte poses, each decoded as `decode_pose` would; None where it would
     refuse. A relay's batch costs a fraction of a `decode_pose` call per pose."""
+    if len(rows) == POSE_SIZE:  # one pose per update: a node hearing one ego at its own rate
+        return [_pose_or_none(rows)]
     if len(rows) <= FEW_ROWS * POSE_SIZE and not len(rows) % POSE_SIZE:
         return [_pose_or_none(rows[k : k + POSE_SIZE]) for k in range(0, len(rows), POSE_SIZE)]
     columns, good = pose_columns(rows)
