@@ -40,7 +40,9 @@ VARIANTS = (
     "thread (`Callback(indirect=False)`) instead of zenoh-python's own Python thread; 'bare "
     "Zenoh, pose publisher options' publishes as `NodeClient` does (drop under congestion, "
     "real-time priority, remote destinations only); 'pose path, no node loop' is the pose path "
-    "whose receivers never run `update()`, so the Zenoh callback has each process to itself."
+    "whose receivers never run `update()`, so the Zenoh callback has each process to itself. "
+    "Here the pose path's receivers time the fabric's pose callback (two clock reads more per "
+    "pose, in their CPU; not in the comparison's runs)."
 )
 
 
@@ -87,7 +89,8 @@ def measure(
         for name in names[k % len(names) :] + names[: k % len(names)]:
             outcome = "done"
             try:
-                result = run_once(name, args.rate, args.seconds, args.receivers)
+                result = run_once(name, args.rate, args.seconds, args.receivers,
+                                  time_callback=args.diagnose)  # fmt: skip
                 runs[name].append(result | {"round": k + 1})
             except RunFailed as exc:
                 failed.append(f"round {k + 1}, {load(name).label}: {exc}")

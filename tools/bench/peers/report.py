@@ -166,7 +166,7 @@ def split(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]:
     inside = [x for run in runs[REFERENCE] for rx in run["receivers"] for x in rx["in_callback_s"]]
     if not inside:
         return [f"- Split of the pose path's p50: bare Zenoh {zenoh:.3f} ms, the project's part "
-                f"{pose - zenoh:+.3f} ms (its callback was not timed)."]  # fmt: skip
+                f"{pose - zenoh:+.3f} ms (its callback is timed with `--diagnose`)."]  # fmt: skip
     line = (
         f"- Split of the pose path's p50: bare Zenoh (same binding and layout, no project code) "
         f"{zenoh:.3f} ms, the project's part {pose - zenoh:+.3f} ms, of which "
