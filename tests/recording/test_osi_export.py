@@ -395,3 +395,24 @@ def test_record_recover_osi_exports_the_recovered_file(exported, tmp_path: Path)
     again = list(betterosi.read(str(tmp_path / "clean.osi.mcap"), return_ground_truth=True))
     assert len(again) == len(frames)
     assert [len(f.moving_object) for f in again] == [len(f.moving_object) for f in frames]
+
+
+def test_an_acceleration_not_sent_is_the_recorded_velocity_s_derivative(tmp_path: Path) -> None:
+    # A scripted rider brakes from 10 m/s at 2 m/s² heading north-east and sends no
+    # acceleration: OSI gets dv/dt = 2 m/s² against its velocity, (-sqrt 2, -sqrt 2).
+    path = tmp_path / "brake.mcap"
+    keys = Keys("rec")
+    sink = McapSink(path, monotonic=time.monotonic)
+    c = math.sqrt(0.5)
+    for k in range(26):  # 20 Hz for 1.25 s
+        t = k * 0.05
+        speed = 10.0 - 2.0 * t
+        pose = m.Pose(k, t, 0.0, 0.0, yaw=math.pi / 4, vx=c * speed, vy=c * speed)
+        sink.write(keys.pose("bike-1", "t0_0"), m.POSE.encode(pose), T0_NS + round(t * 1e9))
+    sink.close()
+    assert main(["osi", str(path), "-o", str(tmp_path / "brake.osi.mcap")]) == 0
+    frames = list(betterosi.read(str(tmp_path / "brake.osi.mcap"), return_ground_truth=True))
+    assert len(frames) == 26
+    for frame in frames:
+        a = frame.moving_object[0].base.acceleration
+        assert (a.x, a.y) == pytest.approx((-2 * c, -2 * c), abs=1e-4)
