@@ -85,6 +85,7 @@ class _Run:
 
     def __init__(self) -> None:
         self.leaves: list[tuple[tuple[str, ...], str, float]] = []  # (path, primitive, default)
+        self.tree: _Tree = []
         self._packers: dict[int, struct.Struct] = {}
 
     def packer(self, residue: int) -> struct.Struct:
@@ -99,9 +100,35 @@ class _Run:
             packer = self._packers[residue] = struct.Struct("".join(parts))
         return packer
 
+    def add(self, path: tuple[str, ...], name: str, default: float) -> None:
+        self.leaves.append((path, name, default))
+        # the leaves as a tree of keys, so that each nested dict is looked up once
+        level = self.tree
+        for key in path[:-1]:
+            if not level or level[-1][0] != key or level[-1][1] is None:
+                level.append((key, [], 0))
+            level = level[-1][1]  # type: ignore[assignment]
+        level.append((path[-1], None, default))
+
     def write(self, writer: _Writer, value: Mapping[str, Any]) -> None:
-        values = [_or(_get(value, path), default) for path, _, default in self.leaves]
+        values: list[Any] = []
+        _collect(value, self.tree, values)
         writer.buf += self.packer((len(writer.buf) - 4) % 8).pack(*values)
+
+
+# (key, its subtree or None for a primitive, the primitive's default)
+_Tree = list[tuple[str, "_Tree | None", float]]
+
+
+def _collect(value: Any, tree: _Tree, out: list[Any]) -> None:
+    """The primitives `tree` names in nested dicts `value`, in order; a default for each
+    one the message leaves out."""
+    for key, sub, default in tree:
+        item = value.get(key) if value else None
+        if sub is None:
+            out.append(default if item is None else item)
+        else:
+            _collect(item, sub, out)
 
 
 _Op = _Run | tuple[tuple[str, ...], Field]
@@ -126,7 +153,7 @@ def _flatten(definition: MsgDef, prefix: tuple[str, ...], plan: list[_Op]) -> No
         elif field.collection == "single" and field.type != "string":
             if not plan or not isinstance(plan[-1], _Run):
                 plan.append(_Run())
-            plan[-1].leaves.append((path, str(field.type), field.default))
+            plan[-1].add(path, str(field.type), field.default)
         else:
             plan.append((path, field))
 
