@@ -124,8 +124,10 @@ def _plan(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from carlaverse.recording.sink import RecordingError
     from carlaverse.study.people import load_people
     from carlaverse.study.runner import RunSettings, StudyRunner
+    from carlaverse.transport.session import FabricError
 
     study, _trials = _load(args.file)
     greet = {}
@@ -140,6 +142,10 @@ def _run(args: argparse.Namespace) -> int:
     try:
         result = runner.run()
     except ChildFailed as exc:
+        return fail("study", str(exc), Exit.FAILED)
+    except FabricError as exc:  # the router named cannot be reached, a session not opened
+        return fail("study", str(exc), Exit.FABRIC)
+    except RecordingError as exc:
         return fail("study", str(exc), Exit.FAILED)
     why = f" ({result.reason})" if result.reason else ""
     again = "" if result.outcome == "done" else f"; run again with --out {args.out} to resume"

@@ -34,7 +34,7 @@ from carlaverse.study.schedule import Trial, digest, plan
 from carlaverse.study.study_file import Study
 from carlaverse.study.study_log import COMPLETED, LOG_NAME, StudyLog, StudyLogError
 from carlaverse.study.trial import TRIALS_DIR, StudyContext, TrialRun, set_aside_name
-from carlaverse.transport.session import FabricSettings, open_session
+from carlaverse.transport.session import FabricSettings, open_session, reachable
 
 ROUTER_READY = "router "  # what `router` prints once it listens
 READY_TIMEOUT_S = 30.0  # [s]
@@ -89,7 +89,7 @@ class StudyRunner:
         links = ParticipantLinks(
             self.study.participants, router, self.settings.link_bind, self.study.design.seed
         )
-        session = open_session(FabricSettings(connect=[router]))
+        session = open_session(reachable(FabricSettings(connect=[router])))
         briefer = Briefer(session, self.study.name, [p.id for p in self.study.participants])
         try:
             links.start()

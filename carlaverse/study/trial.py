@@ -35,7 +35,7 @@ from carlaverse.study.study_log import COMPLETED, StudyLog
 from carlaverse.study.trial_setup import node_config, write_scenario
 from carlaverse.study.view_error import true_tracks, view_errors
 from carlaverse.study.view_probe import ViewProbe, probe_id
-from carlaverse.transport.session import FabricSettings, open_session
+from carlaverse.transport.session import FabricSettings, open_session, reachable
 
 AUTHORITY_READY = "authority of session "  # what `authority` prints once it ticks
 READY_TIMEOUT_S = 60.0  # [s] for the authority to tick (SUMO, the map) on a loaded host
@@ -126,7 +126,7 @@ class TrialRun:
                      f"scenario {Path(scenario).name}")  # fmt: skip
 
     def _start_recorder(self, scenario: str) -> tuple[Recorder, Any]:
-        session = open_session(FabricSettings(connect=[self.ctx.router]))
+        session = open_session(reachable(FabricSettings(connect=[self.ctx.router])))
         sink = McapSink(self.recording, monotonic=time.monotonic)
         sink.metadata(METADATA_NAME, self._metadata(scenario))
         recorder = Recorder(session, Keys(self.session), sink)

@@ -31,6 +31,7 @@ class ViewProbe:
         drawing it samples."""
         self.others = others
         self.samples: list[ViewSample] = []
+        # a client: through the given endpoint alone (a peer would dial the others directly)
         self._session: zenoh.Session = open_session(
             FabricSettings(mode="client", connect=[endpoint])
         )
