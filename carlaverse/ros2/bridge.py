@@ -8,7 +8,7 @@ NPCs, lights) and publishes, at each `publish(now)`:
     <prefix>/<ego>/odom             nav_msgs/Odometry               one topic per ego
     <prefix>/objects                vision_msgs/Detection3DArray    every actor, ground truth
     <prefix>/markers                visualization_msgs/MarkerArray  a box per actor, for RViz
-    <prefix>/traffic_lights         carlaverse_msgs/TrafficLightArray  when the lights change
+    <prefix>/traffic_lights         carlaverse_msgs/TrafficLightArray  each lights message
 
 `Ros2BridgeNode` is the node kind that runs it as an observer (`carlaverse ros2 view`); the
 AV participant (`av_participant`) runs it beside its own ego.
@@ -35,7 +35,7 @@ from carlaverse.world.remote_actor import ActorView
 
 log = logging.getLogger(__name__)
 
-MARKER_PERIODS = 3.0  # a marker lives this many publishing periods: a gone actor fades
+MARKER_PERIODS = 3.0  # a marker lives this many publishing periods: a gone actor vanishes
 
 
 class Ros2Settings(StrictStruct):

@@ -8,9 +8,13 @@ primitive then sits at an offset (counted after the header) that is a multiple o
 string is a uint32 length counting its NUL, its UTF-8 bytes and the NUL; a sequence is a uint32
 count and its elements; a fixed array is its elements alone.
 
-Values are plain dicts keyed by field name (a missing field encodes as zero, "" or empty);
-sequences are lists, a `uint8[]` is bytes. `decode` takes network input: whatever is wrong
-with it raises `CdrError` (a ValueError) naming the field, never anything else.
+Values are plain dicts keyed by field name (a missing field encodes as its .msg default --
+zero, "" or empty but for a few, like a Quaternion's w = 1); sequences are lists, a `uint8[]`
+is bytes. Encoding follows a plan made once per type: the primitives between two strings or
+collections, nested messages flattened, are one `struct` pack.
+
+`decode` takes network input: whatever is wrong with it raises `CdrError` (a ValueError)
+naming the field, never anything else.
 """
 
 from __future__ import annotations
