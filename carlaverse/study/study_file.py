@@ -102,6 +102,9 @@ class TrialSettings(StrictStruct):
     duration_s: Annotated[float, msgspec.Meta(gt=0, le=86400)] = 60.0  # [s] from the start
     start_timeout_s: Annotated[float, msgspec.Meta(gt=0, le=3600)] = 120.0  # [s] for all roles
     view_probe_hz: Annotated[float, msgspec.Meta(ge=0, le=100)] = 10.0  # [Hz] 0: no probe
+    # end earlier, when one of these scenario triggers fires, or at the first contact
+    end_on_triggers: list[str] = []
+    end_on_contact: bool = False
 
 
 class Study(StrictStruct):

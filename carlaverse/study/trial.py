@@ -6,8 +6,9 @@ the trial's conditions as MCAP metadata (`carlaverse.study.trial`); the authorit
 the trial's scenario and seed; each participant's link gets the trial's delay, jitter and
 loss; the briefs name the trial, and each agent starts its participant's node; once every
 participant is drawn by the runner's own view (present, poses flowing) the trial is live for
-`trial.duration_s`; then the briefs go idle (the nodes leave), the authority stops, and the
-recording closes. A trial that ends any other way keeps its recording under
+`trial.duration_s`, or until an end condition of its world (end_condition.py); then the
+briefs go idle (the nodes leave), the authority stops, and the recording closes. A trial that
+ends any other way (not completed) keeps its recording under
 `<trial>.attempt<N>.<outcome>.mcap`, so `<trial>.mcap` is always a completed one.
 """
 
@@ -28,6 +29,7 @@ from carlaverse.procs import Child, ChildFailed, stop_children
 from carlaverse.recording.recorder import Recorder
 from carlaverse.recording.sink import McapSink
 from carlaverse.study.control import Command
+from carlaverse.study.end_condition import EndCondition
 from carlaverse.study.links import ParticipantLinks
 from carlaverse.study.schedule import Trial, world_condition
 from carlaverse.study.study_file import LinkCondition, Study
@@ -85,6 +87,8 @@ class TrialRun:
         self._probes: dict[str, ViewProbe] = {}
         self._watch: ViewProbe | None = None
         self._last_seen: dict[str, float] = {}  # [s] monotonic: when each was last drawn
+        settings = ctx.study.trial
+        self._end = EndCondition(settings.end_on_triggers, settings.end_on_contact)
 
     def run(self) -> str:
         scenario = write_scenario(
@@ -93,6 +97,12 @@ class TrialRun:
         self._log_start(scenario)
         self.ctx.links.apply(self.link_conditions)
         recorder, rec_session = self._start_recorder(scenario)
+        events = None
+        if self._end.wanted:  # the callback decodes and sets a flag, nothing more
+            events = rec_session.declare_subscriber(
+                Keys(self.session).world("events"),
+                lambda sample: self._end.on_event(sample.payload.to_bytes()),
+            )
         outcome, reason, figures = "failed", "", {}
         try:
             outcome, reason = self._run_live(scenario)
@@ -100,6 +110,8 @@ class TrialRun:
             reason = str(exc)
         finally:
             self._take_down()
+            if events is not None:
+                events.undeclare()
             recorder.stop()
             rec_session.close()
             self.ctx.links.apply({})
@@ -206,6 +218,8 @@ class TrialRun:
             ended = self._interrupted() or self._lost()
             if ended is not None:
                 return ended
+            if self._end.met.is_set():
+                return COMPLETED, self._end.reason
             if time.monotonic() >= next_probe:
                 for probe in self._probes.values():
                     probe.sample()
