@@ -29,7 +29,7 @@ from typing import Any
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.keys import Keys
+from carlaverse.keys import Keys, check_token
 from carlaverse.study.answers import AnswerRecord, AnswerStore
 from carlaverse.study.questionnaires import Questionnaire, check_answers, score
 
@@ -76,7 +76,8 @@ class QuestionnaireRound:
         self._inbox: queue.SimpleQueue[tuple[str, bytes]] = queue.SimpleQueue()
         self._publishers: dict[str, Any] = {}
         self._subscribers: list[Any] = []
-        for node_id in node_ids:
+        nodes = [check_token(node_id) for node_id in node_ids]  # all, before declaring any
+        for node_id in nodes:
             self._open(session, keys, node_id)
 
     def _open(self, session: Any, keys: Keys, node_id: str) -> None:
