@@ -30,8 +30,8 @@ from carlaverse.recording.osi_ground_truth import (
     Options,
     ground_truths,
     interface_version,
-    read_world,
 )
+from carlaverse.recording.osi_world import read_world
 from carlaverse.recording.sink import RecordingError
 
 TRACE_METADATA = "net.asam.osi.trace"

@@ -37,6 +37,10 @@ RATE_HZ = 20.0
 NPCS = 6
 EGO_EXTENTS = {"ego-0": m.Extent(4.6, 1.9, 1.45), "ego-1": m.Extent(1.8, 0.6, 1.7)}
 EGO_KINDS = {"ego-0": "car", "ego-1": "bicycle"}
+# sun in the east, 30 degrees up; 3 mm/h of rain; 100 m visibility; half cloud; a west wind
+WEATHER = m.Weather(1, 0.0, sun_altitude_deg=30.0, sun_azimuth_deg=90.0, cloudiness=0.5,
+                    precipitation=0.3, fog_density=0.9, wind_speed_mps=4.0,
+                    wind_direction_deg=270.0)  # fmt: skip
 NPC0_LIGHTS = m.LIGHT_BRAKE | m.LIGHT_RIGHT_BLINKER  # npc-0 from t = 3 s
 EGO0_STATES = [(2.0, m.LIGHT_LOW_BEAM, "left"), (5.0, m.LIGHT_PARKING, "hazard")]  # (t, bits, ...)
 
@@ -47,6 +51,7 @@ def write_recording(path: Path) -> None:
     sink.write(keys.authority("map"), m.MAP.encode(synthetic_map()), T0_NS)
     egos = [m.EgoInfo(e, "scripted", EGO_KINDS[e], EGO_EXTENTS[e], 80.0) for e in EGO_KINDS]
     sink.write(keys.authority("snapshot"), m.SNAPSHOT.encode(m.Snapshot(2, 0.0, egos)), T0_NS)
+    sink.write(keys.world("weather"), m.WEATHER.encode(WEATHER), T0_NS)
     for seq, ego in enumerate(EGO_KINDS, 1):
         event = m.Spawned(seq, 0.0, ego, "scripted", EGO_KINDS[ego])
         sink.write(keys.world("events"), m.WORLD_EVENT.encode(event), T0_NS)
@@ -416,3 +421,20 @@ def test_an_acceleration_not_sent_is_the_recorded_velocity_s_derivative(tmp_path
     for frame in frames:
         a = frame.moving_object[0].base.acceleration
         assert (a.x, a.y) == pytest.approx((-2 * c, -2 * c), abs=1e-4)
+
+
+def test_the_weather_in_osi_s_angles_and_categories(exported) -> None:
+    # osi_environment.proto: Sun.azimuth and Wind.origin_direction count counter-clockwise
+    # from north ("0: north; +pi/2: west; pi: south, 3/2 pi: east"), so a sun due east is
+    # 3/2 pi and a wind from the west pi/2. README: rain 10 mm/h is 1.0, so 0.3 is 3 mm/h,
+    # MODERATE in OSI's [1.9, 8.1[ mm/h; fog density 1 - visibility / 1000 m, so 0.9 is
+    # 100 m, THICK in [50, 200[ m; cloudiness 0.5 is four oktas of eight.
+    _, _, frames = exported
+    env = frames[5].environmental_conditions
+    assert env.sun.azimuth == pytest.approx(1.5 * math.pi)
+    assert env.sun.elevation == pytest.approx(math.radians(30))
+    assert (env.wind.origin_direction, env.wind.speed) == pytest.approx((0.5 * math.pi, 4.0))
+    assert env.precipitation == betterosi.EnvironmentalConditionsPrecipitation.MODERATE
+    assert env.fog == betterosi.EnvironmentalConditionsFog.THICK
+    oktas = betterosi.EnvironmentalConditionsCloudLayerFractionalCloudCover
+    assert env.clouds.fractional_cloud_cover == oktas.FOUR_OKTAS
