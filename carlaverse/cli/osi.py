@@ -15,9 +15,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.description = (
         "Export a recording's ground truth as an ASAM OSI multi-channel trace (MCAP): one "
         "osi3.GroundTruth per tick on channel `ground_truth` with every ego and NPC (type, "
-        "size, pose, velocity, acceleration), the map's lanes and boundaries (first frame) and "
-        "every signal head's bulbs. Positions, angles and velocities are in the map frame, "
-        "which is OSI's global frame; timestamps are session time."
+        "size, pose, velocity, acceleration, lights), the map's lanes and boundaries (first "
+        "frame), every signal head's bulbs and the weather. Positions, angles and velocities "
+        "are in the map frame, which is OSI's global frame; timestamps are session time."
     )
     parser.add_argument("recording", type=Path, metavar="REC.mcap", help="a session recording")
     parser.add_argument("-o", "--output", type=Path, default=None, metavar="OUT.mcap",
