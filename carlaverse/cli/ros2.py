@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+import threading
+import time
 from typing import Any, TextIO
 
 import msgspec
@@ -31,11 +33,21 @@ from carlaverse.config import ConfigError, load_config
 from carlaverse.keys import KeySpaceError, check_token
 from carlaverse.messages import ACTOR_KINDS, Extent
 from carlaverse.node_runtime import JoinTimeout, NodeSummary, run_node
-from carlaverse.ros2.av_participant import AvConfig, AvParticipantNode, AvSettings
+from carlaverse.ros2.av_participant import (
+    AvConfig,
+    AvParticipantNode,
+    AvSettings,
+    await_odometry,
+)
 from carlaverse.ros2.bridge import Ros2BridgeConfig, Ros2BridgeNode, Ros2Settings
 from carlaverse.ros2.keys import RosNameError
 from carlaverse.transport.node_client import JoinRefused
-from carlaverse.transport.session import FabricError, FabricUnreachable, build_config
+from carlaverse.transport.session import (
+    FabricError,
+    FabricUnreachable,
+    build_config,
+    open_session,
+)
 
 KINDS = {"view": Ros2BridgeNode, "av": AvParticipantNode}
 
@@ -82,9 +94,18 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         return fail(command, str(exc).lstrip(": "))
     stop = stop_on_signals()
     node = KINDS[args.role](config)
+    duration = args.duration
     try:
+        if isinstance(config, AvConfig):
+            started = time.monotonic()
+            if not _odometry_heard(command, config, stop, duration):
+                return fail(command, f"no odometry on {config.av.odom_topic} "
+                            f"(ROS_DOMAIN_ID {config.ros2.domain_id}): never joined",
+                            stop.exit_code() if stop.is_set() else Exit.NOT_ADMITTED)  # fmt: skip
+            if duration is not None:
+                duration = max(0.0, duration - (time.monotonic() - started))
         summary = run_node(
-            node, config.node, config.fabric, config, args.duration, stop,
+            node, config.node, config.fabric, config, duration, stop,
             join_timeout_s=args.join_timeout, on_wait=say(command),
         )  # fmt: skip
     except JoinRefused as exc:
@@ -95,6 +116,20 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     except FabricError as exc:
         return fail(command, str(exc), Exit.FABRIC)
     return _report(command, args, summary, out)
+
+
+def _odometry_heard(
+    command: str, config: AvConfig, stop: threading.Event, duration: float | None
+) -> bool:
+    """Wait for the AV's first odometry on a session of its own, saying so once."""
+    say(command)(f"waiting for nav_msgs/Odometry on {config.av.odom_topic} before joining")
+    deadline = None if duration is None else time.monotonic() + duration
+    session = open_session(config.fabric, stop, deadline, say(command))
+    try:
+        left = None if deadline is None else max(0.0, deadline - time.monotonic())
+        return await_odometry(session, config, stop, left)
+    finally:
+        session.close()
 
 
 def _config(args: argparse.Namespace) -> AvConfig | Ros2BridgeConfig:

@@ -19,11 +19,13 @@ message's own stamp is on the AV's clock, which need not be the session's).
 from __future__ import annotations
 
 import logging
+import threading
 import time
 from collections.abc import Callable
 from typing import Annotated, Any
 
 import msgspec
+import zenoh
 
 from carlaverse import messages as m
 from carlaverse.config import StrictStruct
@@ -63,6 +65,28 @@ class AvConfig(StrictStruct):
         if self.node.actor_kind not in m.ACTOR_KINDS:
             known = ", ".join(m.ACTOR_KINDS)
             raise ValueError(f"node.actor_kind {self.node.actor_kind!r}: one of {known}")
+
+
+def await_odometry(
+    session: zenoh.Session, config: AvConfig, stop: threading.Event, timeout_s: float | None
+) -> bool:
+    """Block until the AV's first odometry that would make a pose is heard (True), or until
+    `stop` or `timeout_s` (False): the AV joins once it drives, not before, so a stack that
+    is not up yet is not despawned and re-joined every despawn timeout meanwhile."""
+    s = config.ros2
+    node = RosNode(session, s.node_name, domain=s.domain_id)
+    probe = AvParticipantNode(config)
+    deadline = None if timeout_s is None else time.monotonic() + timeout_s
+    try:
+        node.subscription(config.av.odom_topic, t.ODOMETRY, probe.on_odometry)
+        while not probe.odometry_heard:
+            if deadline is not None and time.monotonic() >= deadline:
+                return False
+            if stop.wait(0.02):
+                return False
+        return True
+    finally:
+        node.close()
 
 
 class AvParticipantNode:

@@ -49,3 +49,15 @@ def test_no_world_leaves_the_world_to_a_view_in_the_same_domain() -> None:
     config = ros2._config(parser.parse_args([*argv, "--no-world"]))
     assert (config.av.odom_topic, config.av.world) == ("/car/odom", False)
     assert ros2._config(parser.parse_args(argv)).av.world
+
+
+def test_an_av_without_odometry_never_joins(capsys: pytest.CaptureFixture[str]) -> None:
+    """It waits for its stack's first odometry before joining: none within --duration is
+    exit 5 and one line naming the topic (no router is needed to find that out)."""
+    argv = ["ros2", "av", "--id", "av-1", "--odom-topic", "/quiet/odom", "--duration", "3",
+            "--connect", "tcp/127.0.0.1:9"]  # fmt: skip
+    assert main(argv) == Exit.NOT_ADMITTED
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err[-1] == (
+        "carlaverse ros2 av: no odometry on /quiet/odom (ROS_DOMAIN_ID 0): never joined"
+    )

@@ -253,16 +253,17 @@ def test_a_ros2_av_drives_in_the_session(cluster: Cluster, tmp_path: Path) -> No
     obs = cluster.observer()
     heard = Heard()
     with ros_side(cluster.port, tmp_path / "msgs"):
-        # `ros2 topic list -t` shows the AV's subscription and its collisions once it is
-        # admitted and listening
-        av_topics = {
-            "/av/odom": ["nav_msgs/msg/Odometry"],
-            "/carlaverse/av_1/collisions": ["carlaverse_msgs/msg/CollisionImpulse"],
-        }
-        wait_until(lambda: av_topics.items() <= listed_topics(cluster.port).items(), 30,
-                   "the AV's topics in the ROS graph", poll=0.2)  # fmt: skip
+        # `ros2 topic list -t` shows the AV listening for its odometry; it joins the session
+        # only once the odometry comes, and then its collisions topic is listed too
+        odom = {"/av/odom": ["nav_msgs/msg/Odometry"]}
+        wait_until(lambda: odom.items() <= listed_topics(cluster.port).items(), 30,
+                   "the AV's odometry subscription in the ROS graph", poll=0.2)  # fmt: skip
+        assert "av-1" not in {e.node_id for e in m.SNAPSHOT.decode(obs.query("snapshot")).egos}
         driver = PathDriver(cluster.port)
         try:
+            collisions = {"/carlaverse/av_1/collisions": ["carlaverse_msgs/msg/CollisionImpulse"]}
+            wait_until(lambda: collisions.items() <= listed_topics(cluster.port).items(), 30,
+                       "the AV's collisions topic in the ROS graph", poll=0.2)  # fmt: skip
             heard.subscribe(cluster.port, "/carlaverse/av_1/collisions",
                             "carlaverse_msgs/msg/CollisionImpulse")  # fmt: skip
             heard.subscribe(cluster.port, "/clock", "rosgraph_msgs/msg/Clock")
@@ -313,7 +314,7 @@ def test_a_ros2_av_drives_in_the_session(cluster: Cluster, tmp_path: Path) -> No
             driver.close()
     assert av.stop() == 0
     report = av.json()["extra"]
-    assert report["odometry_heard"] >= 25 and report["impulses_sent"] == 1
+    assert report["odometry_heard"] >= 15 and report["impulses_sent"] == 1
     assert report["odometry_dropped"] == {"/av/odom": 1}
 
 
