@@ -20,6 +20,8 @@ from typing import Any, TypeVar, dataclass_transform
 import msgspec
 import yaml
 
+from carlaverse.patterns import readable
+
 T = TypeVar("T")
 
 SHIPPED_PACKAGES = ("carlaverse.configs", "carlaverse.scenarios")
@@ -122,7 +124,7 @@ def convert(data: Any, type_: type[T], source: str) -> T:
     try:
         return msgspec.convert(data, type_, strict=False)
     except msgspec.ValidationError as exc:
-        raise ConfigError(source, str(exc)) from exc
+        raise ConfigError(source, readable(str(exc))) from exc
 
 
 def load_config(path: str | Path, type_: type[T], relative_to: Path | None = None) -> T:

@@ -38,7 +38,11 @@ WORLD_CHANNELS = ("npc", "lights", "weather", "events")
 # verbatim in Zenoh: no wildcard matches it, so a recorder or viewer subscribed to `**` does
 # not take a second copy of every pose, and only a node that names the key receives it.
 DIGEST_CHANNEL = "@egos"
-KEY_AREAS = ("node", "ego", "world", "impulse", "audio", "authority")
+# Per-node study channels under study/<node_id>/... (issue 44): the study runner asks a
+# participant's node to show a questionnaire (`ask`), the node sends the answers (`answers`);
+# under the study's own name as session, the runner briefs a participant's agent (`brief`).
+STUDY_CHANNELS = ("ask", "answers", "brief")
+KEY_AREAS = ("node", "ego", "world", "impulse", "audio", "authority", "study")
 AUTHORITY_QUERIES = ("clock", "join", "leave", "snapshot", "map", "scenario", "configs")
 
 
@@ -166,6 +170,12 @@ class Keys:
             raise KeySpaceError(f"unknown authority query {query!r}; expected {AUTHORITY_QUERIES}")
         return f"{self.prefix}/authority/{query}"
 
+    # study: questionnaires between trials
+    def study(self, node_id: str, channel: str) -> str:
+        if channel not in STUDY_CHANNELS:
+            raise KeySpaceError(f"unknown study channel {channel!r}; expected {STUDY_CHANNELS}")
+        return f"{self.prefix}/study/{check_token(node_id)}/{channel}"
+
     def subtree(self, area: str, node_id: str | None = None) -> str:
         """`<prefix>/<area>/**` or `<prefix>/<area>/<node_id>/**`: ACL rules and wide queries."""
         if area not in KEY_AREAS:
@@ -185,8 +195,9 @@ class ParsedKey:
     """A concrete key split into its parts; `node_id` is empty where the key has none."""
 
     session: str
-    area: str  # node | ego | world | impulse | audio | authority
-    channel: str  # pose/state/... for ego; npc/lights/... for world; query name for authority
+    area: str  # node | ego | world | impulse | audio | authority | study
+    channel: str  # pose/state/... for ego; npc/lights/... for world; query name for authority;
+    # ask/answers for study
     node_id: str
     tile: str = ""  # tiled channels: the tile the key addresses ("" for the whole world)
 
@@ -194,8 +205,8 @@ class ParsedKey:
     def path(self) -> str:
         """The key after `carlaverse/<session>/`."""
         suffix = f"/{self.tile}" if self.tile else ""
-        if self.area == "ego":
-            return f"ego/{self.node_id}/{self.channel}{suffix}"
+        if self.area in ("ego", "study"):
+            return f"{self.area}/{self.node_id}/{self.channel}{suffix}"
         if self.area in ("node", "impulse", "audio"):
             return f"{self.area}/{self.node_id}"
         return f"{self.area}/{self.channel}{suffix}"
@@ -218,6 +229,13 @@ def parse(key: str) -> ParsedKey:
         and _TILE.fullmatch(rest[1])
     ):
         return ParsedKey(session, area, rest[0], "", rest[1])
+    if (
+        area == "study"
+        and len(rest) == 2
+        and rest[1] in STUDY_CHANNELS
+        and _TOKEN.fullmatch(rest[0])
+    ):
+        return ParsedKey(session, area, rest[1], rest[0])
     if area in ("node", "impulse", "audio") and len(rest) == 1 and _TOKEN.fullmatch(rest[0]):
         return ParsedKey(session, area, "", rest[0])
     if area == "world" and len(rest) == 1 and rest[0] in (*WORLD_CHANNELS, DIGEST_CHANNEL):

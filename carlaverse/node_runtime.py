@@ -30,6 +30,7 @@ from typing import Any, Protocol
 import msgspec
 
 from carlaverse.config import StrictStruct, to_yaml
+from carlaverse.keys import Keys
 from carlaverse.messages import AudioScene, Notice, Pose
 from carlaverse.redact import redact_yaml
 from carlaverse.transport.clock import MonotonicClock
@@ -51,6 +52,10 @@ class NodeKind(Protocol):
     def step(self, client: NodeClient, now: float) -> None: ...
     def close(self) -> None: ...
     def report(self) -> dict[str, Any]: ...
+
+
+# A part of the node that shares its session: (session, keys) -> what closes it again.
+SessionUser = Callable[[Any, Keys], Callable[[], None]]
 
 
 class AudioFeed(Protocol):
@@ -149,10 +154,14 @@ def run_node(
     on_wait: Callable[[str], None] | None = None,
     on_notice: Callable[[Notice], None] | None = None,
     audio: AudioFeed | None = None,
+    on_session: SessionUser | None = None,
 ) -> NodeSummary:
     """Join, run the node's loop until `duration_s` or `stop`, leave cleanly, summarise.
     `audio`: a process that plays what the node hears (its client subscribes to the node's
     audio scenes only then: the authority builds scenes only for a node that listens).
+    `on_session(session, keys)`: a part of the node that uses its session too (the HMI's
+    questionnaires); called once the client runs, it returns what closes it again, called
+    before the client closes.
 
     Raises FabricUnreachable (client mode: no router before the end), JoinRefused and
     JoinTimeout; a node stopped or out of time before it was admitted returns `joined=False`
@@ -171,10 +180,15 @@ def run_node(
             notice = WaitNotice(SessionWait(session, fabric, client.keys), say)
             try:
                 client.start(pose_source=_heard_by(node.pose_source(), audio))
-                missing = _wait_admitted(client, notice, stop, limits)
-                if not missing:
-                    notice.watch()  # an authority that goes mid-session is said, and its return
-                    _loop(node, client, limits, stop, 1.0 / loop_hz, on_notice)
+                stop_user = on_session(session, client.keys) if on_session else None
+                try:
+                    missing = _wait_admitted(client, notice, stop, limits)
+                    if not missing:
+                        notice.watch()  # an authority that goes mid-session is said, and back
+                        _loop(node, client, limits, stop, 1.0 / loop_hz, on_notice)
+                finally:
+                    if stop_user is not None:
+                        stop_user()
                 notice.close()  # silent from here: the authority may stop beside us
                 close_node()  # first: its report (e.g. the control loop's timing) is final
                 client.close()  # then publishing stops, so the counts below are final too

@@ -17,6 +17,7 @@ Three traps of Python's `re` that a validator must not fall into (issue 39: the 
 
 from __future__ import annotations
 
+import ast
 import re
 
 # The end of the text in Python's `re` and in ECMA-262 alike; `$` is not (Python: also before
@@ -24,10 +25,34 @@ import re
 END = r"(?![\s\S])"
 
 
-def anchored(body: str) -> str:
+# How to say a pattern to a person: a config error shows these words, never the regex.
+_WORDS: dict[str, str] = {}
+_EXPECTED = re.compile(r"Expected `str` matching regex (?P<quoted>'(?:[^'\\]|\\.)*'|"
+                       r'"(?:[^"\\]|\\.)*")')  # fmt: skip
+
+
+def anchored(body: str, words: str = "") -> str:
     """`body` made to hold for the whole text, in both Python and JSON Schema (ECMA-262):
-    for msgspec `Meta(pattern=...)`, which searches and which JSON Schema copies."""
-    return f"^(?:{body}){END}"
+    for msgspec `Meta(pattern=...)`, which searches and which JSON Schema copies. `words`,
+    if given, is what an error says instead of the pattern ("binaural, stereo or 5.1")."""
+    pattern = f"^(?:{body}){END}"
+    if words:
+        _WORDS[pattern] = words
+    return pattern
+
+
+def readable(message: str) -> str:
+    """A msgspec validation message with each pattern it quotes said in words: the registered
+    ones (`anchored(..., words=)`) as such, any other without its anchors."""
+
+    def say(found: re.Match[str]) -> str:
+        pattern = ast.literal_eval(found["quoted"])  # msgspec quotes it as Python's repr
+        words = _WORDS.get(pattern)
+        if words:
+            return f"Expected {words}"
+        return f"Expected text of the form `{pattern.removeprefix('^(?:').removesuffix(')' + END)}`"
+
+    return _EXPECTED.sub(say, message)
 
 
 def whole_ascii(body: str) -> re.Pattern[str]:

@@ -13,6 +13,8 @@ then one record of a numpy structured dtype.
 
 from __future__ import annotations
 
+import fcntl
+import logging
 import multiprocessing
 import os
 import time
@@ -25,8 +27,55 @@ READ_TIMEOUT_S = 0.1  # [s] how long `read` retries before a writer mid-write co
 LATEST_TIMEOUT_S = 0.002  # [s] how long `read_latest` retries before using its last copy
 
 
+log = logging.getLogger(__name__)
+
+
 class TornRead(RuntimeError):
     """The writer kept writing while we tried to read: retries exhausted."""
+
+
+class BlockInUse(RuntimeError):
+    """A block of this name belongs to a process that is still running on this host."""
+
+
+def _create(name: str, size: int) -> shared_memory.SharedMemory:
+    """A new block, claimed for as long as this process keeps it open.
+
+    The creator holds an exclusive `flock` on the block's file: the kernel drops it when the
+    process ends, however it ends. A block whose name is taken but whose claim is gone was
+    left by a process that was killed (SIGKILL never runs the unlink): it is removed and
+    made anew, so a node restarted after a crash starts; one still claimed is a live
+    process's, and taking its name would tear its state."""
+    try:
+        shm = shared_memory.SharedMemory(name=name, create=True, size=size)
+    except FileExistsError:
+        if _claimed(name):
+            raise BlockInUse(
+                f"shared block {name} belongs to a running process on this host (the same "
+                "session and node id started twice?)"
+            ) from None
+        stale = shared_memory.SharedMemory(name=name)
+        stale.close()
+        stale.unlink()
+        log.warning("removed shared block %s, left by a process that was killed", name)
+        shm = shared_memory.SharedMemory(name=name, create=True, size=size)
+    fcntl.flock(shm._fd, fcntl.LOCK_EX | fcntl.LOCK_NB)  # type: ignore[attr-defined]
+    return shm
+
+
+def _claimed(name: str) -> bool:
+    """Whether a living process holds the claim on block `name` (see `_create`)."""
+    try:
+        fd = os.open(f"/dev/shm/{name.lstrip('/')}", os.O_RDONLY)
+    except FileNotFoundError:
+        return False
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError:
+        return True
+    finally:
+        os.close(fd)  # the probe's own lock, if it got one, goes with it
+    return False
 
 
 def _untrack(shm: shared_memory.SharedMemory) -> None:
@@ -51,7 +100,10 @@ class SharedBlock:
     def __init__(self, name: str, dtype: np.dtype, create: bool = False) -> None:
         self.dtype = np.dtype(dtype)
         size = HEADER + self.dtype.itemsize
-        self._shm = shared_memory.SharedMemory(name=name, create=create, size=size)
+        if create:
+            self._shm = _create(name, size)
+        else:
+            self._shm = shared_memory.SharedMemory(name=name)
         self._owner = create
         if not create:
             _untrack(self._shm)

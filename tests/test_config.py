@@ -8,6 +8,7 @@ import pytest
 
 from carlaverse.cli import main
 from carlaverse.config import ConfigError, StrictStruct, load_config, resolve_path
+from carlaverse.patterns import anchored, readable
 
 
 class Spring(StrictStruct):
@@ -72,3 +73,29 @@ def test_config_validate_command(tmp_path: Path, capsys: pytest.CaptureFixture[s
     assert main(["config", "validate", str(good), str(bad)]) == 2  # a config error (the table)
     err = capsys.readouterr().err
     assert "b.yaml" in err and "$.path.radius" in err
+
+
+def test_a_pattern_in_a_config_error_is_said_in_words_not_as_a_regex(tmp_path: Path) -> None:
+    """`layout: 7.1` in an audio config (issue 43.8): the error names the field and the
+    layouts there are, as `--layout 7.1` on the command line does, with no regex in it."""
+    from carlaverse.audio.config import AudioConfig
+
+    bad = tmp_path / "audio.yaml"
+    bad.write_text("layout: '7.1'\n")
+    with pytest.raises(ConfigError) as caught:
+        load_config(bad, AudioConfig)
+    said = str(caught.value)
+    assert "binaural, stereo, quad, 5.1 or ringN" in said and "$.layout" in said, said
+    assert "regex" not in said and "(?!" not in said and "^(?:" not in said, said
+
+
+class _Light(msgspec.Struct):
+    state: Annotated[str, msgspec.Meta(pattern=anchored("[rygGoOsu]+"))]
+
+
+def test_a_pattern_without_words_loses_only_its_anchors() -> None:
+    try:
+        msgspec.convert({"state": "blue"}, _Light)
+    except msgspec.ValidationError as exc:
+        said = readable(str(exc))
+    assert said == "Expected text of the form `[rygGoOsu]+` - at `$.state`", said

@@ -46,3 +46,26 @@ def test_the_tree_is_ruff_formatted() -> None:
         cwd=ROOT, capture_output=True, text=True, timeout=120,
     )  # fmt: skip
     assert done.returncode == 0, "run `ruff format`:\n" + done.stdout + done.stderr
+
+
+def test_the_architecture_diagram_is_the_contracts(tmp_path: Path) -> None:
+    """docs/architecture.md §13 draws the layers from the contracts lint-imports checks: the
+    document as committed is what the script writes, and the script really reads the
+    contracts (a layer added to a copy of pyproject.toml appears in its output)."""
+    done = subprocess.run(
+        [sys.executable, "tools/layers_doc.py", "--check"],
+        cwd=ROOT, capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    sys.path.insert(0, str(ROOT / "tools"))
+    try:
+        import layers_doc
+    finally:
+        sys.path.remove(str(ROOT / "tools"))
+    changed = tmp_path / "pyproject.toml"
+    bottom = '"carlaverse.support",\n]'
+    deeper = '"carlaverse.support",\n    "carlaverse.bedrock",\n]'
+    changed.write_text((ROOT / "pyproject.toml").read_text().replace(bottom, deeper, 1))
+    drawn = layers_doc.region(layers_doc.contracts(changed))
+    assert 'carlaverse_bedrock["bedrock"]' in drawn
+    assert "carlaverse_support --> carlaverse_bedrock" in drawn

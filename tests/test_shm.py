@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import os
+import signal
 import subprocess
 import sys
 import time
@@ -200,3 +201,44 @@ def test_a_loop_process_attaching_leaves_the_owners_tracking_alone(tmp_path) -> 
                           timeout=60, cwd=Path(__file__).resolve().parents[1])  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert "Traceback" not in done.stderr and "KeyError" not in done.stderr, done.stderr
+
+
+CREATOR = """
+import sys
+import numpy as np
+from carlaverse.shm import SharedBlock
+block = SharedBlock(sys.argv[1], np.dtype([("x", "<f8")]), create=True)
+print("created", flush=True)
+sys.stdin.read()  # until killed
+"""
+
+
+def test_a_block_left_by_a_killed_creator_is_made_anew_and_a_live_ones_is_not_taken() -> None:
+    """SIGKILL runs no unlink, so a killed node's blocks stay in /dev/shm; its restart must
+    start (a FileExistsError traceback before), while a second live creator of the same name
+    (the same node started twice) is refused in one sentence, not handed the first's state."""
+    from carlaverse.shm import BlockInUse
+
+    name = f"cv-test-{uuid.uuid4().hex[:8]}"
+    # In a process group of its own, killed as a group (as `procs` stops a child, or a
+    # terminal's ^\ does): multiprocessing's resource tracker dies with it and cleans nothing.
+    creator = subprocess.Popen(
+        [sys.executable, "-c", CREATOR, name],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True, start_new_session=True,
+    )  # fmt: skip
+    try:
+        assert creator.stdout is not None and creator.stdout.readline().strip() == "created"
+        with pytest.raises(BlockInUse, match="running process"):
+            SharedBlock(name, np.dtype([("x", "<f8")]), create=True)
+        assert Path(f"/dev/shm/{name}").exists()  # the refusal took nothing from the owner
+    finally:
+        os.killpg(creator.pid, signal.SIGKILL)
+        creator.wait(10)
+    assert Path(f"/dev/shm/{name}").exists()  # left behind by the kill
+    block = SharedBlock(name, np.dtype([("x", "<f8")]), create=True)
+    try:
+        block.write(np.array((1.5,), dtype=block.dtype))
+        assert float(block.read()["x"]) == 1.5
+    finally:
+        block.close()  # the owner's close unlinks
+    assert not Path(f"/dev/shm/{name}").exists()

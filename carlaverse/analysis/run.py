@@ -7,7 +7,8 @@ from collections.abc import Callable
 from pathlib import Path
 
 from carlaverse.analysis import export, report
-from carlaverse.analysis.surrogate import Thresholds, measure
+from carlaverse.analysis.lanes import LaneIndex
+from carlaverse.analysis.surrogate import Thresholds, conflicts_by_concern, measure
 from carlaverse.analysis.tracks import read_recording
 from carlaverse.recording.sink import RecordingError
 
@@ -31,18 +32,27 @@ def analyze(
     tracks = read.tracks
     if not tracks.actors:
         raise AnalysisError(f"{recording}: no poses or NPC batches in this recording")
-    progress(f"{len(tracks.actors)} road users over {tracks.t[-1] - tracks.t[0]:.1f} s; measuring")
-    pairs, conflicts = measure(tracks, th)
+    span = f"{tracks.t[0] - read.start:.1f} to {tracks.t[-1] - read.start:.1f} s from start"
+    progress(f"{len(tracks.actors)} road users from {span}; measuring")
+    pairs, found = measure(tracks, th)
+    conflicts = conflicts_by_concern(found)  # the tables list a participant's first
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise AnalysisError(f"cannot create {out}: {exc.strerror}") from exc
-    export.write_table(export.trajectory_table(tracks), out, "trajectories")
-    export.write_table(export.events_table(read.events), out, "events")
-    export.write_table(export.record_table(pairs), out, "pairs")
-    export.write_table(export.record_table(conflicts), out, "conflicts")
-    summary = export.summary(tracks, pairs, conflicts, th.ttc_s)
+    lanes, start = LaneIndex(read.road_map), read.start
+    tables = {
+        "actors": export.actors_table(tracks, lanes, start),
+        "trajectories": export.trajectory_table(tracks, start),
+        "events": export.events_table(read.events, start),
+        "pairs": export.pairs_table(pairs, tracks, lanes, start),
+        "conflicts": export.record_table(conflicts, start),
+    }
+    for name, table in tables.items():
+        export.write_table(table, out, name)
+    summary = export.summary(tracks, pairs, conflicts, th, start)
     (out / "summary.json").write_text(json.dumps(summary, indent=2) + "\n")
-    report.draw(out / "report.png", tracks, read.road_map, pairs, conflicts, th)
-    report.write_html(out / "report.html", "report.png", summary, pairs, conflicts, str(recording))
+    report.draw(out / "report.png", tracks, read.road_map, pairs, conflicts, th, start)
+    shown = report.Tables(*(tables[k].to_pylist() for k in ("pairs", "conflicts", "actors")))
+    report.write_html(out / "report.html", "report.png", summary, shown, str(recording))
     return summary

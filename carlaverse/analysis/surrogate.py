@@ -6,7 +6,21 @@
   Bovy, 2001). TTCs beyond `ttc_horizon_s` are not an encounter.
 - Gap: the smallest distance between the footprints (0 = they touched).
 - DRAC, deceleration rate to avoid a crash: closing speed along the line of centres squared
-  over twice the gap (Almqvist et al., 1991); for a follower that is dv^2 / 2s.
+  over twice the gap (Almqvist et al., 1991); for a follower that is dv^2 / 2s. A DRAC above
+  `drac_limit_mps2` is more than any tyre gives: braking is limited by friction to mu g, 9.8
+  m/s^2 for mu = 1 (dry asphalt, a good tyre). Such a value says no braking could have
+  avoided the contact on those tracks, and where no contact followed it is an artefact (a
+  footprint too long, a lateral neighbour in a junction, a sampling step); it is counted as
+  `drac_implausible_s` and kept out of `max_drac_mps2`, the headline; `peak_drac_mps2` keeps it.
+- Queued: while both are slower than `standstill_mps`, cars waiting nose to tail at a stop
+  line creep a few centimetres towards each other; and two NPCs pulling up into a queue (the
+  follower braking to rest behind the one ahead: both at rest within `ttc_horizon_s`, then
+  at most `queue_gap_m` apart and heading the same way within `QUEUE_HEADING_DEG`, with no
+  contact on the way) give a constant-velocity TTC near 1 s on every red light, though the
+  traffic model's car-following stops them at its minimum gap by construction. Either would
+  fill the TTC list with "encounters" nobody was in, so those instants are left out of TTC and
+  time below (standing ones out of DRAC too) and counted as `queued_s`. A participant pulling
+  up behind a queue keeps its TTC: how late a person brakes is what a study measures.
 - PET, post-encroachment time, at every point where the two centre paths cross (at an angle
   of at least `min_crossing_deg`; paths that share a lane are following, not crossing): the
   time from the first actor's footprint leaving the point to the second's reaching it
@@ -23,6 +37,8 @@ import numpy as np
 from carlaverse.analysis import footprints
 from carlaverse.analysis.tracks import Tracks
 
+QUEUE_HEADING_DEG = 30.0  # [deg] two at rest heading the same way within this: one queue
+
 
 @dataclass(frozen=True, slots=True)
 class Thresholds:
@@ -31,6 +47,10 @@ class Thresholds:
     near_m: float = 30.0  # [m] pairs whose centres never come closer are not measured
     pet_max_s: float = 10.0  # [s] crossings further apart in time are no conflict
     min_crossing_deg: float = 15.0  # [deg] shallower crossings are following
+    standstill_mps: float = 0.5  # [m/s] both slower than this: at rest, not an encounter
+    # [m/s²] mu g for mu = 1 is 9.81: a larger DRAC is beyond any tyre's friction limit
+    drac_limit_mps2: float = 10.0
+    queue_gap_m: float = 5.0  # [m] at rest at most this far apart, nose to tail: a queue
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,8 +62,12 @@ class PairMeasures:
     ttc_below_s: float  # [s] time with TTC below the threshold
     min_gap_m: float
     t_min_gap: float
-    max_drac_mps2: float  # 0 if never closing
+    max_drac_mps2: float  # 0 if never closing; the largest within `drac_limit_mps2`
     t_max_drac: float
+    human: bool = False  # at least one of the two is a participant (a human's ego)
+    queued_s: float = 0.0  # [s] at rest together, or NPCs pulling up into a queue: no TTC
+    drac_implausible_s: float = 0.0  # [s] DRAC above `drac_limit_mps2`
+    peak_drac_mps2: float = 0.0  # the largest DRAC, implausible or not
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,6 +80,7 @@ class Conflict:
     t_second_arrives: float  # [s] session time the second's footprint reaches it
     pet_s: float
     angle_deg: float  # between the paths at the point
+    human: bool = False  # at least one of the two is a participant
 
 
 def measure(
@@ -93,7 +118,13 @@ def pair_measures(tracks: Tracks, i: int, j: int, th: Thresholds) -> PairMeasure
         footprints.corners(ca["p"], ca["yaw"], a.length, a.width),
         footprints.corners(cb["p"], cb["yaw"], b.length, b.width),
     )
-    drac = _drac(offset, rel_v, gap)
+    still = _standstill(ca["v"], th.standstill_mps) & _standstill(cb["v"], th.standstill_mps)
+    queued = still if a.human or b.human else still | _pulling_up(ca, cb, still, gap, t, th)
+    ttc[queued] = np.inf
+    peak = _drac(offset, rel_v, gap)
+    peak[still] = 0.0
+    implausible = peak > th.drac_limit_mps2
+    drac = np.where(implausible, 0.0, peak)
     dt = float(np.median(np.diff(tracks.t))) if len(tracks.t) > 1 else 0.0
     k_ttc, k_gap, k_drac = np.argmin(ttc), np.argmin(gap), np.argmax(drac)
     return PairMeasures(
@@ -102,7 +133,53 @@ def pair_measures(tracks: Tracks, i: int, j: int, th: Thresholds) -> PairMeasure
         float(np.count_nonzero(ttc < th.ttc_s) * dt),
         float(gap[k_gap]), float(t[k_gap]),
         float(drac[k_drac]), float(t[k_drac]) if drac[k_drac] > 0 else math.nan,
+        a.human or b.human, float(np.count_nonzero(queued) * dt),
+        float(np.count_nonzero(implausible) * dt), float(peak.max(initial=0.0)),
     )  # fmt: skip
+
+
+def by_concern(pairs: list[PairMeasures]) -> list[PairMeasures]:
+    """Pairs with a human first, then by least TTC, then by least gap."""
+    return sorted(pairs, key=lambda p: (not p.human, p.min_ttc_s, p.min_gap_m))
+
+
+def conflicts_by_concern(conflicts: list[Conflict]) -> list[Conflict]:
+    """Conflicts with a human first, then by least PET."""
+    return sorted(conflicts, key=lambda c: (not c.human, c.pet_s))
+
+
+def _standstill(v: np.ndarray, limit_mps: float) -> np.ndarray:
+    return np.hypot(v[:, 0], v[:, 1]) < limit_mps
+
+
+def _pulling_up(ca: dict, cb: dict, still: np.ndarray, gap: np.ndarray, t: np.ndarray,
+                th: Thresholds) -> np.ndarray:  # fmt: skip
+    """Instants from which the two come to stand in one queue: at rest, close, aligned."""
+    in_queue = still & (gap <= th.queue_gap_m) & _aligned(ca["yaw"], cb["yaw"])
+    return _settling(in_queue, gap, t, th.ttc_horizon_s)
+
+
+def _aligned(yaw_a: np.ndarray, yaw_b: np.ndarray) -> np.ndarray:
+    """Heading the same way within QUEUE_HEADING_DEG."""
+    difference = np.angle(np.exp(1j * (yaw_a - yaw_b)))
+    return np.abs(difference) <= math.radians(QUEUE_HEADING_DEG)
+
+
+def _settling(in_queue: np.ndarray, gap: np.ndarray, t: np.ndarray, horizon_s: float) -> np.ndarray:
+    """Instants from which the two stand in one queue (`in_queue`) within `horizon_s`
+    without touching on the way: one pulling up behind the other."""
+    idx = np.arange(len(in_queue))
+    next_queue = _next_index(in_queue)
+    next_contact = _next_index(gap <= 0.0)
+    ahead = np.where(next_queue < len(t), t[np.minimum(next_queue, len(t) - 1)] - t, np.inf)
+    return (ahead <= horizon_s) & (next_contact > next_queue) & (idx < next_queue)
+
+
+def _next_index(mask: np.ndarray) -> np.ndarray:
+    """For every instant, the index of the first True at or after it (len(mask) if none)."""
+    n = len(mask)
+    marks = np.where(mask, np.arange(n), n)
+    return np.minimum.accumulate(marks[::-1])[::-1]
 
 
 def _column(tracks: Tracks, i: int, mask: np.ndarray) -> dict[str, np.ndarray]:
@@ -186,6 +263,7 @@ def _conflict(tracks: Tracks, a: tuple, b: tuple, angle: float) -> Conflict | No
     return Conflict(
         tracks.actors[first].id, tracks.actors[second].id, float(point[0]), float(point[1]),
         first_leaves, second_arrives, max(0.0, second_arrives - first_leaves), float(angle),
+        tracks.actors[first].human or tracks.actors[second].human,
     )  # fmt: skip
 
 

@@ -19,6 +19,7 @@ import numpy as np
 from carlaverse import keys as keyspace
 from carlaverse import messages as m
 from carlaverse.recording.reading import iter_samples
+from carlaverse.recording.timeline import recording_start_time
 
 Progress = Callable[[int], None]  # called with the number of samples read so far
 
@@ -59,6 +60,9 @@ class Recording:
     tracks: Tracks
     events: list[m.WorldEvent]  # every `world/events` message, in recorded order
     road_map: m.MapReply | None  # the first map reply kept, if any
+    # [s] session time of the recording's first sample: what times are shown from, the
+    # origin of `render --at` and `audio render --at` too (recording.timeline)
+    start: float = 0.0
 
 
 @dataclass
@@ -93,7 +97,8 @@ def read_recording(
 ) -> Recording:
     """Tracks, events and map of a recording, in one pass over it (recordings run to GBs)."""
     raw = _collect(Path(path), progress)
-    return Recording(_tracks(raw, rate_hz, max_gap_s), raw.events, raw.road_map)
+    start = recording_start_time(path)  # reads up to the first pose, not the file again
+    return Recording(_tracks(raw, rate_hz, max_gap_s), raw.events, raw.road_map, start)
 
 
 def _tracks(raw: _Raw, rate_hz: float, max_gap_s: float) -> Tracks:

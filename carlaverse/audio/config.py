@@ -15,9 +15,11 @@ from carlaverse.patterns import anchored
 
 Positive = Annotated[float, msgspec.Meta(gt=0.0)]
 # Headphones (HRTF) or a speaker layout; `ringN` is N speakers evenly round the listener.
-LAYOUT_PATTERN = anchored(r"binaural|stereo|quad|5\.1|ring([3-9]|[1-5][0-9]|6[0-4])")
-Layout = Annotated[str, msgspec.Meta(pattern=LAYOUT_PATTERN)]
 LAYOUTS_IN_WORDS = "binaural, stereo, quad, 5.1 or ringN (N speakers in a ring, 3 to 64)"
+LAYOUT_PATTERN = anchored(
+    r"binaural|stereo|quad|5\.1|ring([3-9]|[1-5][0-9]|6[0-4])", words=LAYOUTS_IN_WORDS
+)
+Layout = Annotated[str, msgspec.Meta(pattern=LAYOUT_PATTERN)]
 
 
 class AirConfig(StrictStruct, frozen=True):

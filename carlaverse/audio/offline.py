@@ -4,8 +4,9 @@
 
 The listener's scenes (`audio/<id>`) and ego poses (`ego/<id>/pose`) are read from the
 recording; the renderer runs on session time from the first scene to the last (plus the
-time the farthest sound needs to arrive), taking each scene at its own time and the ears
-where the poses put them.
+time the farthest sound needs to arrive), or over the window asked for, taking each scene at
+its own time and the ears where the poses put them. The summary says where the WAV begins in
+seconds from the recording's start, the number `--at` takes.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from carlaverse.audio.track import PoseTrack
 from carlaverse.audio.wav import WavWriter
 from carlaverse.keys import KeySpaceError, parse
 from carlaverse.recording.reading import iter_samples
+from carlaverse.recording.timeline import recording_start_time
 
 TAIL_S = 0.1  # [s] rendered after the emitters of the last scene have faded out
 PROGRESS_BLOCKS = 200  # blocks between progress reports (about 2 s of audio)
@@ -55,6 +57,11 @@ class RenderSummary:
     clipped_samples: int
     limited_blocks: int
     dropped: dict[str, int]
+    at: float = 0.0  # [s] the WAV's first sample from the recording's start
+    recording_start: float = 0.0  # [s] session time of the recording's first sample
+
+
+Progress = Callable[[float, float], None]  # (fraction rendered, session time [s] reached)
 
 
 def read_audio(path: str | Path, listener: str) -> RecordedAudio:
@@ -80,22 +87,40 @@ def read_audio(path: str | Path, listener: str) -> RecordedAudio:
 
 
 def render_recording(path: str | Path, listener: str, out: str | Path, config: AudioConfig,
-                     progress: Callable[[float], None] | None = None) -> RenderSummary:  # fmt: skip
-    """Render `listener`'s audio of the recording at `path` into the WAV `out`."""
+                     progress: Progress | None = None, *, start: float | None = None,
+                     duration: float | None = None) -> RenderSummary:  # fmt: skip
+    """Render `listener`'s audio of the recording at `path` into the WAV `out`, from session
+    time `start` (default: the first scene) for `duration` [s] (default: until the last
+    scene has faded out)."""
     recorded = read_audio(path, listener)
     track = _check(recorded, listener, path)
     scenes = sorted(recorded.scenes, key=lambda s: s.t)
+    begin = scenes[0].t if start is None else start
+    stop = scenes[-1].t + config.stale_after_s + TAIL_S
+    stop = stop if duration is None else min(begin + duration, stop)
+    scenes = _sounding_from(scenes, begin)
+    origin = recording_start_time(path)
+    if stop <= begin:
+        raise NothingToRender(f"{path}: audio/{listener} has faded out by {begin - origin:.2f} s "
+                              f"from start (its last scene is at "
+                              f"{recorded.scenes[-1].t - origin:.2f} s)")  # fmt: skip
     renderer = build_renderer(config)
-    end = scenes[-1].t + config.stale_after_s + TAIL_S
     head = config.listener.head_offset_m
     with WavWriter(out, renderer.channels, config.sample_rate_hz) as wav:
-        play_scenes(renderer, scenes, end, wav.write, lambda t: track.listener(t, head), progress)
+        play_scenes(renderer, scenes, stop, wav.write, lambda t: track.listener(t, head),
+                    progress, start=begin)  # fmt: skip
     seconds = round(wav.frames / config.sample_rate_hz, 3)
     return RenderSummary(
         listener, str(out), config.layout, renderer.channels, seconds, len(scenes),
         max(len(s.emitters) for s in scenes), wav.clipped, renderer.limiter.blocks_limited,
-        dict(renderer.slots.dropped),
+        dict(renderer.slots.dropped), round(begin - origin, 6), origin,
     )  # fmt: skip
+
+
+def _sounding_from(scenes: list[m.AudioScene], t: float) -> list[m.AudioScene]:
+    """The scene sounding at `t` (the last one at or before it) and every later one."""
+    later = next((k for k, s in enumerate(scenes) if s.t > t), len(scenes))
+    return scenes[max(0, later - 1) :]
 
 
 def play_scenes(
@@ -104,15 +129,17 @@ def play_scenes(
     end: float,
     write: Callable[[np.ndarray], None],
     listener_at: Callable[[float], ListenerPose] | None = None,
-    progress: Callable[[float], None] | None = None,
+    progress: Progress | None = None,
+    start: float | None = None,
 ) -> None:
-    """Render from the first scene's time to `end` [s], each scene taken at its own time
-    and the ears placed by `listener_at(t)` every block; blocks go to `write`. `progress`
-    hears the fraction rendered: 0.0 first, then every `PROGRESS_BLOCKS` blocks, 1.0 last."""
-    start = renderer.t = scenes[0].t
+    """Render from `start` (default: the first scene's time) to `end` [s], each scene taken
+    at its own time and the ears placed by `listener_at(t)` every block; blocks go to
+    `write`. `progress` hears the fraction rendered and the session time reached: 0.0 first,
+    then every `PROGRESS_BLOCKS` blocks, 1.0 last."""
+    begin = renderer.t = scenes[0].t if start is None else start
     next_scene = 0
     if progress is not None:
-        progress(0.0)
+        progress(0.0, begin)
     while renderer.t < end:
         while next_scene < len(scenes) and scenes[next_scene].t <= renderer.t:
             renderer.hear(scenes[next_scene].emitters, scenes[next_scene].t)
@@ -121,9 +148,9 @@ def play_scenes(
             renderer.place(listener_at(renderer.t))
         write(renderer.render_block())
         if progress is not None and renderer.blocks % PROGRESS_BLOCKS == 0:
-            progress(min(1.0, (renderer.t - start) / (end - start)))
+            progress(min(1.0, (renderer.t - begin) / (end - begin)), min(renderer.t, end))
     if progress is not None:
-        progress(1.0)
+        progress(1.0, end)
 
 
 def _check(recorded: RecordedAudio, listener: str, path: str | Path) -> PoseTrack:

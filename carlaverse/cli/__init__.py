@@ -40,12 +40,15 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "carlaverse.cli.analyze",
         "trajectories and safety measures (TTC, PET) of a recording",
     ),
+    "osi": ("carlaverse.cli.osi", "export a recording's ground truth as an ASAM OSI trace (MCAP)"),
     "audio": ("carlaverse.cli.audio", "render a recording's spatial audio for one listener (WAV)"),
     "certs": ("carlaverse.cli.certs", "generate a test CA and certificates for a lab"),
     "roster": ("carlaverse.cli.roster", "session roster tools: generate router ACLs"),
     "swarm": ("carlaverse.cli.swarm", "N synthetic egos in one process: load for the fabric"),
     "body": ("carlaverse.cli.body", "body pose: build the pose model, joint angles of a photo"),
     "schema": ("carlaverse.cli.schema", "print the wire contract: JSON Schema of every message"),
+    "study": ("carlaverse.cli.study", "studies: validate, plan, run trials; participant agents"),
+    "ros2": ("carlaverse.cli.ros2", "the session on ROS 2 over Zenoh: a view, or an AV as an ego"),
 }
 
 

@@ -4,6 +4,11 @@ for one listener, offline, as 16-bit multi-channel WAV.
     carlaverse audio render lab.mcap --listener car-1 --out car-1.wav                # headphones
     carlaverse audio render lab.mcap --listener car-1 --out car-1.wav --layout 5.1
     carlaverse audio render lab.mcap --listener car-1 --out c.wav --config ring8-lab.yaml
+    carlaverse audio render lab.mcap --listener car-1 --out near-miss.wav --at 12 --duration 5
+
+Times are seconds from the recording's start, as `render --at` and the analysis report give
+them (`--at-session` takes the session clock instead); a time outside the recording is an
+error naming its range.
 """
 
 from __future__ import annotations
@@ -35,6 +40,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "3 to 64 (default: the config's, else binaural)")  # fmt: skip
     render.add_argument("--config", help="audio config YAML (path or shipped name, e.g. "
                         "audio/headphones)")  # fmt: skip
+    when = render.add_mutually_exclusive_group()
+    when.add_argument("--at", type=float, metavar="S",
+                      help="start S seconds from the recording's start (default: the first "
+                      "scene)")  # fmt: skip
+    when.add_argument("--at-session", type=float, metavar="T",
+                      help="start at session time T [s] instead")  # fmt: skip
+    render.add_argument("--duration", type=float, metavar="S",
+                        help="render S seconds (default: until the last scene has "
+                        "faded)")  # fmt: skip
     render.add_argument("--json", action="store_true", help="print a summary object at exit")
 
 
@@ -49,6 +63,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
     from carlaverse.audio.offline import NothingToRender, render_recording
     from carlaverse.config import ConfigError, load_config
     from carlaverse.recording.sink import RecordingError
+    from carlaverse.recording.timeline import OutOfRange, recording_start_time
 
     try:
         config = load_config(args.config, AudioConfig) if args.config else AudioConfig()
@@ -60,27 +75,47 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
                                      AudioConfig)  # fmt: skip
         if not args.recording.is_file():
             return fail("audio", f"{args.recording}: no such recording")
+        if args.duration is not None and not args.duration > 0:
+            return fail("audio", f"--duration {args.duration:g}: give seconds > 0")
+        origin = recording_start_time(args.recording)
         summary = render_recording(args.recording, args.listener, args.out, config,
-                                   _progress())  # fmt: skip
-    except (ConfigError, NothingToRender, HrtfError, RecordingError, OSError) as exc:
+                                   _progress(origin), start=_start(args),
+                                   duration=args.duration)  # fmt: skip
+    except (ConfigError, NothingToRender, HrtfError, RecordingError, OSError,
+            OutOfRange) as exc:  # fmt: skip
         return fail("audio", str(exc))
     if args.json:
         print_json(summary, out)
     else:
-        print(f"{summary.out}: {summary.seconds:.1f} s, {summary.channels} channels "
-              f"({summary.layout}) for {summary.listener} from {summary.scenes} scenes",
-              file=sys.stderr)  # fmt: skip
+        print(f"{summary.out}: {summary.seconds:.1f} s from {summary.at:.2f} s after the "
+              f"recording's start, {summary.channels} channels ({summary.layout}) for "
+              f"{summary.listener} from {summary.scenes} scenes", file=sys.stderr)  # fmt: skip
     return 0
 
 
-def _progress() -> Callable[[float], None]:
-    """Prints the start (0 %), the end (100 %) and, in between, a line every few seconds."""
+def _start(args: argparse.Namespace) -> float | None:
+    """Session time [s] to start at (None: the first scene); OutOfRange outside the
+    recording."""
+    from carlaverse.recording.timeline import recording_span
+
+    if args.at is not None:
+        return recording_span(args.recording).session_time(args.at, "--at")
+    if args.at_session is not None:
+        span = recording_span(args.recording)
+        return span.session_time(args.at_session, "--at-session", session=True)
+    return None
+
+
+def _progress(origin: float) -> Callable[[float, float], None]:
+    """Prints the start (0 %), the end (100 %) and, in between, a line every few seconds;
+    each says where the render is, in seconds from the recording's start (`origin`)."""
     last = [time.monotonic()]
 
-    def report(fraction: float) -> None:
+    def report(fraction: float, t: float) -> None:
         if fraction in (0.0, 1.0) or time.monotonic() - last[0] >= PROGRESS_EVERY_S:
             last[0] = time.monotonic()
-            print(f"carlaverse audio: {fraction:5.1%} rendered", file=sys.stderr, flush=True)
+            print(f"carlaverse audio: {fraction:5.1%} rendered (at {t - origin:.1f} s from "
+                  "start)", file=sys.stderr, flush=True)  # fmt: skip
 
     return report
 

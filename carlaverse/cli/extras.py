@@ -45,6 +45,7 @@ EXTRA_OF_MODULE: dict[str, str] = {
     "nicegui": "launcher",
     "psutil": "launcher",
     "segno": "launcher",
+    "osi3": "osi",  # osi-python: `record --osi`, `carlaverse osi`
 }
 # mediapipe is no extra's: it requires opencv-contrib-python, a second cv2 beside the body
 # extra's opencv-python-headless, so it is installed without its dependencies (README "Body pose").

@@ -23,7 +23,7 @@ from carlaverse.cli.common import (
     stop_on_signals,
 )
 from carlaverse.cli.exit_codes import Exit
-from carlaverse.cli.join_hmi import add_hmi_arguments, node_hmi
+from carlaverse.cli.join_hmi import add_hmi_arguments, hmi_questionnaires, node_hmi
 from carlaverse.cli.join_view import add_view_arguments, node_view
 from carlaverse.config import ConfigError, load_config
 from carlaverse.keys import KeySpaceError, check_token
@@ -36,6 +36,7 @@ from carlaverse.node_runtime import (
     node_kinds,
     run_node,
 )
+from carlaverse.shm import BlockInUse
 from carlaverse.transport.node_client import JoinRefused, NodeSettings
 from carlaverse.transport.session import (
     FabricError,
@@ -136,13 +137,14 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         node_settings = getattr(node, "node_settings", node_settings)
         with (
             node_view(args, node, node_settings, fabric) as view,  # --view: its own process
-            node_hmi(args, args.kind, node, say("join")) as hmi,  # --hmi: a thread of its own
+            node_hmi(args, args.kind, node, say("join"), node_settings) as hmi,  # a thread
             node_audio(args, node, node_id) as audio,  # --audio: a process the client feeds
         ):
             summary = run_node(
                 node, node_settings, fabric, config, args.duration, stop,
                 join_timeout_s=args.join_timeout, on_wait=say("join"),
                 on_notice=_show_notice(hmi, say("join")), audio=audio.running,
+                on_session=hmi_questionnaires(hmi, node_settings.node_id),
             )  # fmt: skip
         summary.extra.update(view.extra | hmi.extra | audio.extra)
     except JoinRefused as exc:
@@ -153,7 +155,7 @@ def _run(args: argparse.Namespace, out: TextIO) -> int:
         return fail("join", f"{node_id} gave up: {_stopped_waiting(exc)}", Exit.NOT_ADMITTED)
     except FabricError as exc:
         return fail("join", str(exc), Exit.FABRIC)
-    except (ValueError, ConfigError) as exc:
+    except (ValueError, ConfigError, BlockInUse) as exc:
         return fail("join", f"{args.kind}: {exc}")
     return _report(args, summary, stop, out)
 

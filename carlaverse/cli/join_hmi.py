@@ -9,8 +9,9 @@ the node prints it once, on stderr, inside the address a tablet opens ("HMI pair
 It goes nowhere else (not into --json): whoever reads it can drive the car's buttons.
 
 The server runs in a thread of the node process with its own event loop; a node kind takes
-part through `hmi_bridge()` (carlaverse.hmi.bridge). Starlette and uvicorn are imported only
-when --hmi is given.
+part through `hmi_bridge()` (carlaverse.hmi.bridge); a participant's kind without one (walk,
+scripted) serves the questionnaire page alone, so a study can ask its participant too.
+Starlette and uvicorn are imported only when --hmi is given.
 """
 
 from __future__ import annotations
@@ -23,13 +24,16 @@ from collections.abc import Callable, Iterator
 from typing import Any
 
 from carlaverse.cli.common import Companion
+from carlaverse.keys import Keys
+from carlaverse.transport.node_client import NodeSettings
 
 
 def add_hmi_arguments(parser: argparse.ArgumentParser) -> None:
     group = parser.add_argument_group("web HMI (served by the node)")
     group.add_argument(
         "--hmi", type=int, metavar="PORT",
-        help="serve the dashboard/touchscreen pages on PORT (0: any free port)",
+        help="serve the dashboard/touchscreen pages on PORT (0: any free port); a study's "
+        "questionnaires show on whichever page is open (walk: the /questionnaire page only)",
     )  # fmt: skip
     group.add_argument(
         "--hmi-bind", default="127.0.0.1", metavar="ADDR",
@@ -58,23 +62,21 @@ def add_hmi_arguments(parser: argparse.ArgumentParser) -> None:
 
 @contextlib.contextmanager
 def node_hmi(
-    args: argparse.Namespace, kind: str, node: Any, say: Callable[[str], None]
-) -> Iterator[Companion]:
-    """Serve the node's HMI while the block runs, when --hmi was given."""
+    args: argparse.Namespace, kind: str, node: Any, say: Callable[[str], None],
+    settings: NodeSettings | None = None,
+) -> Iterator[Companion]:  # fmt: skip
+    """Serve the node's HMI while the block runs, when --hmi was given. A participant's node
+    kind without pages of its own (walk, scripted) serves the questionnaire page only."""
     hmi = Companion("hmi")
     if args.hmi is None:
         yield hmi
         return
     if not 0 <= args.hmi <= 65535:
         raise ValueError(f"--hmi {args.hmi}: not a TCP port (0..65535; 0 picks a free one)")
-    if not hasattr(node, "hmi_bridge"):
-        raise ValueError(f"--hmi: node kind {kind!r} has no HMI (drive and bike have one)")
-    from carlaverse.hmi.config import default_config_name, load_hmi_config
     from carlaverse.hmi.server import HmiServer
 
     hosts = _allowed_hosts(args.hmi_allow_host)
-    loaded = load_hmi_config(args.hmi_config or default_config_name(kind))
-    bridge = node.hmi_bridge()
+    bridge, loaded = _bridge_and_config(args, kind, node, settings)
     try:
         server = HmiServer(bridge, loaded, args.hmi_bind, args.hmi, hosts, args.hmi_token).start()
     except ValueError:  # HmiError: the address, in one line
@@ -92,6 +94,23 @@ def node_hmi(
         server.close()
         hmi.report = server.stats()
         bridge.close()
+
+
+def _bridge_and_config(
+    args: argparse.Namespace, kind: str, node: Any, settings: NodeSettings | None
+) -> tuple[Any, Any]:
+    """The node's HMI bridge and config; for a participant without pages, questionnaires."""
+    from carlaverse.hmi.config import default_config_name, load_hmi_config
+
+    if hasattr(node, "hmi_bridge"):
+        loaded = load_hmi_config(args.hmi_config or default_config_name(kind))
+        return node.hmi_bridge(), loaded
+    if settings is None or not settings.actor_kind:  # an observer answers no questionnaire
+        raise ValueError(f"--hmi: node kind {kind!r} has no HMI (drive and bike have one)")
+    from carlaverse.hmi.bridge import QuestionnaireOnlyBridge
+    from carlaverse.hmi.config import questionnaire_only_config
+
+    return QuestionnaireOnlyBridge(kind, settings.node_id), questionnaire_only_config()
 
 
 def _allowed_hosts(names: list[str]) -> list[str]:
@@ -118,3 +137,20 @@ def _address_for_tablets(bind: str) -> str:
         except OSError:
             return "127.0.0.1"
         return str(probe.getsockname()[0])
+
+
+def hmi_questionnaires(
+    hmi: Companion, node_id: str
+) -> Callable[[Any, Any], Callable[[], None]] | None:
+    """With an HMI: the node shows a study's questionnaires on it (issue 44), asked over its
+    session (`run_node(on_session=...)`); the answers go back the same way."""
+    if hmi.running is None:
+        return None
+    server = hmi.running
+
+    def attach(session: Any, keys: Keys) -> Callable[[], None]:
+        from carlaverse.hmi.questionnaire import QuestionnaireLink
+
+        return QuestionnaireLink(session, keys, node_id, server).close
+
+    return attach

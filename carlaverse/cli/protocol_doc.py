@@ -13,15 +13,18 @@ protocol test fails when that differs from the file, naming the command that fix
 from __future__ import annotations
 
 import re
+import typing
 from collections.abc import Callable, Iterable
 
 import msgspec
 
 from carlaverse import messages as m
 from carlaverse.authority.service import TickSummary
+from carlaverse.body.kinematics import JOINTS, LIMBS
 from carlaverse.cli import wire_catalog as wc
 from carlaverse.cli.exit_codes import MEANING, Exit
 from carlaverse.node_runtime import NodeSummary
+from carlaverse.traffic.scenario import CollisionSpec
 from carlaverse.world.stream_summary import StreamSummary
 
 REGENERATE = "carlaverse schema --write-doc docs/protocol.md"
@@ -157,16 +160,102 @@ def audio_region() -> str:
     return _table(["kind", "`drive_a`", "`drive_b`"], rows) + "\n" + patterns
 
 
+def versions_region() -> str:
+    """The versions a peer must match, read from the code and the installed metadata."""
+    zenoh = next((r for r in _requirements() if r.startswith("eclipse-zenoh")), "eclipse-zenoh")
+    carried = ", ".join(f"`{c.__name__}.schema`" for c in wc.message_structs()
+                        if "schema" in _field_names(c))  # fmt: skip
+    rows = [
+        ["schema version", f"`SCHEMA_VERSION = {m.SCHEMA_VERSION}`", carried],
+        ["pose layout version", f"`POSE_LAYOUT_VERSION = {m.POSE_LAYOUT_VERSION}`",
+         "byte 0 of every pose (and of every row of a pose digest)"],
+        ["Zenoh", f"`{zenoh}`", "the transport"],
+        ["MessagePack", "any spec-compliant library (the project uses msgspec)",
+         "every payload but the pose"],
+    ]  # fmt: skip
+    return _table(["what", "value", "where it travels"], rows)
+
+
+def _field_names(cls: type[msgspec.Struct]) -> set[str]:
+    return {f.name for f in msgspec.structs.fields(cls)}
+
+
+def _requirements() -> list[str]:
+    from importlib.metadata import PackageNotFoundError, requires
+
+    try:
+        return [r.replace(" ", "") for r in requires("carlaverse") or []]
+    except PackageNotFoundError:  # a source tree that was never installed
+        return []
+
+
+def events_region() -> str:
+    """The tagged union on `world/events`: each `type` and the message it announces."""
+    rows = [[f"`{msgspec.inspect.type_info(c).tag}`", f"`{c.__name__}`",  # type: ignore[attr-defined]
+             (c.__doc__ or "").strip().splitlines()[0] if c.__doc__ else ""]
+            for c in typing.get_args(m.WorldEvent)]  # fmt: skip
+    return _table(["`type`", "message", "what it says"], rows)
+
+
+def joints_region() -> str:
+    """`Skeleton.joints`: the names a walk node sends, in its order, and each joint's angles."""
+    hinge = {limb[1]: limb[5] for limb in LIMBS}
+    rows = []
+    for joint in JOINTS:
+        if joint == "neck":
+            rows.append([f"`{joint}`", "spherical", "the head frame relative to the body frame"])
+        elif joint in hinge:
+            bend = "forward" if hinge[joint] < 0 else "backward"
+            sign = "−" if hinge[joint] < 0 else "+"
+            rows.append([f"`{joint}`", "hinge", f"pitch = {sign}bend angle (bends {bend}); "
+                                                "roll = yaw = 0"])  # fmt: skip
+        else:
+            rows.append([f"`{joint}`", "spherical", "takes the hanging rest segment onto the "
+                                                    "upper segment"])  # fmt: skip
+    return _table(["joint", "kind", "angles (roll, pitch, yaw) [rad]"], rows)
+
+
+def actor_defaults_region() -> str:
+    """Per actor kind: the extent assumed when an actor's own is not known, and the
+    collision defaults a scenario starts from (`collisions.actors`)."""
+    physics = CollisionSpec().actors
+    rows = []
+    for kind in m.ACTOR_KINDS:
+        e, p = m.KIND_EXTENTS[kind], physics[kind]
+        rows.append([f"`{kind}`", f"{e.length:g} × {e.width:g} × {e.height:g}",
+                     f"{p.mass_kg:g}", f"{p.restitution:g}"])  # fmt: skip
+    return _table(["actor kind", "extent length × width × height [m]", "mass [kg]",
+                   "restitution"], rows)  # fmt: skip
+
+
+def stamped_region() -> str:
+    """Which keys carry the authority's session time, and in which field."""
+    rows = []
+    for k in wc.key_docs():
+        if not k.writer.startswith("authority"):
+            continue
+        stamped = [n for n in (p.strip() for p in k.payload.split(",") if p.strip())
+                   if "t" in _field_names(getattr(m, n))]  # fmt: skip
+        if stamped:
+            rows.append([f"`{k.key}`", ", ".join(f"`{n}.t`" for n in stamped)])
+    return _table(["key", "the authority's session time at sending"], rows)
+
+
 def _span(offset: int, size: int) -> str:
     return str(offset) if size == 1 else f"{offset}–{offset + size - 1}"
 
 
 REGIONS: dict[str, Callable[[], str]] = {
+    "versions": versions_region,
     "keys": keys_region,
+    "stamped-keys": stamped_region,
     "pose": pose_region,
     "npc-row": npc_region,
     "light-bits": lights_region,
     "audio-drive": audio_region,
+    "events": events_region,
+    "skeleton-joints": joints_region,
+    "actor-defaults": actor_defaults_region,
     "messages": messages_region,
     "outputs": outputs_region,
     "exit-codes": exit_codes_region,

@@ -17,6 +17,10 @@ from carlaverse.cli.common import (
     tell,
 )
 from carlaverse.cli.exit_codes import Exit
+from carlaverse.cli.osi import add_options as add_osi_options
+from carlaverse.cli.osi import check_options as check_osi_options
+from carlaverse.cli.osi import export_beside as export_osi
+from carlaverse.cli.record_lsl import LSL_ERRORS, add_lsl_arguments, prepare_lsl
 from carlaverse.config import ConfigError
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.recording.recorder import (
@@ -27,6 +31,8 @@ from carlaverse.recording.recorder import (
 )
 from carlaverse.recording.recover import recover
 from carlaverse.recording.sink import DEFAULT_CHUNK_SIZE, McapSink, RecordingError
+from carlaverse.study.lsl_session import describe as describe_lsl
+from carlaverse.study.lsl_sink import SharedSink
 from carlaverse.transport.session import FabricError, FabricUnreachable
 
 
@@ -77,6 +83,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         default="recorder",
         help="identity in a --roster session (default recorder)",
     )
+    osi = parser.add_argument_group("ASAM OSI ground truth (needs the osi extra)")
+    osi.add_argument(
+        "--osi",
+        action="store_true",
+        help="when the recording ends (or is recovered), also write its ground truth as an "
+        "OSI trace, NAME.osi.mcap beside NAME.mcap (an OSI trace holds OSI messages only)",
+    )
+    add_osi_options(osi)
+    add_lsl_arguments(parser)
     add_fabric_args(parser, session=False)
     parser.epilog = (
         "Exit 3 when no router or peer was reached for the whole run (nothing recorded "
@@ -86,6 +101,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args: argparse.Namespace) -> int:
     try:
+        if args.osi and (problem := check_osi_options(args)):  # before, not after, an hour
+            return fail("record", problem)
         if args.recover:
             return _recover(args)
         if not args.session:
@@ -97,6 +114,8 @@ def run(args: argparse.Namespace) -> int:
         return fail("record", str(exc), Exit.FABRIC)
     except RecordingError as exc:
         return fail("record", str(exc), Exit.FAILED)
+    except LSL_ERRORS as exc:  # pylsl missing, a --lsl stream not found: nothing written
+        return fail("record", str(exc))
 
 
 def _recover(args: argparse.Namespace) -> int:
@@ -109,11 +128,12 @@ def _recover(args: argparse.Namespace) -> int:
         f"{report.attachments} attachments, {report.metadata} metadata records from "
         f"{args.recover} ({state}) into {args.output}"
     )
-    return Exit.OK
+    return export_osi(args.output, args, "record") if args.osi else Exit.OK
 
 
 def _record(args: argparse.Namespace) -> int:
     keys = Keys(args.session)
+    lsl = prepare_lsl(args)  # the --lsl streams are found first, or nothing starts
     stop = stop_on_signals()  # the file is always finished with its indexes
     deadline = None if args.duration is None else time.monotonic() + args.duration
     fabric = fabric_from_args(args)
@@ -124,7 +144,7 @@ def _record(args: argparse.Namespace) -> int:
     except FabricUnreachable as exc:
         return fail("record", str(exc), stop.exit_code() if stop.is_set() else Exit.FABRIC)
     try:
-        sink = McapSink(
+        sink = (McapSink if lsl is None else SharedSink)(
             args.output,
             compression=args.compression,
             chunk_size=args.chunk_kib * 1024,
@@ -134,9 +154,13 @@ def _record(args: argparse.Namespace) -> int:
             session, keys, sink, queue_size=args.queue_size, queue_bytes=args.queue_mib * 2**20
         )
         recorder.start()
+        if lsl is not None:
+            lsl.start(session, keys, sink)
         # Said once subscribed: a script starting the session after it can wait for this line.
         tell(f"recording session {args.session} into {args.output}")
         _wait(recorder, stop, deadline, args.progress_s)
+        if lsl is not None:
+            tell(describe_lsl(lsl.stop()))  # before the recorder closes the file they write to
         stats = recorder.stop()
         unreached = reached_nothing(notice, fabric)
     finally:
@@ -148,6 +172,8 @@ def _record(args: argparse.Namespace) -> int:
     tell(f"recorded {_describe(stats)} into {args.output}")
     if stats.failure:
         return fail("record", f"RECORDING FAILED: {stats.failure}", Exit.FAILED)
+    if args.osi:
+        return export_osi(args.output, args, "record")
     return Exit.OK
 
 

@@ -62,7 +62,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--at",
         type=float,
         metavar="S",
-        help="seconds from the recording's start (its first sample); default: the first pose",
+        help="seconds from the recording's start (its first sample); default: the first pose. "
+        "Outside the recording is an error naming its range",
     )
     when.add_argument(
         "--at-session",
@@ -137,9 +138,10 @@ def run(args: argparse.Namespace) -> int:
         return fail("render", str(exc), Exit.FAILED)
     if args.json:
         print_json({"out": str(args.out), "frames": shown.frames, "t": shown.first_t,
-                    "recording_start": shown.recording_start})  # fmt: skip
+                    "recording_start": shown.recording_start, "at": shown.at})  # fmt: skip
     else:
-        print(f"render: {shown.frames} frame(s) -> {args.out}")
+        at = "" if shown.at is None else f" from {shown.at:.2f} s after the recording's start"
+        print(f"render: {shown.frames} frame(s){at} -> {args.out}")
     return Exit.OK
 
 
@@ -150,6 +152,13 @@ class Shown:
     frames: int = 0
     first_t: float | None = None  # [s] session time of frame 0
     recording_start: float | None = None  # [s] session time of the recording's first sample
+
+    @property
+    def at(self) -> float | None:
+        """[s] frame 0 from the recording's start (None live): what --at takes back."""
+        if self.first_t is None or self.recording_start is None:
+            return None
+        return self.first_t - self.recording_start
 
 
 def _usage_problem(args: argparse.Namespace) -> str:
@@ -165,15 +174,41 @@ def _usage_problem(args: argparse.Namespace) -> str:
             return f"{args.source}: no such recording"
         if args.connect or args.listen or args.roster:
             return "--connect, --listen and --roster are for a live session, not a recording"
-        if args.at is not None and args.at < 0:
-            return f"--at {args.at:g}: give seconds >= 0 from the recording's start"
-        return ""
+        return _moment_problem(args)
     if args.at is not None or args.at_session is not None:
         flag = "--at" if args.at is not None else "--at-session"
         return f"{flag} is for recordings; a live session ({args.source!r}) renders as it is now"
     if args.join_timeout <= 0:
         return f"--join-timeout {args.join_timeout}: give seconds > 0"
     return _fabric_problem(args)
+
+
+def _moment_problem(args: argparse.Namespace) -> str:
+    """An --at or --at-session outside the recording, naming its range ('' when inside)."""
+    from carlaverse.recording.sink import RecordingError
+    from carlaverse.recording.timeline import OutOfRange
+
+    try:
+        _start_time(args)
+    except OutOfRange as exc:
+        return str(exc)
+    except RecordingError:
+        return ""  # a file that cannot be read is said when the render reads it
+    return ""
+
+
+def _start_time(args: argparse.Namespace) -> float:
+    """Session time [s] of the first frame: --at from the recording's start, --at-session on
+    the session clock, else the first pose. OutOfRange outside the recording."""
+    from carlaverse.recording.timeline import first_pose_time, recording_span
+
+    if args.at is not None:
+        return recording_span(args.source).session_time(args.at, "--at")
+    if args.at_session is not None:
+        return recording_span(args.source).session_time(
+            args.at_session, "--at-session", session=True
+        )
+    return first_pose_time(args.source)
 
 
 def _fabric_problem(args: argparse.Namespace) -> str:
@@ -211,23 +246,27 @@ def _config(args: argparse.Namespace):  # -> RenderConfig
 
 def _render_recording(args: argparse.Namespace, config: Any, stop: threading.Event) -> Shown:
     from carlaverse.recording.reading import recorded_map
-    from carlaverse.recording.timeline import first_pose_time, recording_start_time
+    from carlaverse.recording.timeline import recording_span, recording_start_time
     from carlaverse.render.recording import RecordedWorld
     from carlaverse.render.renderer import Renderer
 
     world = RecordedWorld(args.source)
-    shown = Shown(recording_start=recording_start_time(args.source))
-    if args.at is not None:
-        start = shown.recording_start + args.at
-    elif args.at_session is not None:
-        start = args.at_session
-    else:
-        start = first_pose_time(args.source)
+    origin = recording_start_time(args.source)
+    shown = Shown(recording_start=origin)
+    start = _start_time(args)
+    if args.out.suffix.lower() == ".mp4":
+        span = recording_span(args.source)
+        past_s = start + args.duration - span.end
+        if past_s > 0:
+            say("render")(f"the clip runs {past_s:.1f} s past the recording's end "
+                          f"({span.valid()}): nothing was recorded for its last "
+                          "frames")  # fmt: skip
     road_map = recorded_map(args.source)
     first = world.frame(start)
     if args.camera == FREE and road_map is None and not first.actors:
         raise ValueError(
-            f"{args.source} has no map and no actors at t = {start:.3f} s: nothing for "
+            f"{args.source} has no map and no actors at {start - origin:.2f} s "
+            f"from start (session time {start:.3f} s): nothing for "
             "--camera free to show (was anything recorded? try a later --at)"
         )
     with Renderer(config, road_map) as renderer:  # the world reads forward only

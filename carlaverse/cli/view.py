@@ -8,7 +8,7 @@ import threading
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, cast
 
 import zenoh
 
@@ -200,12 +200,15 @@ def _show(
 
 def _render_file(args: argparse.Namespace, view: ViewOutput, stop: threading.Event) -> int:
     from carlaverse.viz.outputs import wait_forever_or
-    from carlaverse.viz.playback import render_recording
+    from carlaverse.viz.playback import FromStart, render_recording, view_origin
     from carlaverse.viz.scene import SceneLogger
 
-    scene = SceneLogger(view.rec, trails=not args.no_trails, raw=args.raw)
+    rec = FromStart(view.rec, view_origin(args.recording))  # seconds from start beside sim_time
+    scene = SceneLogger(cast("Any", rec), trails=not args.no_trails, raw=args.raw)
     stats = render_recording(args.recording, scene, rate_hz=args.rate)
-    tell(f"rendered {stats.samples} samples in {stats.frames} frames")
+    tell(f"rendered {stats.samples} samples in {stats.frames} frames, 0.0–{stats.span_s:.1f} s "
+         "from the recording's start (Rerun timelines: from_start, and sim_time on the "
+         "session clock)")  # fmt: skip
     if view.viewers:  # a served/spawned viewer would vanish with us: keep it until Ctrl-C
         view.rec.flush(timeout_sec=10.0)
         tell("serving the recording; Ctrl-C to stop")

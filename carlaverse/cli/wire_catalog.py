@@ -27,6 +27,7 @@ from carlaverse.keys import (
     DIGEST_CHANNEL,
     EGO_CHANNELS,
     KEY_AREAS,
+    STUDY_CHANNELS,
     TILED_EGO_CHANNELS,
     TILED_WORLD_CHANNELS,
     WORLD_CHANNELS,
@@ -50,7 +51,7 @@ _KEY_FACTS: tuple[tuple[str, str, str], ...] = (
     ("ego/<id>/pose/<tile>", "the node; `<tile>` is the map tile it is in (t<ix>_<iy>)",
      "best effort, congestion DROP, priority real-time; 50-120 Hz"),
     ("ego/<id>/state", "the node", "reliable, congestion BLOCK; on change"),
-    ("ego/<id>/skeleton", "walk nodes (none ships yet)", "best effort; ~30 Hz"),
+    ("ego/<id>/skeleton", "walk nodes with a skeleton source (`body:`)", "best effort; ~30 Hz"),
     ("ego/<id>/override", "an ADAS program; the drive node applies it", "reliable"),
     ("world/npc", "authority", "best effort, congestion DROP; scenario `npc_rate_hz` (20 Hz)"),
     ("world/npc/<tile>", "authority: the NPCs of one map tile (an empty batch when it empties)",
@@ -64,6 +65,12 @@ _KEY_FACTS: tuple[tuple[str, str, str], ...] = (
     ("impulse/<id>", "authority", "reliable, congestion BLOCK, priority interactive-high"),
     ("audio/<id>", "authority; read by node <id>, observers and recorders only",
      "best effort, congestion DROP; scenario `audio.rate_hz` (20 Hz)"),
+    ("study/<id>/ask", "the study runner: a questionnaire for node <id>'s HMI",
+     "reliable, congestion BLOCK; repeated until the final answers come"),
+    ("study/<id>/answers", "the node: its participant's answers so far",
+     "reliable, congestion BLOCK; on each change, and on submit (`final`)"),
+    ("study/<id>/brief", "the study runner, under the study's name as session: the trial "
+     "participant <id>'s agent takes part in now, or none", "reliable; every 0.5 s"),
 )  # fmt: skip
 
 
@@ -75,7 +82,7 @@ def key_docs() -> list[KeyDoc]:
     for key, writer, delivery in [*_KEY_FACTS, *queries]:
         area, _, rest = key.partition("/")
         named = rest.removesuffix("/<tile>")  # a tiled key carries its channel's payload
-        channel = named.rpartition("/")[2] if area in ("ego", "world", "authority") else ""
+        channel = named.rpartition("/")[2] if area in ("ego", "world", "authority", "study") else ""
         codec = m.CHANNEL_CODECS.get((area, channel))
         payload = _type_names(codec.type) if codec is not None else ""
         request = ""
@@ -101,6 +108,7 @@ def key_space_paths() -> set[str]:
     paths |= {f"world/{c}" for c in (*WORLD_CHANNELS, DIGEST_CHANNEL)}
     paths |= {f"world/{c}/<tile>" for c in TILED_WORLD_CHANNELS}
     paths |= {f"authority/{q}" for q in AUTHORITY_QUERIES}
+    paths |= {f"study/<id>/{c}" for c in STUDY_CHANNELS}
     assert {p.split("/")[0] for p in paths} == set(KEY_AREAS)
     return paths
 

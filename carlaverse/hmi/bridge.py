@@ -103,3 +103,28 @@ class StateBridge:
 
     def close(self) -> None:
         pass  # the node owns and closes its state block
+
+
+class QuestionnaireOnlyBridge:
+    """A bridge for a participant's node kind without pages of its own (walk, scripted): no
+    telemetry, no commands; its HMI shows only the study's questionnaires."""
+
+    actions: frozenset[str] = frozenset()
+    cruise = False
+    torn_reads = 0
+
+    def __init__(self, kind: str, node_id: str) -> None:
+        self.kind = kind
+        self.node_id = node_id
+
+    def static_info(self) -> dict[str, Any]:
+        return {}
+
+    def telemetry(self) -> tuple[float, dict[str, Any]] | None:
+        return None
+
+    def submit(self, command: Command) -> None:
+        raise ValueError(f"the {self.kind} HMI takes no commands, got {command!r}")
+
+    def close(self) -> None:
+        pass

@@ -89,6 +89,12 @@ def default_config_name(kind: str) -> str:
     return f"hmi/{kind}.yaml"
 
 
+def questionnaire_only_config() -> LoadedHmiConfig:
+    """The HMI of a node kind without pages of its own: its home is the questionnaire page."""
+    config = HmiConfig(hmi=HmiSettings(home="questionnaire"))
+    return LoadedHmiConfig(config, "built-in (questionnaires only)", None)
+
+
 def load_hmi_config(name: str) -> LoadedHmiConfig:
     """Load an HMI config (path or shipped name) and resolve its `hmi.pages_dir`."""
     path = resolve_path(name)

@@ -38,9 +38,11 @@ from starlette.websockets import WebSocket, WebSocketDisconnect
 
 from carlaverse.hmi.bridge import HmiBridge
 from carlaverse.hmi.config import LoadedHmiConfig
+from carlaverse.hmi.questionnaire import QuestionnaireDesk
 from carlaverse.hmi.site import Site
 from carlaverse.hmi.wire import (
     ENCODER,
+    Answer,
     Info,
     InputCheck,
     Message,
@@ -103,6 +105,8 @@ class HmiServer:
         self._pages: set[_Page] = set()
         self._messages: list[tuple[Message, float]] = []  # with expiry, monotonic [s]
         self._message_ids = 0
+        self.questionnaires: QuestionnaireDesk | None = None  # while the node is joined
+        self._questionnaire_stats: dict[str, Any] = {}  # of the last desk, once detached
         self.frames_sent = 0  # telemetry frames handed to pages (one per page per frame)
         self.frames_made = 0
         self.telemetry_errors = 0
@@ -171,7 +175,25 @@ class HmiServer:
         if self._loop is not None:
             self._loop.call_soon_threadsafe(self._push_message, str(text), seconds)
 
+    def attach_questionnaires(self, desk: QuestionnaireDesk | None) -> None:
+        """Show `desk`'s questionnaires and hand it the pages' answers (None: no more)."""
+        if self.questionnaires is not None:
+            self._questionnaire_stats = self.questionnaires.stats()
+        self.questionnaires = desk
+        if desk is not None:
+            desk.show_on(self)
+
+    def post_frame(self, frame: bytes) -> None:
+        """Send `frame` to every page, in order with the other ordered frames (any thread)."""
+        if self._loop is not None:
+            self._loop.call_soon_threadsafe(self._post_all, frame)
+
+    def _post_all(self, frame: bytes) -> None:
+        for page in self._pages:
+            page.post(frame)
+
     def stats(self) -> dict[str, Any]:
+        desk = self.questionnaires
         return {
             "url": self.url,
             "pages_connected": len(self._pages),
@@ -183,6 +205,7 @@ class HmiServer:
             "inputs_rejected": dict(self.inputs.rejected),
             "token_required": self.token is not None,
             "requests_refused": dict(self._guard.refused) if self._guard else {},
+            **(desk.stats() if desk is not None else self._questionnaire_stats),
         }
 
     def close(self) -> None:
@@ -266,6 +289,9 @@ class HmiServer:
         for message, until in self._messages:  # still showing: with the time left
             left = Message(message.id, message.text, round(until - now, 3))
             page.post(ENCODER.encode(left))
+        shown = self.questionnaires.page_frame() if self.questionnaires is not None else None
+        if shown is not None:  # open now: a page that (re)connects shows it, answers kept
+            page.post(shown)
         self._pages.add(page)
         writer = asyncio.create_task(self._write(page))
         try:
@@ -284,8 +310,16 @@ class HmiServer:
                 page.post(ENCODER.encode(Rejected(reason)))
             elif isinstance(item, Ping):
                 page.post(ENCODER.encode(Pong(item.page_ms, time.monotonic())))
+            elif isinstance(item, Answer):
+                why = self._answer(item)
+                if why:
+                    page.post(ENCODER.encode(Rejected(why)))
             else:
                 self.bridge.submit(item)
+
+    def _answer(self, item: Answer) -> str:
+        desk = self.questionnaires
+        return desk.answer(item) if desk is not None else "questionnaire: none is open"
 
     async def _write(self, page: _Page) -> None:
         try:

@@ -25,6 +25,7 @@ from carlaverse.hmi.config import PAGE_NAME, Layout, LoadedHmiConfig
 from carlaverse.patterns import whole_ascii
 
 SHIPPED_PAGES = Path(__file__).parent / "pages"
+QUESTIONNAIRE_PAGE = "questionnaire"  # a study's questionnaires only (questionnaire.js)
 ASSET = whole_ascii(r"[A-Za-z0-9][A-Za-z0-9_-]*\.(js|mjs|css|svg|png|json|woff2)")
 
 
@@ -36,9 +37,11 @@ class Site:
         self.folders = [f for f in (loaded.pages_dir, SHIPPED_PAGES) if f is not None]
 
     def pages(self) -> list[str]:
-        """The pages folder's pages (looked up now: a file dropped in later is listed too)
-        and the shipped pages this config lays out (a drive node has no bike page)."""
+        """The pages folder's pages (looked up now: a file dropped in later is listed too),
+        the shipped pages this config lays out (a drive node has no bike page) and the
+        questionnaire page."""
         names = {p.stem for p in SHIPPED_PAGES.glob("*.html")} & set(self.loaded.config.layouts)
+        names.add(QUESTIONNAIRE_PAGE)  # every participant's kind can be asked one
         if self.loaded.pages_dir is not None:
             pages_dir = self.loaded.pages_dir
             names |= {p.stem for p in pages_dir.glob("*.html") if _inside(p, pages_dir)}

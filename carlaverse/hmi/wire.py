@@ -9,9 +9,14 @@ is told why in a `rejected` frame):
     {"type": "press", "action": "low_beam"}       a touchscreen tap (the node's actions)
     {"type": "cruise", "command": "set"}          set | resume | cancel
     {"type": "ping", "page_ms": 1234.5}           clock sync: the page's performance.now()
+    {"type": "answer", "request_id": "t1.ssq", "answers": {"fatigue": 1}, "final": false}
+                                                  a questionnaire's answers so far; `final`
+                                                  when the participant submits
 
 Node → page: `info` once on connect, then `telemetry` at the configured rate, `message` when
-text is pushed (`HmiServer.show_message`), `pong` for each ping, `rejected` for bad input.
+text is pushed (`HmiServer.show_message`), `pong` for each ping, `rejected` for bad input,
+`questionnaire` when the study runner asks the node's participant one (and again to a page
+that connects while it is open, and once submitted), carrying the answers given so far.
 """
 
 from __future__ import annotations
@@ -21,11 +26,19 @@ from typing import Annotated, Any, Literal
 
 import msgspec
 
+from carlaverse.messages import (
+    QUESTIONNAIRE_MAX_ITEMS,
+    LongText,
+    QuestionnaireRequest,
+    ScaleValue,
+    StudyId,
+)
 from carlaverse.patterns import anchored
 
 Finite = Annotated[float, msgspec.Meta(ge=-1e12, le=1e12)]  # JSON has no NaN; bounds it too
 ActionName = Annotated[str, msgspec.Meta(pattern=anchored(r"[a-z0-9_]{1,32}"))]
 MAX_INPUT_BYTES = 1024  # a page's input is a few dozen bytes; anything longer is not ours
+MAX_ANSWER_BYTES = 48 * 1024  # but answers: up to 64 items, a few texts of 2000 characters
 
 
 class Press(msgspec.Struct, frozen=True, forbid_unknown_fields=True, tag="press", tag_field="type"):
@@ -42,7 +55,17 @@ class Ping(msgspec.Struct, frozen=True, forbid_unknown_fields=True, tag="ping", 
     page_ms: Finite  # [ms] the page's performance.now() when it sent this
 
 
-PageInput = Press | Cruise | Ping
+class Answer(
+    msgspec.Struct, frozen=True, forbid_unknown_fields=True, tag="answer", tag_field="type"
+):
+    request_id: StudyId
+    answers: Annotated[
+        dict[StudyId, ScaleValue | LongText], msgspec.Meta(max_length=QUESTIONNAIRE_MAX_ITEMS)
+    ]
+    final: bool = False
+
+
+PageInput = Press | Cruise | Ping | Answer
 Command = Press | Cruise  # what reaches the node; pings are answered by the server
 
 
@@ -73,6 +96,12 @@ class Pong(msgspec.Struct, frozen=True, tag="pong", tag_field="type"):
     node_s: float  # [s] the node host's monotonic clock when it answered
 
 
+class Questionnaire(msgspec.Struct, frozen=True, tag="questionnaire", tag_field="type"):
+    request: QuestionnaireRequest
+    answers: dict[str, int | str]  # given so far (a page that reloads shows them again)
+    submitted: bool  # the node has sent the final set: the page thanks and closes
+
+
 class Rejected(msgspec.Struct, frozen=True, tag="rejected", tag_field="type"):
     reason: str
 
@@ -84,13 +113,15 @@ class InputCheck:
     """Decode and vet page input: the node's own action list and cruise support.
 
     `rejected` counts drops by reason (`json`, `schema`, `size`, `binary`, `action`,
-    `cruise`); `accepted` counts the rest.
+    `cruise`); `accepted` counts the rest. Answers are checked against their questionnaire
+    by the node's QuestionnaireDesk (carlaverse.hmi.questionnaire).
     """
 
     def __init__(self, actions: frozenset[str], cruise: bool) -> None:
         self.actions = actions
         self.cruise = cruise
         self._decoder = msgspec.json.Decoder(PageInput)
+        self._envelope = msgspec.json.Decoder(_Envelope)
         self.accepted = 0
         self.rejected: Counter[str] = Counter()
 
@@ -106,8 +137,9 @@ class InputCheck:
     def _vet(self, raw: str | bytes | None) -> tuple[PageInput | None, str]:
         if not isinstance(raw, str):
             return None, "binary: send JSON text frames"
-        if len(raw) > MAX_INPUT_BYTES:
-            return None, f"size: {len(raw)} bytes > {MAX_INPUT_BYTES}"
+        limit = MAX_ANSWER_BYTES if self._is_answer(raw) else MAX_INPUT_BYTES
+        if len(raw) > limit:
+            return None, f"size: {len(raw)} bytes > {limit}"
         try:
             item = self._decoder.decode(raw)
         except msgspec.ValidationError as exc:
@@ -119,3 +151,17 @@ class InputCheck:
         if isinstance(item, Cruise) and not self.cruise:
             return None, "cruise: this node has no cruise control"
         return item, ""
+
+    def _is_answer(self, raw: str) -> bool:
+        """Whether a long frame says it is an answer (the one input allowed to be long);
+        only its `type` is read, and only when the frame is longer than the others may be."""
+        if len(raw) <= MAX_INPUT_BYTES or len(raw) > MAX_ANSWER_BYTES:
+            return False
+        try:
+            return self._envelope.decode(raw).type == "answer"
+        except msgspec.DecodeError:
+            return False
+
+
+class _Envelope(msgspec.Struct, frozen=True):
+    type: str = ""

@@ -26,6 +26,8 @@ from carlaverse.launcher.lab import Lab
 from carlaverse.launcher.panel_config import ConfigEditor
 from carlaverse.launcher.panel_hardware import hardware_panel
 from carlaverse.launcher.panel_session import session_panel
+from carlaverse.launcher.panel_study import study_panel
+from carlaverse.launcher.study_runs import StudyRuns
 
 TITLE = "CARLAverse launcher"
 
@@ -33,7 +35,7 @@ TITLE = "CARLAverse launcher"
 BROWSER_WAIT_S = 30.0  # [s] the page is opened once the port listens, or not at all
 
 
-def build_page(lab: Lab, files: ConfigDir) -> None:
+def build_page(lab: Lab, files: ConfigDir, studies: StudyRuns) -> None:
     """The page every browser gets; each builds its own widgets over the one shared lab."""
     with ui.header().classes("items-center bg-slate-800"):
         ui.label(TITLE).classes("text-xl font-medium")
@@ -42,6 +44,7 @@ def build_page(lab: Lab, files: ConfigDir) -> None:
         session_tab = ui.tab("Session", icon="hub")
         config_tab = ui.tab("Config", icon="account_tree")
         hardware_tab = ui.tab("Hardware", icon="sports_esports")
+        study_tab = ui.tab("Study", icon="science")
     with ui.tab_panels(tabs, value=session_tab).classes("w-full"):
         with ui.tab_panel(session_tab):
             session_panel(lab)
@@ -49,6 +52,8 @@ def build_page(lab: Lab, files: ConfigDir) -> None:
             ConfigEditor(files)
         with ui.tab_panel(hardware_tab):
             hardware_panel(files)
+        with ui.tab_panel(study_tab):
+            study_panel(studies)
 
 
 def serve(
@@ -67,7 +72,8 @@ def serve(
     Only requests with `token` from an allowed Host get in; `open_page` (a local file that
     forwards to the token URL) is opened in a browser once the port listens.
     """
-    ui.page("/", title=TITLE)(lambda: build_page(lab, lab.files))
+    studies = StudyRuns(lab.files, lab.supervisor)  # one study run per lab, every page sees it
+    ui.page("/", title=TITLE)(lambda: build_page(lab, lab.files, studies))
     app.add_middleware(
         Door, token=token, hosts=HostPolicy(host, allow_hosts), cookie=cookie_name(port)
     )

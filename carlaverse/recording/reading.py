@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import logging
 import struct
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import BinaryIO
@@ -54,20 +54,27 @@ def is_finished(path: str | Path) -> bool:
             return False
 
 
-def iter_samples(path: str | Path) -> Iterator[RecordedSample]:
-    """Every recorded sample, in receive order; bad envelopes are logged and skipped."""
+def iter_samples(path: str | Path, topics: Iterable[str] | None = None) -> Iterator[RecordedSample]:
+    """Every recorded sample (on `topics` only, when given), in receive order; bad envelopes
+    are logged and skipped. A finished file skips the chunks that hold none of `topics`."""
     path = Path(path)
     finished = is_finished(path)
+    wanted = None if topics is None else list(topics)
+    if wanted == []:
+        return  # no channel asked for (the reader would take an empty list for all of them)
     with _open(path) as f:
-        records = _indexed(f) if finished else _streamed(f)
+        records = _indexed(f, wanted) if finished else _streamed(f)
         for channel, message in records:
+            if wanted is not None and channel.topic not in wanted:
+                continue
             sample = _sample(channel, message)
             if sample is not None:
                 yield sample
 
 
-def _indexed(f: BinaryIO) -> Iterator[tuple[Channel, Message]]:
-    for _schema, channel, message in make_reader(f).iter_messages(log_time_order=True):
+def _indexed(f: BinaryIO, topics: list[str] | None) -> Iterator[tuple[Channel, Message]]:
+    reader = make_reader(f)
+    for _schema, channel, message in reader.iter_messages(topics, log_time_order=True):
         yield channel, message
 
 

@@ -6,10 +6,14 @@ sleeping until ~1 ms before a deadline and spinning the rest (a plain sleep over
 up to a scheduler tick). A sample that is already late is sent at once, never skipped; the
 lateness is counted.
 
-So that viewers and late joiners see the recorded world, recorded authority replies (map,
-scenario, snapshot, configs) are served as queryables (configs with their secrets redacted,
-whatever the recording holds), and recorded presence (`node/<id>`) becomes liveliness
-tokens of the replaying session.
+A replay is a session: the replaying process answers for the target session's authority
+(`replay_authority`): observers join it, its clock tells recorded session time as the replay
+plays it, its snapshot lists the world as replayed so far, and it serves the recorded map,
+scenario and configs (redacted, whatever the recording holds). The world messages it
+republishes carry its own session's timestamps, as a live authority's do, so every viewer,
+renderer, audio renderer and analysis takes them as from the session's authority; recorded
+presence (`node/<id>`) becomes liveliness tokens of the replaying session. Without queries
+(`serve_queries=False`, a live authority runs in the target session) none of that is done.
 
 Commands are withheld unless asked for (`with_commands`): `impulse/*` and `ego/*/override`
 move real wheels and motion platforms, and a replay must not drive a live rig by accident.
@@ -27,15 +31,18 @@ from typing import Any
 
 import zenoh
 
-from carlaverse.keys import Keys, KeySpaceError, parse
+from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse, parse_cached
 from carlaverse.recording.reading import RecordedSample
-from carlaverse.recording.scrub import holds_configs, scrub_configs
+from carlaverse.recording.replay_authority import ReplayAuthority
+from carlaverse.recording.replay_clock import ReplayClock
 
 log = logging.getLogger(__name__)
 
 SPIN_S = 0.001  # [s] busy-wait this close to a deadline
 LATE_S = 0.001  # [s] a sample sent later than this counts as late
 REPLAY_SUFFIX = "-replay"
+# What only the session's authority publishes: republished with the replay authority's stamp.
+AUTHORITY_AREAS = ("world", "impulse", "audio")
 
 
 def is_command(key: str) -> bool:
@@ -76,6 +83,8 @@ class ReplayStats:
     skipped: int = 0  # keys outside the key space (recorded by a newer carlaverse)
     withheld: int = 0  # command samples not sent (impulse, override) without with_commands
     per_key: Counter[str] = field(default_factory=Counter)
+    # what the replay's authority answered: join/accepted, join/refused, <query>/bad_request
+    answered: Counter[str] = field(default_factory=Counter)
 
 
 def _qos(metadata: Mapping[str, str]) -> dict[str, Any]:
@@ -95,16 +104,20 @@ def _qos(metadata: Mapping[str, str]) -> dict[str, Any]:
 
 
 class Replayer:
-    """Publishes recorded samples on a Zenoh session; one thread calls `run`."""
+    """Publishes recorded samples on a Zenoh session under `target_session`; one thread calls
+    `run`. `session_offset_ns`: the recorder's log time minus session time
+    (`timeline.receive_offset_ns`), which turns a sample's log time into the session time the
+    replay's clock tells when it goes out."""
 
     def __init__(
         self,
         session: zenoh.Session,
-        target_session: str | None = None,
+        target_session: str,
         *,
         speed: float = 1.0,
         serve_queries: bool = True,
         with_commands: bool = False,
+        session_offset_ns: int = 0,
         clock: Callable[[], float] = time.perf_counter,
         sleep: Callable[[float], None] = time.sleep,
     ) -> None:
@@ -113,16 +126,18 @@ class Replayer:
         self._session = session
         self._target = target_session
         self._speed = speed
-        self._serve_queries = serve_queries
         self._with_commands = with_commands
+        self._offset_ns = session_offset_ns
         self._clock = clock
         self._sleep = sleep
         self._keys: dict[str, str | None] = {}
         self._publishers: dict[str, zenoh.Publisher] = {}
-        self._replies: dict[str, bytes] = {}
-        self._queryables: dict[str, zenoh.Queryable] = {}
         self._tokens: dict[str, Any] = {}
         self.stats = ReplayStats()
+        self.session_clock = ReplayClock(speed, clock)
+        self.authority: ReplayAuthority | None = None
+        if serve_queries:  # answering once `prepare` or `run` starts it (after `preload`)
+            self.authority = ReplayAuthority(session, Keys(target_session), self.session_clock)
 
     def run(
         self,
@@ -131,6 +146,7 @@ class Replayer:
         loop: bool = False,
     ) -> ReplayStats:
         """Replay `source()` once (or until `stop` with `loop`); returns the counts."""
+        self._answer()
         while not stop.is_set():
             self._one_pass(source(), stop)
             self.stats.passes += 1
@@ -138,12 +154,43 @@ class Replayer:
                 break
         return self.stats
 
-    def prepare(self, channels: Mapping[str, Mapping[str, str]]) -> None:
-        """Declare a publisher per recorded key up front, so subscribers can match early."""
+    def prepare(
+        self, channels: Mapping[str, Mapping[str, str]], start_t: float | None = None
+    ) -> None:
+        """Declare a publisher per recorded key up front, so subscribers can match early;
+        the session clock holds at `start_t` [s] (the recording's start) until the replay
+        starts. The authority answers from here on: call `preload` first."""
         for key, metadata in channels.items():
             target = self._target_key(key)
             if target is not None and self._publishes(target):
                 self._publisher(target, metadata)
+        if start_t is not None:
+            self.session_clock.hold(start_t)
+        self._answer()
+
+    def _answer(self) -> None:
+        """Start answering for the session's authority (once)."""
+        if self.authority is not None and not self.authority.started:
+            self.authority.start()
+
+    def preload(self, samples: Iterable[RecordedSample]) -> None:
+        """Serve the first recorded reply of each authority query from the start, before the
+        replay reaches it (a viewer asks for the map as it joins), and know every recorded
+        snapshot's nodes (what each is: kind, actor, extent). Before `prepare`: a node
+        that joined before it would be told there is no map."""
+        if self.authority is None:
+            return
+        seen: set[str] = set()
+        for sample in samples:
+            key = self._target_key(sample.key)
+            parsed = parse_cached(key) if key is not None else None
+            if parsed is None or parsed.area != "authority":
+                continue
+            if parsed.channel == "snapshot":  # what each recorded node is, from the start
+                self.authority.world.know(sample.payload)
+            if parsed.channel not in seen:
+                seen.add(parsed.channel)
+                self.authority.recorded_reply(parsed.channel, sample.payload)
 
     def wait_for_subscribers(self, stop: threading.Event, timeout_s: float = 2.0) -> bool:
         """Until some subscriber matches a prepared key (declarations have arrived)."""
@@ -155,28 +202,39 @@ class Replayer:
         return True
 
     def close(self) -> None:
-        handles: list[zenoh.Publisher | zenoh.Queryable] = [
-            *self._publishers.values(),
-            *self._queryables.values(),
-        ]
-        for handle in handles:
+        for handle in self._publishers.values():
             handle.undeclare()
-        for token in self._tokens.values():
-            token.undeclare()
         self._publishers.clear()
-        self._queryables.clear()
-        self._tokens.clear()
+        self._drop_tokens()
+        if self.authority is not None:
+            self.authority.close()
+            self.stats.answered.update(self.authority.counts)
+            self.authority = None
 
     def _one_pass(self, samples: Iterable[RecordedSample], stop: threading.Event) -> None:
         start = self._clock()
         first_ns: int | None = None
-        for sample in samples:
-            first_ns = sample.log_time_ns if first_ns is None else first_ns
-            due = start + (sample.log_time_ns - first_ns) / 1e9 / self._speed
-            if not wait_until(due, self._clock, self._sleep, stop):
-                return
-            self._count_lateness(self._clock() - due)
-            self._send(sample)
+        try:
+            for sample in samples:
+                if first_ns is None:
+                    first_ns = sample.log_time_ns
+                    self._begin_pass(sample.log_time_ns, start)
+                due = start + (sample.log_time_ns - first_ns) / 1e9 / self._speed
+                if not wait_until(due, self._clock, self._sleep, stop):
+                    return
+                self._count_lateness(self._clock() - due)
+                self._send(sample)
+        finally:
+            self.session_clock.stop()
+
+    def _begin_pass(self, first_ns: int, start: float) -> None:
+        """The session clock starts at the pass's first sample; a pass after another is a new
+        timeline, which the recorded nodes leave first."""
+        if self.stats.passes > 0:
+            self._drop_tokens()
+            if self.authority is not None:
+                self.authority.new_timeline()
+        self.session_clock.start_pass((first_ns - self._offset_ns) / 1e9, start)
 
     def _count_lateness(self, late_s: float) -> None:
         if late_s > LATE_S:
@@ -198,13 +256,16 @@ class Replayer:
         if not self._with_commands and is_command(key):
             self.stats.withheld += 1
             return
-        area = parse(key).area
-        if area == "authority":
-            self._serve(key, sample.payload)
-        elif area == "node":
-            self._presence(key, sample.kind)
+        parsed = parse_cached(key)
+        if parsed.area == "authority":
+            if self.authority is not None:
+                self.authority.recorded_reply(parsed.channel, sample.payload)
+        elif parsed.area == "node":
+            self._presence(key, parsed.node_id, sample.kind)
         else:
-            self._publish(key, sample)
+            self._publish(key, parsed.area, sample)
+        if self.authority is not None:
+            self.authority.world.take(parsed, sample.kind, sample.payload)
         self.stats.published += 1
         self.stats.per_key[key] += 1
 
@@ -212,8 +273,7 @@ class Replayer:
         if key not in self._keys:
             try:
                 parsed = parse(key)
-                session = self._target or parsed.session
-                self._keys[key] = Keys(parsed.session).with_session(key, session)
+                self._keys[key] = Keys(parsed.session).with_session(key, self._target)
             except KeySpaceError as exc:
                 log.warning("not replaying %s: %s", key, exc)
                 self._keys[key] = None
@@ -226,27 +286,26 @@ class Replayer:
             self._publishers[key] = publisher
         return publisher
 
-    def _publish(self, key: str, sample: RecordedSample) -> None:
+    def _publish(self, key: str, area: str, sample: RecordedSample) -> None:
         publisher = self._publisher(key, sample.channel_metadata)
         if sample.kind == "delete":
             publisher.delete()
+        elif self.authority is not None and area in AUTHORITY_AREAS:
+            publisher.put(sample.payload, timestamp=self.authority.stamp())
         else:
             publisher.put(sample.payload)
 
-    def _serve(self, key: str, payload: bytes) -> None:
-        """Answer queries on an authority key with the latest recorded reply."""
-        self._replies[key] = scrub_configs(payload) if holds_configs(key) else payload
-        if self._serve_queries and key not in self._queryables:
-
-            def reply(query: zenoh.Query, key: str = key) -> None:
-                query.reply(key, self._replies[key])
-
-            self._queryables[key] = self._session.declare_queryable(key, reply, complete=True)
-
-    def _presence(self, key: str, kind: str) -> None:
+    def _presence(self, key: str, node_id: str, kind: str) -> None:
+        if node_id == AUTHORITY_ID and self.authority is not None:
+            return  # the replay's authority holds this session's authority token
         if kind == "delete":
             token = self._tokens.pop(key, None)
             if token is not None:
                 token.undeclare()
         elif key not in self._tokens:
             self._tokens[key] = self._session.liveliness().declare_token(key)
+
+    def _drop_tokens(self) -> None:
+        for token in self._tokens.values():
+            token.undeclare()
+        self._tokens.clear()

@@ -52,14 +52,19 @@ def npc_id(i: int) -> str:
 
 
 def ego_pose(i: int, seq: int, t: float) -> m.Pose:
-    """Ego i drives a circle of radius 20 + 5 i m at 10 m/s, centred on the junction."""
+    """Ego i drives a circle of radius 20 + 5 i m at 10 m/s, centred on the junction.
+
+    Its acceleration is the circle's, v^2 / r towards the centre: a pose that turns at its
+    yaw rate and says it does not accelerate contradicts itself, and the motion model that
+    projects it (`dead_reckoning.project`, present mode) would drive it straight on."""
     radius = 20.0 + 5.0 * i  # [m]
     omega = 10.0 / radius  # [rad/s]
     a = omega * t + i
     x, y = radius * math.cos(a), radius * math.sin(a)
     yaw = a + math.pi / 2
     vx, vy = -10.0 * math.sin(a), 10.0 * math.cos(a)
-    return m.Pose(seq, t, x, y, 0.0, 0.0, 0.0, yaw, vx, vy, 0.0, 0.0, 0.0, omega)
+    ax, ay = -10.0 * omega * math.cos(a), -10.0 * omega * math.sin(a)  # [m/s²] v² / r inwards
+    return m.Pose(seq, t, x, y, 0.0, 0.0, 0.0, yaw, vx, vy, 0.0, 0.0, 0.0, omega, ax, ay, 0.0)
 
 
 def npc_rows(count: int, t: float) -> np.ndarray:

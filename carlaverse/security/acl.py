@@ -13,14 +13,16 @@ What each role may do (`S` = `carlaverse/<session>`), as verified against zenoh 
 | every node       | its own liveliness token `S/node/<id>`; subscriptions,        |
 |                  | liveliness subscriptions and queries on `S/**`;               |
 |                  | queries to `S/authority/**`                                   |
-| ego node         | + put/delete on `S/ego/<id>/**`                               |
+| ego node         | + put/delete on `S/ego/<id>/**`; put on `S/study/<id>/answers`|
 | authority        | + put/delete on `S/world/**`, `S/world/@egos`, `S/impulse/**`,|
 |                  | `S/audio/**`; queryables on and replies from `S/authority/**` |
+| study runner     | + put on `S/study/**` (questionnaires, trial briefs)          |
 | observer/recorder| nothing more: read only                                      |
 | other sites      | the union of the above for the nodes not at this site        |
 
 Egress (what the router may deliver): to a node, puts on `S/**` — but to a participant (not
-an observer/recorder) `S/audio/**` only as its own `S/audio/<id>` — replies from
+an observer/recorder) `S/audio/**` and `S/study/**` only as its own `S/audio/<id>` and
+`S/study/<id>/**` (what it hears, and its questionnaires and answers, are its own) — replies from
 `S/authority/**`, liveliness tokens and the declarations a peer-mode node needs for
 write-side filtering; queries only to the authority. To another site's router, every message
 on `S/**`: it applies its own rules to its own nodes. Nothing outside `S/**` passes.
@@ -46,6 +48,7 @@ from carlaverse.keys import KEY_AREAS, Keys
 from carlaverse.security.roster import (
     AUTHORITY_KIND,
     READ_ONLY_KINDS,
+    STUDY_RUNNER_KIND,
     Identity,
     LoadedRoster,
     RosterNode,
@@ -63,6 +66,7 @@ ALL_MESSAGES = (
     "liveliness_query",
 )
 AUTHORITY_AREAS = ("world", "impulse", "audio")
+PRIVATE_AREAS = ("audio", "study")  # per node: a participant receives only its own
 READ_MESSAGES = ("declare_subscriber", "declare_liveliness_subscriber", "liveliness_query")
 DECLARATIONS = ("declare_subscriber", "declare_queryable", "declare_liveliness_subscriber")
 
@@ -100,19 +104,30 @@ def node_grants(keys: Keys, node: RosterNode) -> list[Grant]:
     ]
     if node.kind == AUTHORITY_KIND:
         grants += authority_grants(keys)
+    elif node.kind == STUDY_RUNNER_KIND:
+        grants.append(Grant("study", ("put",), (keys.subtree("study"),), "ingress"))
     elif node.kind not in READ_ONLY_KINDS:
-        grants.append(Grant("ego", ("put", "delete"), (keys.subtree("ego", node.id),), "ingress"))
+        grants += participant_grants(keys, node.id)
     return grants
+
+
+def participant_grants(keys: Keys, node_id: str) -> list[Grant]:
+    """A participant writes its own ego channels and its own questionnaire answers."""
+    return [
+        Grant("ego", ("put", "delete"), (keys.subtree("ego", node_id),), "ingress"),
+        Grant("study", ("put",), (keys.study(node_id, "answers"),), "ingress"),
+    ]
 
 
 def receivable(keys: Keys, node: RosterNode) -> tuple[str, ...]:
     """What the router may deliver to a node: all of the session, except that a participant
-    gets only its own `audio/<id>` (what it can hear is private to it); read-only kinds
-    (observers, recorders) keep all of it, so a recording can be rendered for any listener."""
-    if node.kind in READ_ONLY_KINDS | {AUTHORITY_KIND}:
+    gets only its own `audio/<id>` (what it can hear is private to it) and `study/<id>/**`
+    (its questionnaires and answers); read-only kinds (observers, recorders) keep all of it,
+    so a recording can be rendered for any listener, and so does the study runner."""
+    if node.kind in READ_ONLY_KINDS | {AUTHORITY_KIND, STUDY_RUNNER_KIND}:
         return keys.every_key
-    areas = tuple(keys.subtree(area) for area in KEY_AREAS if area != "audio")
-    return (*areas, keys.pose_digest, keys.audio(node.id))
+    areas = tuple(keys.subtree(area) for area in KEY_AREAS if area not in PRIVATE_AREAS)
+    return (*areas, keys.pose_digest, keys.audio(node.id), keys.subtree("study", node.id))
 
 
 def authority_grants(keys: Keys) -> list[Grant]:
@@ -136,10 +151,15 @@ def peer_site_grants(keys: Keys, remote_nodes: list[RosterNode]) -> list[Grant]:
     if remote_nodes:
         tokens = tuple(keys.node(n.id) for n in remote_nodes)
         grants.append(Grant("presence", ("liveliness_token",), tokens, "ingress"))
-    writers = [n for n in remote_nodes if n.kind not in READ_ONLY_KINDS | {AUTHORITY_KIND}]
+    not_writers = READ_ONLY_KINDS | {AUTHORITY_KIND, STUDY_RUNNER_KIND}
+    writers = [n for n in remote_nodes if n.kind not in not_writers]
     if writers:
         egos = tuple(keys.subtree("ego", n.id) for n in writers)
         grants.append(Grant("ego", ("put", "delete"), egos, "ingress"))
+        answers = tuple(keys.study(n.id, "answers") for n in writers)
+        grants.append(Grant("study-answers", ("put",), answers, "ingress"))
+    if any(n.kind == STUDY_RUNNER_KIND for n in remote_nodes):
+        grants.append(Grant("study", ("put",), (keys.subtree("study"),), "ingress"))
     if any(n.kind == AUTHORITY_KIND for n in remote_nodes):
         grants += [g for g in authority_grants(keys) if g.flow == "ingress"]
     return grants

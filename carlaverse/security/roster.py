@@ -38,6 +38,9 @@ from carlaverse.keys import AUTHORITY_ID, KeySpaceError, check_token
 AUTHORITY_KIND = "authority"
 # Kinds that only read the session: they may subscribe and query, never publish a pose.
 READ_ONLY_KINDS = frozenset({"observer", "recorder", "viewer", "stats"})
+# The study runner (issue 44): asks participants' nodes questionnaires on `study/<id>/...`
+# and reads their answers; it publishes no pose.
+STUDY_RUNNER_KIND = "study-runner"
 DEFAULT_SITE_LISTEN = "tls/0.0.0.0:7447"
 
 

@@ -85,7 +85,7 @@ def _spider_args(s: SpiderTown) -> list[str]:
 
 
 def _street_args(gen: GeneratedMap) -> list[str]:
-    """Signals, sidewalks, crossings and bike lanes, guessed by netgenerate."""
+    """Signals, sidewalks, crossings, bike lanes and oncoming pairs, guessed by netgenerate."""
     args = []
     if gen.traffic_lights:
         # A low guessing threshold signalises every real junction but not the dead ends.
@@ -96,6 +96,8 @@ def _street_args(gen: GeneratedMap) -> list[str]:
         args.append("--crossings.guess")
     if gen.bike_lanes:
         args += ["--bikelanes.guess", "--default.bikelane-width", f"{gen.bike_lane_width_m:g}"]
+    if gen.overtaking:
+        args.append("--opposites.guess")
     return args
 
 

@@ -5,7 +5,8 @@ trigger, its `StartTrigger` the condition (condition groups OR-ed, conditions wi
 AND-ed), its actions the trigger's actions. Actors are referenced by name: an entity called
 `bike-1` is the participant `bike-1`, an NPC's entity name is its NPC id. What does not map
 is refused with the element's name and where it is; nothing is silently dropped. The
-supported elements are listed in `SUPPORTED` (and in README.md):
+supported elements are listed in `SUPPORTED` (and in README.md); every element of the 1.x
+schemas, with what is read of it, in docs/openscenario.md (`openscenario_coverage`):
 
     carlaverse scenario: openscenario: study.xosc    # relative to the scenario file
 """
@@ -59,19 +60,64 @@ def import_triggers(path: Path) -> list[TriggerSpec]:
     except (OSError, ET.ParseError) as exc:
         raise ConfigError(str(path), f"cannot read OpenSCENARIO file: {exc}") from exc
     try:
-        _refuse_init_actions(root)
+        _refuse_outside_the_events(root)
         triggers = [_event(e, act_time) for e, act_time in _events(root)]
+        _refuse_twins(triggers)
     except Refused as exc:
         raise ConfigError(str(path), str(exc)) from exc
+    except ValueError as exc:  # a number that is none (float("fast")): the element is named
+        raise ConfigError(str(path), f"bad value in the storyboard: {exc}") from exc
     return [convert(t, TriggerSpec, str(path)) for t in triggers]
 
 
-def _refuse_init_actions(root: ET.Element) -> None:
-    init = root.find("./Storyboard/Init/Actions")
+def _refuse_outside_the_events(root: ET.Element) -> None:
+    """What would change the storyboard's meaning outside its events is refused, not skipped."""
+    board = root.find("./Storyboard")
+    if board is None:
+        raise Refused(
+            f"<{root.tag}> holds no <Storyboard>: a catalog or a parameter distribution is "
+            "not a scenario"
+        )
+    init = board.find("./Init/Actions")
     if init is not None and len(init):
         raise Refused(
             f"Init action <{init[0].tag}> is not supported: the scenario YAML places actors"
         )
+    events = {event.get("name") for event in board.iter("Event")}
+    for element in board.iter():
+        _refuse_element(element)
+        ref = element.get("storyboardElementRef")
+        if element.get("storyboardElementType") == "event" and ref not in events:
+            raise Refused(f"StoryboardElementStateCondition refers to {ref!r}, no event of this "
+                          "storyboard")  # fmt: skip
+
+
+def _refuse_twins(triggers: list[dict[str, Any]]) -> None:
+    """Each event is a trigger named after it: two events may not share a name."""
+    ids = [t["id"] for t in triggers]
+    twins = sorted({i for i in ids if ids.count(i) > 1})
+    if twins:
+        raise Refused(f"events named {twins[0]!r} (as a trigger id) more than once: name each "
+                      "event apart")  # fmt: skip
+
+
+def _refuse_element(element: ET.Element) -> None:
+    if element.tag == "StopTrigger" and len(element):
+        raise Refused(
+            "a StopTrigger with conditions is not supported: a session ends by its --duration "
+            "or Ctrl-C"
+        )
+    if element.tag == "CatalogReference":
+        raise Refused(
+            f"<CatalogReference catalogName={element.get('catalogName')!r}> is not "
+            "supported: write the element out in the storyboard"
+        )
+    for attribute, value in element.attrib.items():
+        if value.startswith("$"):
+            raise Refused(
+                f"<{element.tag} {attribute}={value!r}>: parameter references and "
+                "expressions are not supported: write the value"
+            )
 
 
 def _events(root: ET.Element) -> Iterator[tuple[ET.Element, str]]:
@@ -151,12 +197,15 @@ def _condition(ev: _Event, c: ET.Element) -> str:
     if body.tag == "SimulationTimeCondition":
         return f"t {_rule(ev, body)} {float(body.get('value', 0))}"
     if body.tag == "StoryboardElementStateCondition":
+        kind = body.get("storyboardElementType", "event")
+        if kind != "event":  # fired_<name> counts events' triggers only
+            raise ev.refuse(f"StoryboardElementStateCondition on a {kind} (events only)")
         return f"fired_{_identifier(body.get('storyboardElementRef', ''))} > 0"
-    actors = [e.get("entityRef", "") for e in c.iterfind(".//TriggeringEntities/EntityRef")]
-    entities = c.find(".//TriggeringEntities")
-    if entities is None:
-        raise Refused(f"event {ev.name!r}: <{body.tag}> names no TriggeringEntities")
-    joiner = " and " if entities.get("triggeringEntitiesRule") == "all" else " or "
+    triggering = c.find(".//TriggeringEntities")
+    if triggering is None:  # a value condition other than the two above
+        raise ev.refuse(_chain(body))
+    actors = [e.get("entityRef", "") for e in triggering.iterfind("EntityRef")]
+    joiner = " and " if triggering.get("triggeringEntitiesRule") == "all" else " or "
     return "(" + joiner.join(_entity_condition(ev, body, actor) for actor in actors) + ")"
 
 

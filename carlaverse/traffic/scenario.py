@@ -76,6 +76,9 @@ class GeneratedMap(StrictStruct):
     sidewalks: bool = True
     crossings: bool = True
     bike_lanes: bool = False
+    # Oncoming lanes paired (SUMO `neigh`, `--opposites.guess`): the centre line between them is
+    # dashed, as on a town street one may overtake on; without it, solid (no overtaking).
+    overtaking: bool = True
     sidewalk_width_m: Positive = 2.0  # [m]
     bike_lane_width_m: Positive = 1.5  # [m]
 

@@ -280,7 +280,7 @@ class NodeClient:
 
     def update(self) -> float:
         """Apply everything received; return the session time it was applied at."""
-        now = self.now()
+        now = self.clock.now()
         self.world.update(now)
         return now
 

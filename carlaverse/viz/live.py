@@ -23,7 +23,7 @@ from typing import Any
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.keys import Keys
+from carlaverse.keys import AUTHORITY_ID, Keys
 from carlaverse.transport.clock import Clock, MonotonicClock, SessionClock
 from carlaverse.viz.model import WorldModel
 from carlaverse.viz.raw import ActorFeed
@@ -85,6 +85,8 @@ class LiveView:
         self.world = WorldModel(samples, latency_of=self._latency)
         self.stats = ViewStats()
         self._want_snapshot = threading.Event()
+        self._sync_now = threading.Event()  # an authority appeared: ask its clock now
+        self._authority_key = keys.node(AUTHORITY_ID)
         self._stop_queries = threading.Event()
         self._handles: list[Any] = []
         self._query_thread = threading.Thread(target=self._query_loop, name="view-queries")
@@ -100,7 +102,7 @@ class LiveView:
         ]
         self._handles.append(
             self._session.liveliness().declare_subscriber(
-                self._keys.all_nodes, self._on_sample, history=True
+                self._keys.all_nodes, self._on_presence, history=True
             )
         )
         self._query_thread.daemon = True
@@ -119,6 +121,15 @@ class LiveView:
         """Zenoh thread: copy and store, nothing more."""
         kind = "delete" if sample.kind == zenoh.SampleKind.DELETE else "put"
         self.store.offer(str(sample.key_expr), sample.payload.to_bytes(), self.clock.now(), kind)
+
+    def _on_presence(self, sample: zenoh.Sample) -> None:
+        """Zenoh thread: a presence token, stored; an authority's that appears may bring a new
+        timeline (a looping replay's next pass), so the clock may step to it, as a node's
+        does (`NodeClient`), and is synchronised at once."""
+        self._on_sample(sample)
+        if sample.kind == zenoh.SampleKind.PUT and str(sample.key_expr) == self._authority_key:
+            self.clock.reset()
+            self._sync_now.set()
 
     def _on_actor_sample(self, sample: zenoh.Sample) -> None:
         """Zenoh thread: a pose or NPC batch into the view's intake (no waiting)."""
@@ -172,7 +183,8 @@ class LiveView:
         self._want_snapshot.set()
         while not self._stop_queries.is_set():
             now = self._local.now()
-            if now >= next_sync:  # first: receive times are session times once it is synced
+            if now >= next_sync or self._sync_now.is_set():  # first: receive times are
+                self._sync_now.clear()  # session times once it is synced
                 self._sync_clock()
                 next_sync = now + s.clock_sync_s
             if self.world.map is None and now >= next_map:

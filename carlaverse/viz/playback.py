@@ -10,6 +10,11 @@ Receive times must be session times for the view. A carlaverse session's time is
 so log time is used as it is when the first pose's log time minus its own time is a plausible
 latency; otherwise (a synthetic session, a clock far off) log times are moved onto the session
 clock by that difference, and latencies are not shown, since they could not be measured.
+
+Beside `sim_time` everything is on a second timeline, `from_start`: seconds from the
+recording's first sample, the number `carlaverse render --at`, `audio render --at` and the
+analysis report use, so a moment found in one is found in the others. `FromStart` stamps it
+wherever the scene stamps session time, so the two always name the same instant.
 """
 
 from __future__ import annotations
@@ -17,6 +22,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
+
+import rerun as rr
 
 from carlaverse.keys import KeySpaceError, parse_cached
 from carlaverse.recording.reading import iter_samples
@@ -32,12 +40,21 @@ from carlaverse.world.world_view import WorldView
 
 PLAUSIBLE_LATENCY_S = 10.0  # [s] above this (or below 0) the two clocks are not comparable
 ACTOR_CHANNELS = {("ego", "pose"), ("world", "npc")}
+FROM_START = "from_start"  # the Rerun timeline of seconds from the recording's start
+SESSION_TIMELINE = "sim_time"  # the scene's timeline of session seconds
 
 
 @dataclass(slots=True)
 class PlaybackStats:
     samples: int = 0
     frames: int = 0
+    start: float = math.nan  # [s] receive time of the first sample, on the view's clock
+    end: float = math.nan  # [s] receive time of the last sample, on the same clock
+
+    @property
+    def span_s(self) -> float:
+        """[s] from the recording's first sample to its last (0 for an empty one)."""
+        return self.end - self.start if self.samples else 0.0
 
 
 def _latency(rx_t: float, msg_t: float) -> float | None:
@@ -53,6 +70,30 @@ def receive_offset(path: str | Path) -> tuple[float, bool]:
     offset = (pose.log_time_ns - pose.publish_time_ns) / 1e9
     comparable = 0.0 <= offset < PLAUSIBLE_LATENCY_S
     return (0.0 if comparable else offset), comparable
+
+
+class FromStart:
+    """A Rerun recording stream whose every session-time stamp (`sim_time`) also goes on the
+    `from_start` timeline, as seconds after `origin` [s, session time]; all else passes
+    through to the stream."""
+
+    def __init__(self, rec: rr.RecordingStream, origin: float) -> None:
+        self._rec = rec
+        self.origin = origin
+
+    def set_time(self, timeline: str, **stamp: float) -> None:
+        self._rec.set_time(timeline, **stamp)
+        if timeline == SESSION_TIMELINE and "duration" in stamp:
+            self._rec.set_time(FROM_START, duration=stamp["duration"] - self.origin)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._rec, name)
+
+
+def view_origin(path: str | Path) -> float:
+    """[s] the recording's first sample on the clock the view runs on (`receive_offset`)."""
+    first = next(iter_samples(path), None)
+    return 0.0 if first is None else first.log_time_ns / 1e9 - receive_offset(path)[0]
 
 
 def render_recording(
@@ -81,6 +122,8 @@ def render_recording(
 
     for sample in iter_samples(path):
         rx = sample.log_time_ns / 1e9 - offset
+        stats.start = rx if stats.samples == 0 else stats.start
+        stats.end = rx
         next_frame = rx + period if next_frame is None else next_frame
         if rx >= next_frame:
             frame(next_frame)

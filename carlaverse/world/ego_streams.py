@@ -30,12 +30,17 @@ from carlaverse.world.stream_summary import StreamSummary
 RING = 64  # samples kept per sender for its actor: 1.28 s at 50 Hz, longer than any delay
 WINDOW = 1024  # samples per sender in its latency statistics: 20 s at 50 Hz
 JITTER_GAIN = 1 / 16  # RFC 3550 interarrival jitter
+# [s] A sample this much older than its sender's newest starts the sender's stream over: Zenoh
+# keeps a sender's order, so it is no late duplicate but a new timeline (a looping replay's
+# next pass starts at the recording's beginning again, announced as a new authority).
+NEW_TIMELINE_S = 1.0
 
 
 class Applied(NamedTuple):
     absent: int  # poses from a sender with no presence
     implausible: int  # poses whose time is too far from session time
     opened: list[str]  # senders without an actor that now have a sample newer than any before
+    restarted: list[str] = []  # senders whose stream started over on a new timeline
 
 
 class SenderStream:
@@ -184,15 +189,21 @@ class EgoStreams(Mapping[str, SenderStream]):
         streams, own, limit_s = self._streams, self.own_id, self.s.implausible_s
         absent = implausible = 0
         opened: list[str] = []
+        restarted: list[str] = []
         for node_id, pose, rx in zip(ids, poses, rx_t, strict=True):
             stream = streams.get(node_id)
             if stream is None or not stream.admitted:
                 absent += node_id != own
-            elif abs(pose.t - rx) > limit_s:
+                continue
+            if abs(pose.t - rx) > limit_s:
                 implausible += 1
-            elif stream.take(pose, rx) and not stream.active and node_id not in opened:
+                continue
+            if pose.t < stream.last_t - NEW_TIMELINE_S:
+                stream.clear()  # its samples from here on are the new timeline's
+                restarted.append(node_id)
+            if stream.take(pose, rx) and not stream.active and node_id not in opened:
                 opened.append(node_id)
-        return Applied(absent, implausible, opened)
+        return Applied(absent, implausible, opened, restarted)
 
     def silent(self, now: float, timeout_s: float) -> list[str]:
         """The senders with an actor that have not been heard for longer than `timeout_s`."""
@@ -255,6 +266,12 @@ class EgoActors(Mapping[str, RemoteActor]):
         self._fed[node_id] = stream.ring_floor
         stream.active = True
         return actor
+
+    def restart(self, node_id: str) -> None:
+        """A new actor for `node_id` whose stream started over: fed from the new start."""
+        if node_id in self._actors:
+            self._actors[node_id] = RemoteActor(node_id, self.settings, self._actors[node_id].kind)
+            self._fed[node_id] = self._streams[node_id].ring_floor
 
     def close(self, node_id: str) -> RemoteActor | None:
         actor = self._actors.pop(node_id, None)

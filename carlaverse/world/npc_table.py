@@ -20,6 +20,7 @@ import numpy as np
 from carlaverse.dead_reckoning import npc_motion, project_many
 from carlaverse.messages import ACTOR_KINDS, NPC_DTYPE, NpcBatch
 from carlaverse.support.angles import wrap_angles
+from carlaverse.world.ego_streams import NEW_TIMELINE_S
 from carlaverse.world.remote_actor import InterpolationSettings, StreamTiming, hermite
 
 KEPT_BATCHES = 8  # at 20 Hz, 400 ms: more than any render delay the view will use
@@ -69,6 +70,9 @@ class NpcTable:
         """Keep a batch (False: malformed or older than the newest, dropped)."""
         if len(batch.rows) != len(batch.ids) * NPC_DTYPE.itemsize:
             return False
+        if self._batches and batch.t < self._batches[-1].t - NEW_TIMELINE_S:
+            self._batches.clear()  # a new timeline (`ego_streams.NEW_TIMELINE_S`): start over
+            self.timing = StreamTiming(self.s)
         if self._batches and batch.t <= self._batches[-1].t:
             self.stale_batches += 1
             return False

@@ -162,6 +162,8 @@ class WorldView:
         self._apply(self.streams.apply(ids, poses, rx))  # type: ignore[arg-type]
 
     def _apply(self, applied: Applied) -> None:
+        for node_id in applied.restarted:  # a new timeline: the old samples are no path
+            self.egos.restart(node_id)
         if applied.absent:
             self.rejected["pose_from_absent_node"] += applied.absent
         if applied.implausible:

@@ -15,7 +15,7 @@ from typing import Any
 from carlaverse_nodes.bike.bike_loop import BikeLoop, BikeOutput
 from carlaverse_nodes.bike.config import BikeNodeConfig
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
-from carlaverse_nodes.loop_events import drain
+from carlaverse_nodes.loop_events import ParentWatch, drain
 from carlaverse_nodes.map_route import DriverRoute
 
 from carlaverse.hal import open_ffb, open_input, open_speed_sensor, open_trainer
@@ -84,9 +84,10 @@ class BikeRunner:
         ffb_every, trainer_every = every(cfg.ffb_rate_hz), every(cfg.trainer_rate_hz)
         control_every, event_every = every(1 / CONTROL_POLL_S), every(1 / EVENT_POLL_S)
         pacer.start()
+        watch = ParentWatch()  # a node killed outright never sets `stop`
         while True:
             if self.ticks % control_every == 0:
-                if stop.is_set():
+                if stop.is_set() or watch.gone():
                     break
                 self._read_control()
             pacer.wait()
@@ -149,6 +150,7 @@ class BikeRunner:
         r["grade_percent"] = self.loop.grade_percent
         r["ticks"], r["ffb_sent"], r["impulses_applied"] = self.ticks, self.ffb_sent, self.impulses
         r["running"] = 1
+        r["written_ns"] = time.monotonic_ns()  # last: the stamp is the moment it is published
         self.state.write(r)
 
     def summary(self) -> dict[str, Any]:

@@ -21,6 +21,7 @@ STATE = np.dtype(
         ("trainer_limit", "u1"), ("trainer_missing_n", "<f8"),  # what it cannot render
         ("ticks", "<u8"), ("ffb_sent", "<u8"), ("impulses_applied", "<u8"),
         ("running", "u1"),
+        ("written_ns", "<u8"),  # [ns] host monotonic clock at the write (a view's latency)
     ]
 )  # fmt: skip
 

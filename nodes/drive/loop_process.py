@@ -22,7 +22,7 @@ from carlaverse_nodes.drive.config import DriveNodeConfig, input_configs
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 from carlaverse_nodes.drive.touch import TouchButtons, TouchPress
 from carlaverse_nodes.drive.vehicle_loop import DriveLoop, LoopOutput
-from carlaverse_nodes.loop_events import drain
+from carlaverse_nodes.loop_events import ParentWatch, drain
 from carlaverse_nodes.map_route import DriverRoute
 
 from carlaverse.hal import FfbCommand, MotionFrame, open_ffb, open_input, open_motion
@@ -104,9 +104,10 @@ class _Runner:
         motion_every = max(1, round(cfg.rate_hz / cfg.motion_rate_hz))
         started = pacer.start()
         end = started + self.spec.duration_s if self.spec.duration_s else float("inf")
+        watch = ParentWatch()  # a node killed outright never sets `stop`
         while True:
             if self.ticks % CONTROL_POLL_TICKS == 0:
-                if stop.is_set() or pacer.next_t >= end:
+                if stop.is_set() or watch.gone() or pacer.next_t >= end:
                     break
                 self._read_control()
             pacer.wait()

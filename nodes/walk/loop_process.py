@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from carlaverse_nodes.loop_events import drain
+from carlaverse_nodes.loop_events import ParentWatch, drain
 from carlaverse_nodes.walk.config import WalkNodeConfig
 from carlaverse_nodes.walk.shared_state import CONTROL, STATE
 from carlaverse_nodes.walk.walk_control import WalkControl, WalkOutput
@@ -100,9 +100,10 @@ class WalkRunner:
         control_every = max(1, round(rate * CONTROL_POLL_S))
         event_every = max(1, round(rate * EVENT_POLL_S))
         self.pacer.start()
+        watch = ParentWatch()  # a node killed outright never sets `stop`
         while True:
             if self.ticks % control_every == 0:
-                if stop.is_set():
+                if stop.is_set() or watch.gone():
                     break
                 self._read_control()
             self.pacer.wait()
@@ -149,6 +150,7 @@ class WalkRunner:
         r["ticks"], r["snaps"] = self.ticks, self.walk.snaps
         r["running"] = 1
         self._eyes(r)
+        r["written_ns"] = time.monotonic_ns()  # last: the stamp is the moment it is published
         self.state.write(r)
 
     def _eyes(self, r: Any) -> None:

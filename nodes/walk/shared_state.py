@@ -28,6 +28,7 @@ STATE = np.dtype(
         ("left_eye_up", "<f8"), ("left_eye_down", "<f8"),
         ("right_eye_left", "<f8"), ("right_eye_right", "<f8"),
         ("right_eye_up", "<f8"), ("right_eye_down", "<f8"),
+        ("written_ns", "<u8"),  # [ns] host monotonic clock at the write (a view's latency)
     ]
 )  # fmt: skip
 

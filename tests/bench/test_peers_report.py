@@ -1,7 +1,8 @@
 """The peers benchmark's arithmetic (tools/bench/peers/report.py) on runs made by hand.
 
 Pooling must count every measured receiver of every round, divide CPU by the right number of
-poses, and judge the issue's target (pose path p50 <= 0.8 x CycloneDDS p50) both ways.
+poses, and judge issue 41's targets (pose path p50 <= 1.2 x bare Zenoh's p50, its receivers'
+CPU per pose <= 1.5 x bare Zenoh's) both ways, pooled and round by round.
 """
 
 from __future__ import annotations
@@ -46,63 +47,62 @@ def test_pooling_counts_every_receiver_and_divides_cpu_per_pose(report: ModuleTy
     assert row.p(0.5) == pytest.approx(3.0)  # nearest rank of ten: the fifth
 
 
-@pytest.mark.parametrize(("pose_ms", "met"), [(0.8, "meets"), (0.81, "MISSES")])
-def test_the_target_is_judged_against_cyclonedds(
-    report: ModuleType, pose_ms: float, met: str
-) -> None:
-    cpu = {"tx": 0.001, "rx0": 0.001}
+def targets(
+    report: ModuleType, pose_ms: float, pose_cpu_s: float
+) -> tuple[list[Any], dict[str, Any]]:
+    """Rows and runs of one round: bare Zenoh at 1 ms and 1 ms of receiver CPU over 4 poses
+    (250 µs a pose), the pose path at `pose_ms` and `pose_cpu_s` over the same 4 poses."""
     runs = {
-        "pose": [run("pose", [[pose_ms] * 4], cpu) | {"round": 1}],
-        "dds": [run("dds", [[1.0] * 4], cpu) | {"round": 1}],
+        "pose": [run("pose", [[pose_ms] * 4], {"tx": 0.001, "rx0": pose_cpu_s}) | {"round": 1}],
+        "zenoh": [run("zenoh", [[1.0] * 4], {"tx": 0.001, "rx0": 0.001}) | {"round": 1}],
     }
-    rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
-    (line,) = report.verdict(rows, runs)
-    assert f"= {pose_ms / 1.0:.2f}, {met} ≤ 0.8" in line
-    assert "|" in report.table(rows)[2] and "1.00 |" in report.table(rows)[2]
-
-
-def test_each_round_is_compared_with_the_same_rounds_cyclonedds(report: ModuleType) -> None:
-    """The machine drifts between rounds: a round's ratio pairs the runs of that round, and a
-    round whose CycloneDDS run failed is left out rather than paired with another round."""
-    cpu = {"tx": 0.001, "rx0": 0.001}
-    pose = [run("pose", [[ms] * 4], cpu) | {"round": k} for k, ms in ((1, 0.4), (2, 0.9), (3, 0.5))]
-    dds = [run("dds", [[ms] * 4], cpu) | {"round": k} for k, ms in ((1, 0.5), (3, 0.5))]
-    runs = {"pose": pose, "dds": dds}
-    ((first, a), (third, b)) = report.round_ratios(runs, "pose", "dds")
-    assert (first, third) == (1, 3) and (a, b) == pytest.approx((0.8, 1.0))
-    rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
-    (line,) = report.verdict(rows, runs)
-    # pooled: pose's p50 of (0.4, 0.9, 0.5) x 4 is 0.5, CycloneDDS's 0.5; round 2 has no pair
-    assert "= 1.00, MISSES ≤ 0.8; each round alone: round 1 0.80, round 3 1.00." in line
+    return [report.pool(name, name_runs) for name, name_runs in runs.items()], runs
 
 
 @pytest.mark.parametrize(
-    ("zenoh_ms", "fast_ms", "reach"),
-    [
-        (0.9, 0.85, "out of reach for any pose path on Zenoh"),
-        (0.9, 0.75, "the transport allows it"),
-    ],
+    ("pose_ms", "pose_cpu_s", "p50_met", "cpu_met"),
+    [(1.2, 0.0015, "meets", "meets"), (1.21, 0.00151, "MISSES", "MISSES")],
 )
-def test_the_floor_is_the_fastest_zenoh_alone_against_cyclonedds(
-    report: ModuleType, zenoh_ms: float, fast_ms: float, reach: str
+def test_the_targets_are_judged_against_bare_zenoh(
+    report: ModuleType, pose_ms: float, pose_cpu_s: float, p50_met: str, cpu_met: str
 ) -> None:
-    """No pose path on Zenoh beats Zenoh alone: the fastest bare Zenoh row, whichever it is,
-    tells whether the target can be met at all; the pose path's own rows never count."""
+    """Issue 41: p50 at most 1.2 x bare Zenoh's, receiver CPU per pose at most 1.5 x; the
+    limits themselves meet (<=), a hair above misses."""
+    rows, runs = targets(report, pose_ms, pose_cpu_s)
+    p50, cpu = report.verdict(rows, runs)
+    assert f"p50 / bare Zenoh's = {pose_ms:.2f}, {p50_met} ≤ 1.2;" in p50
+    # receiver CPU: pose_cpu_s / 4 poses over 0.001 s / 4 poses
+    assert (
+        f"receiver CPU per pose / bare Zenoh's = {pose_cpu_s / 0.001:.2f}, {cpu_met} ≤ 1.5;" in cpu
+    )
+    assert "|" in report.table(rows)[2] and "1.00 |" in report.table(rows)[2]
+
+
+def test_no_target_is_judged_without_bare_zenoh(report: ModuleType) -> None:
     cpu = {"tx": 0.001, "rx0": 0.001}
-    times = {"pose": 0.1, "zenoh": zenoh_ms, "zenoh-fast": fast_ms, "dds": 1.0}
-    runs = {name: [run(name, [[ms] * 4], cpu) | {"round": 1}] for name, ms in times.items()}
+    runs = {name: [run(name, [[1.0] * 4], cpu) | {"round": 1}] for name in ("pose", "dds")}
     rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
-    (line,) = report.floor(rows, runs)
-    assert f"(bare Zenoh, fastest set-up) p50 / CycloneDDS p50 = {fast_ms:.2f}" in line
-    assert f"round 1 {fast_ms:.2f}." in line and reach in line
+    (line,) = report.verdict(rows, runs)
+    assert "not judged, bare Zenoh was not run" in line
 
 
-def test_no_floor_is_judged_without_cyclonedds_or_zenoh_alone(report: ModuleType) -> None:
-    cpu = {"tx": 0.001, "rx0": 0.001}
-    for names in (("pose", "zenoh"), ("pose", "dds")):
-        runs = {name: [run(name, [[1.0] * 4], cpu) | {"round": 1}] for name in names}
-        rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
-        assert report.floor(rows, runs) == []
+def test_each_round_is_compared_with_the_same_rounds_bare_zenoh(report: ModuleType) -> None:
+    """The machine drifts between rounds: a round's ratio pairs the runs of that round, and a
+    round whose bare Zenoh run failed is left out rather than paired with another round."""
+    pose = [run("pose", [[ms] * 4], {"tx": 0.001, "rx0": cpu_s}) | {"round": k}
+            for k, ms, cpu_s in ((1, 0.4, 0.002), (2, 0.9, 0.009), (3, 0.5, 0.003))]  # fmt: skip
+    zenoh = [run("zenoh", [[ms] * 4], {"tx": 0.001, "rx0": 0.001}) | {"round": k}
+             for k, ms in ((1, 0.5), (3, 0.5))]  # fmt: skip
+    runs = {"pose": pose, "zenoh": zenoh}
+    ((first, a), (third, b)) = report.round_ratios(runs, "pose", "zenoh")
+    assert (first, third) == (1, 3) and (a, b) == pytest.approx((0.8, 1.0))
+    rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
+    p50, cpu = report.verdict(rows, runs)
+    # pooled: pose's p50 of (0.4, 0.9, 0.5) x 4 is 0.5, bare Zenoh's 0.5; round 2 has no pair
+    assert "= 1.00, meets ≤ 1.2; each round alone: round 1 0.80, round 3 1.00." in p50
+    # receiver CPU per pose: the mean of the runs' (2, 9, 3 ms) / 4 against 1 ms / 4 in each
+    # of bare Zenoh's: pooled (2 + 9 + 3) / 3 = 4.67, round 1 2.00, round 3 3.00
+    assert "= 4.67, MISSES ≤ 1.5; each round alone: round 1 2.00, round 3 3.00." in cpu
 
 
 def test_py_spy_stacks_are_staged_by_their_method_names(monkeypatch: pytest.MonkeyPatch) -> None:

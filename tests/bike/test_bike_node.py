@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import pytest
 import yaml
+from carlaverse_nodes.bike.shared_state import STATE
 
 from carlaverse import messages as m
 from carlaverse.hal.ffb_server import FfbServer, LogActuator
 from carlaverse.hal.ffb_server.actuator import LogActuatorOptions
+from carlaverse.shm import SharedBlock, block_name
 from tests.support import Cluster, demo_seen, wait_until
 
 
@@ -48,6 +51,17 @@ def test_an_impulse_from_the_fabric_throws_the_bike(cluster: Cluster) -> None:
         return pose is not None and abs(pose.roll) < 0.8 and math.hypot(pose.vx, pose.vy) > 1.5
 
     wait_until(riding, 30, "the bike upright, faster than 1.5 m/s")
+    # A view measures motion-to-photon from the loop's own stamp on the state it draws: the
+    # stamp is the host's monotonic clock at the write, so it lies between two readings of
+    # that clock taken around a read of the block, within a few 200 Hz ticks of the later.
+    block = SharedBlock(block_name("t", "rider", "state"), STATE)
+    try:
+        before = time.monotonic_ns()
+        written = int(block.read()["written_ns"])
+        after = time.monotonic_ns()
+    finally:
+        block.close()
+    assert before - 1_000_000_000 < written <= after, (before, written, after)
     pose = obs.world.egos["rider"].newest
     assert pose is not None
     side = (-math.sin(pose.yaw) * 450.0, math.cos(pose.yaw) * 450.0, 0.0)  # 5 m/s to the left

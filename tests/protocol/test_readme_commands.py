@@ -32,12 +32,16 @@ def command_rows() -> dict[str, str]:
 def option_strings(command: str) -> set[str]:
     parser = argparse.ArgumentParser()
     importlib.import_module(COMMANDS[command][0]).add_arguments(parser)
-    return {opt for action in parser._actions for opt in action.option_strings}
+    parsers = [parser]  # and its roles' own flags (`ros2 view|av`, `study run|plan`)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            parsers += list(action.choices.values())
+    return {opt for p in parsers for action in p._actions for opt in action.option_strings}
 
 
 def test_every_command_has_a_row() -> None:
     rows = re.findall(r"^\| (.*?) \| ", section("Command line"), re.M)
-    named = {w for row in rows for w in re.findall(r"`(?:carlaverse )?([a-z-]+)", row)}
+    named = {w for row in rows for w in re.findall(r"`(?:carlaverse )?([a-z0-9-]+)", row)}
     assert set(COMMANDS) <= named, f"commands missing from the README: {set(COMMANDS) - named}"
 
 

@@ -155,6 +155,7 @@ def test_at_counts_seconds_from_the_recordings_start(
     assert set(shown) == documented_keys("`carlaverse render --json`")
     assert shown["recording_start"] == pytest.approx(start_s, abs=1e-9)
     assert shown["t"] == pytest.approx(start_s + 1.0, abs=1e-9)
+    assert shown["at"] == pytest.approx(1.0, abs=1e-9)
     # the same moment named on the session clock is the same picture
     same = tmp_path / "same.png"
     argv = ["render", str(recording), "--at-session", str(start_s + 1.0), "--out", str(same)]
@@ -169,6 +170,16 @@ def test_at_counts_seconds_from_the_recordings_start(
     assert not np.array_equal(_png(at), _png(later))  # the NPCs moved 4 m along the road
 
 
+def test_a_clip_past_the_end_is_said(recording: Path, tmp_path: Path, capsys) -> None:
+    # the recording spans -0.003 ... 1.98 s of session time, 1.983 s: a clip from 1.8 s
+    # for 0.5 s runs 1.8 + 0.5 - 1.983 = 0.317 s past it
+    argv = ["render", str(recording), "--at", "1.8", "--duration", "0.5", "--fps", "4",
+            "--width", "64", "--height", "36", "--out", str(tmp_path / "late.mp4")]  # fmt: skip
+    assert main(argv) == 0
+    err = capsys.readouterr().err
+    assert "the clip runs 0.3 s past the recording's end (valid 0.0–1.9 s from start)" in err
+
+
 def test_at_flags_are_checked(recording: Path, tmp_path: Path, capsys) -> None:
     out = str(tmp_path / "x.png")
     assert main(["render", str(recording), "--at", "-1", "--out", out]) == 2
@@ -177,7 +188,9 @@ def test_at_flags_are_checked(recording: Path, tmp_path: Path, capsys) -> None:
     assert exit_.value.code == 2
     assert main(["render", str(recording), "--chase", "--out", out]) == 2  # chase whom?
     err = capsys.readouterr().err
-    assert "--at -1: give seconds >= 0" in err and "--chase follows a node" in err
+    # the recording spans session time -0.003 s (its map) to 1.98 s (its last pose): 1.983 s
+    assert "--at -1 s is before the recording's start: valid 0.0–1.9 s from start" in err
+    assert "--chase follows a node" in err
 
 
 # The chase camera as the help states it: the eye 6 m behind the chased actor and 2.5 m above

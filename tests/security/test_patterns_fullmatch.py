@@ -181,7 +181,12 @@ def test_a_pose_key_with_a_non_canonical_tile_is_refused() -> None:
 # Every Struct field with a msgspec pattern, by `module.Struct.field`, and a value it accepts.
 PATTERN_EXAMPLES = {
     "carlaverse.audio.config.*.Layout": "ring8",
-    "carlaverse.traffic.soundscape.ConstructionZone.name": "bridge-works.2",
+    # a field's pattern equal to an alias's is checked once, under the alias: the sound
+    # zones' names follow the node-id rule, as StudyId does
+    "carlaverse.messages.*.StudyId": "bridge-works.2",
+    "carlaverse.hmi.wire.*.StudyId": "t1.nasa-tlx",
+    "carlaverse.study.study_file.*.Name": "latency-dyad",
+    "carlaverse.study.study_file.*.Pseudonym": "p01",
     "carlaverse.traffic.scenario.PhaseSpec.state": "rGyo",
     "carlaverse.traffic.trigger_spec.Light.state": "GGrr",
     "carlaverse.traffic.trigger_spec.*.Identifier": "gap_1",

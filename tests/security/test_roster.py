@@ -106,15 +106,42 @@ def test_site_acl_default_denies_and_scopes_writes(tmp_path: Path) -> None:
     loaded = load_roster(_write(tmp_path, BASE))
     tum, kth = site_acl(loaded, "tum"), site_acl(loaded, "kth")
     assert tum["enabled"] and tum["default_permission"] == "deny"
-    assert _writes(tum, "node:tum-drive-1") == {K.subtree("ego", "tum-drive-1")}
+    drive = {K.subtree("ego", "tum-drive-1"), K.study("tum-drive-1", "answers")}
+    bike = {K.subtree("ego", "kth-bike-1"), K.study("kth-bike-1", "answers")}
+    assert _writes(tum, "node:tum-drive-1") == drive
     world = {K.subtree(a) for a in ("world", "impulse", "audio")} | {K.pose_digest}
     assert _writes(tum, "node:authority") == world
     assert _writes(kth, "node:kth-rec") == set()  # recorders read only
     # the other site's router may carry only what the nodes behind it may write
-    assert _writes(tum, "site:kth") == {K.subtree("ego", "kth-bike-1")}
-    assert _writes(kth, "site:tum") == {K.subtree("ego", "tum-drive-1")} | world
+    assert _writes(tum, "site:kth") == bike
+    assert _writes(kth, "site:tum") == drive | world
     # each router rules its own nodes only
     assert not any(p["id"] == "node:kth-bike-1" for p in tum["policies"])
+
+
+def _receives(acl: dict[str, Any], policy_id: str) -> set[str]:
+    return {
+        key
+        for r in _rules_of(acl, policy_id)
+        if "egress" in r["flows"] and "put" in r["messages"]
+        for key in r["key_exprs"]
+    }
+
+
+def test_questionnaires_the_runner_asks_and_each_participant_answers_its_own(
+    tmp_path: Path,
+) -> None:
+    runner = {"id": "runner", "kind": "study-runner", "site": "kth"}
+    loaded = load_roster(_write(tmp_path, _with(nodes=[*BASE["nodes"], runner])))
+    tum, kth = site_acl(loaded, "tum"), site_acl(loaded, "kth")
+    assert _writes(kth, "node:runner") == {K.subtree("study")}  # asks anyone, no pose
+    assert K.subtree("study") in _writes(tum, "site:kth")  # its router may carry that
+    assert _receives(kth, "node:runner") == set(K.every_key)  # it hears every answer
+    # A participant hears its own questionnaires and answers, not another's (personal data).
+    heard = _receives(tum, "node:tum-drive-1")
+    assert K.subtree("study", "tum-drive-1") in heard and K.subtree("study") not in heard
+    assert not any(k.startswith(f"{K.prefix}/study/kth-bike-1") for k in heard)
+    assert K.subtree("ego") in heard  # the rest of the session as before
 
 
 def test_subjects_are_never_wildcards(tmp_path: Path) -> None:

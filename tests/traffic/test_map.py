@@ -64,3 +64,33 @@ def test_polygons_become_vegetation_water_and_building_areas(tmp_path: Path) -> 
     }  # fmt: skip
     assert areas["pond"].polygon == [(20.0, 0.0), (30.0, 0.0), (25.0, 8.0)]
     assert area_kind("leisure.park") == "vegetation" and area_kind("highway.primary") is None
+
+
+def test_the_towns_two_way_streets_pair_their_oncoming_lanes(net_cache: Path) -> None:
+    """A town street may be overtaken on, so its centre line is dashed (render/scene_markings
+    dashes it where a lane has an `opposite`): each road lane's oncoming partner is the
+    innermost lane of the edge running the other way between the same two junctions, as the
+    network file itself says (read here with ElementTree, not the project's reader)."""
+    net_file = build_map(load_scenario("town"), net_cache).net
+    root = ET.parse(net_file).getroot()
+    ends, innermost = {}, {}
+    for edge in root.iter("edge"):
+        if edge.get("function") == "internal":
+            continue
+        ends[edge.get("id")] = (edge.get("from"), edge.get("to"))
+        # the sidewalk (allow="pedestrian") and any bike lane are not paired with oncoming lanes
+        lanes = [lane for lane in edge.iter("lane")
+                 if lane.get("allow") not in ("pedestrian", "bicycle")]  # fmt: skip
+        if lanes:
+            inner = max(lanes, key=lambda lane: int(lane.get("index")))
+            innermost[edge.get("id")] = inner.get("id")
+    by_ends = {pair: edge for edge, pair in ends.items()}
+    expected = {}
+    for edge, (start, end) in ends.items():
+        back = by_ends.get((end, start))
+        if edge in innermost and back in innermost:
+            expected[innermost[edge]] = innermost[back]
+    assert len(expected) >= 40  # the 3 x 3 grid's streets, both ways
+    with domain_of("town", net_cache) as domain:
+        opposite = {lane.id: lane.opposite for lane in domain.map_reply().lanes}
+    assert {lane: opposite[lane] for lane in expected} == expected

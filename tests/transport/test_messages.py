@@ -90,6 +90,26 @@ def examples() -> list[tuple[m.Codec, object]]:
         ),
         (m.SCENARIO, m.ScenarioReply(m.SCHEMA_VERSION, "town", "map: {}\n", 42)),
         (m.CONFIGS, m.ConfigsReply(m.SCHEMA_VERSION, {"n": "a: 1\n"}, "map: {}\n", {"n": "h"})),
+        (
+            m.QUESTIONNAIRE_REQUEST,
+            m.QuestionnaireRequest(
+                m.SCHEMA_VERSION,
+                "t1.q",
+                "t1",
+                "q",
+                "Q",
+                [
+                    m.QuestionnaireItem("a", "How?", "scale", 0, 100, 5, ["low", "high"]),
+                    m.QuestionnaireItem("b", "Which?", "choice", labels=["x", "y"]),
+                    m.QuestionnaireItem("c", "Else?", "text", required=False, max_chars=80),
+                ],
+            ),
+        ),
+        (
+            m.QUESTIONNAIRE_ANSWERS,
+            m.QuestionnaireAnswers(m.SCHEMA_VERSION, "t1.q", "n", 2, {"a": 55, "c": "no"}, True),
+        ),
+        (m.TRIAL_BRIEF, m.TrialBrief(m.SCHEMA_VERSION, "lab", "p01", True, "t1", 1, "lab-t1")),
     ]
 
 

@@ -34,7 +34,8 @@ def world() -> Iterator[World]:
 
 
 def rrd_rows(path: Path) -> dict[str, list[dict[str, Any]]]:
-    """Entity path -> its rows: {'sim_time': s | None, 'static': bool, component: values}."""
+    """Entity path -> its rows: {'sim_time': s | None, 'static': bool, component: values};
+    every timeline of durations (sim_time, a recording's from_start) in seconds."""
     out: dict[str, list[dict[str, Any]]] = {}
     for chunk in rrc.RrdReader(path).stream():
         batch = chunk.to_record_batch()
@@ -43,7 +44,7 @@ def rrd_rows(path: Path) -> dict[str, list[dict[str, Any]]]:
             if name in SKIP_COLUMNS:
                 continue
             col = batch.column(name)
-            if name == "sim_time":
+            if name == "sim_time" or pa.types.is_duration(col.type):  # e.g. from_start
                 columns[name] = [
                     None if v is None else v / 1e9 for v in col.cast(pa.int64()).to_pylist()
                 ]

@@ -69,6 +69,12 @@ def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster, tmp_path: Path) 
     report = walker.json()["extra"]
     view = report["view"]
     assert view["error"] == "" and view["frames"] >= 20, view
+    # The loop stamps each state it writes (host monotonic clock), so the view measures
+    # motion-to-photon from it: the 90 Hz loop writes a new state between any two frames, so
+    # (almost) every frame shows a state not drawn before, and its age is positive and far
+    # below the run's length.
+    assert view["motion_to_photon_frames"] >= view["frames"] - 2, view
+    assert 0 < view["motion_to_photon_ms_p50"] < 5000, view
     frames = sorted((tmp_path / "view").glob("frame-*.png"))
     image = np.asarray(Image.open(frames[-1])).astype(int)
     assert image.shape == (160, 320, 3)  # two 160 px eyes side by side

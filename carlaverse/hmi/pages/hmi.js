@@ -8,7 +8,7 @@
 // window.hmi exposes the live state for pages of your own and for tests: `last` (newest
 // values), `drawn` (the values the widgets show), `info`, `frames`, `arrivals` (performance.now() of recent frames, ms),
 // `latencies` (node state → this page, ms), `rejected` (reasons the node gave), `messages`
-// (texts pushed so far), and
+// (texts pushed so far), `questionnaire` (the study's open questionnaire, questionnaire.js), and
 // `press(action)`, `cruise(command)`, `send(object)`, `onTelemetry(fn)`.
 //
 // Frames are taken as they arrive (latency, rate, `last`, listeners); the widgets draw the
@@ -55,6 +55,7 @@ export class Hmi {
     this.pings = 0;
     this.drawPending = false;
     this.drawn = null; // the values the widgets show now
+    this.questionnaire = null; // { requestId, answers, submitted } while one is up
   }
 
   build(root) {
@@ -98,6 +99,13 @@ export class Hmi {
     else if (frame.type === "pong") this.pong(frame);
     else if (frame.type === "message") this.showMessage(frame);
     else if (frame.type === "rejected") this.rejected.push(frame.reason);
+    else if (frame.type === "questionnaire") this.showQuestionnaire(frame);
+  }
+
+  // Loaded only when the study asks one: a page without a study never fetches it.
+  async showQuestionnaire(frame) {
+    const { show } = await import("/questionnaire.js");
+    show(this, frame);
   }
 
   telemetry(frame) {

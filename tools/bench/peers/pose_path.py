@@ -91,7 +91,8 @@ class PoseReceiver:
     def __init__(self, plan: Plan, lowlatency: bool, index: int, deliver: Deliver) -> None:
         self.in_callback_s: list[float] = []
         self._entered = 0.0
-        self._stamp_callback_entry()
+        if plan.options.get("time_callback"):  # harness work in this receiver's CPU: asked for
+            self._stamp_callback_entry()
         self._client = _open_client(plan, lowlatency, f"rx{index}", "observer", "")  # no actor
         world = self._client.world
         push_wire = world.intake.pose

@@ -144,10 +144,10 @@ class BareZenohFastest(BareZenohLowLatency):
     low-latency transport, the callback on the network thread, and one receive thread
     (`ZENOH_RUNTIME`) in every process instead of Zenoh's two (fewer threads to wake per
     sample; a lower p50 on the 2-core machine of docs/benchmarks.md). No pose path built on
-    Zenoh can be faster than this: it is the floor the target is judged against
-    (`peers.report.floor`). A measurement row only, not in the smoke test: once in some
-    thirty runs here a receiver's session of this set-up did not open within the harness's
-    minute (reported as a failed run and left out), a cause not yet found."""
+    Zenoh can be faster than this: it is the floor under any of them. A measurement row
+    only, not in the smoke test: once in some thirty runs here a receiver's session of this
+    set-up did not open within the harness's minute (reported as a failed run and left
+    out), a cause not yet found."""
 
     label = "bare Zenoh, fastest set-up"
     runtime = ONE_RX_THREAD

@@ -1,0 +1,111 @@
+"""An externally launched study: the runner says what each participant's machine runs, the
+participant's agent is started apart (as a lab would, from the printed line), the operator's
+pause holds the next trial until `resume`, and each trial ends when its world says so (a
+scenario trigger's event, put here on the trial session's `world/events`) long before its
+120 s duration."""
+
+from __future__ import annotations
+
+import json
+import shlex
+import time
+from pathlib import Path
+
+import pytest
+
+from carlaverse import messages as m
+from carlaverse.keys import Keys
+from carlaverse.procs import Child, stop_children
+from carlaverse.procs import start as start_child
+from carlaverse.study import control
+from carlaverse.transport.session import FabricSettings, open_session
+
+pytestmark = pytest.mark.timeout(400)
+
+STUDY = """
+name: ext
+launch: external
+participants:
+  - {id: P07, role: cyclist, site: lab-b, kind: bike}
+conditions:
+  - {id: calm}
+  - {id: lagged, link: {delay_ms: 80}}
+design: {order: fixed}
+trial: {duration_s: 120, start_timeout_s: 150, end_on_triggers: [crossed]}
+"""
+HELD_S = 2.0  # [s] the paused runner must start nothing for at least this long
+
+
+def _events(out: Path) -> list[dict]:
+    path = out / "study-log.jsonl"
+    text = path.read_text() if path.exists() else ""
+    return [json.loads(line) for line in text.splitlines() if line.endswith("}")]
+
+
+def _wait(out: Path, runner: Child, timeout_s: float, **match: object) -> None:
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if any(all(e.get(k) == v for k, v in match.items()) for e in _events(out)):
+            return
+        assert runner.running, runner.log.text()
+        time.sleep(0.1)
+    raise AssertionError(f"no {match} within {timeout_s} s: {runner.log.text()}")
+
+
+def _session_of(out: Path, trial: str) -> str:
+    return next(e["session"] for e in _events(out)
+                if e["event"] == "trial_start" and e["trial"] == trial)  # fmt: skip
+
+
+def _fire_trigger(endpoint: str, out: Path, trial: str) -> None:
+    """What the authority puts when a scenario trigger fires, into the trial's session, until
+    the log shows the trial ended."""
+    event = m.TriggerFired(seq=1, t=42.0, trigger_id="crossed", actions=[])
+    key = Keys(_session_of(out, trial)).world("events")
+    fabric = open_session(FabricSettings(mode="client", connect=[endpoint]))
+    deadline = time.monotonic() + 60
+    try:
+        while not any(e["event"] == "trial_end" and e["trial"] == trial for e in _events(out)):
+            assert time.monotonic() < deadline, f"{trial} did not end on its trigger"
+            fabric.put(key, m.WORLD_EVENT.encode(event))
+            time.sleep(0.2)
+    finally:
+        fabric.close()
+
+
+def test_external_agent_and_pause(tmp_path: Path) -> None:
+    study = tmp_path / "ext.yaml"
+    study.write_text(STUDY)
+    out = tmp_path / "out"
+    runner = start_child(["study", "run", str(study), "--out", str(out), "--backend", "sim"],
+                         name="runner")  # fmt: skip
+    agent: Child | None = None
+    try:
+        line = runner.wait_for_line(lambda text: "carlaverse study agent" in text, 60)
+        assert line is not None and "P07 (cyclist, lab-b): run `" in line
+        command = shlex.split(line.split("`")[1])
+        assert command[:3] == ["carlaverse", "study", "agent"]
+        agent = start_child(command[1:], name="agent P07")  # as the participant's lab would
+        _wait(out, runner, 200, event="trial_live", trial="t01")
+        endpoint = next(a for a in command if a.startswith("tcp/"))
+        control.send(out, "pause")
+        _fire_trigger(endpoint, out, "t01")
+        assert any(e["event"] == "paused" for e in _events(out))
+        time.sleep(HELD_S)  # holding still is the behaviour under test: nothing may start
+        assert not [e for e in _events(out) if e.get("trial") == "t02"]
+        control.send(out, "resume")
+        _wait(out, runner, 200, event="trial_live", trial="t02")
+        _fire_trigger(endpoint, out, "t02")
+        deadline = time.monotonic() + 200
+        while runner.running and time.monotonic() < deadline:
+            time.sleep(0.2)
+        runner.finish_reading()
+        assert runner.exit_code == 0, runner.log.text()
+    finally:
+        stop_children([runner, *([agent] if agent else [])])
+    ends = [(e["trial"], e["outcome"], e["reason"]) for e in _events(out)
+            if e["event"] == "trial_end"]  # fmt: skip
+    assert [(t, o) for t, o, _ in ends] == [("t01", "completed"), ("t02", "completed")]
+    assert all(r == "trigger crossed fired at session time 42.000 s" for _, _, r in ends)
+    start = next(e for e in _events(out) if e["event"] == "trial_start" and e["trial"] == "t02")
+    assert start["links"] == {"P07": {"delay_ms": 80.0, "jitter_ms": 0.0, "loss": 0.0}}
