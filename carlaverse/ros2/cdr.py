@@ -155,9 +155,11 @@ def _flatten(definition: MsgDef, prefix: tuple[str, ...], plan: list[_Op]) -> No
         if field.collection == "single" and nested is not None:
             _flatten(nested, path, plan)
         elif field.collection == "single" and field.type != "string":
-            if not plan or not isinstance(plan[-1], _Run):
-                plan.append(_Run())
-            plan[-1].add(path, str(field.type), field.default)
+            run = plan[-1] if plan else None
+            if not isinstance(run, _Run):
+                run = _Run()
+                plan.append(run)
+            run.add(path, str(field.type), field.default)
         else:
             plan.append((path, field))
 

@@ -147,7 +147,7 @@ def _row(r: AnswerRecord) -> dict[str, Any]:
 
 def to_builtins(record: Line) -> dict[str, Any]:
     """A record as plain JSON-able data (for an export)."""
-    return msgspec.to_builtins(record)  # type: ignore[no-any-return]
+    return msgspec.to_builtins(record)
 
 
 def _fsync_dir(folder: Path) -> None:

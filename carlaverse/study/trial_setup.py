@@ -90,7 +90,7 @@ def check_materials(study: Study, study_dir: Path) -> None:
 
 def _check_node(kind: str, data: dict[str, Any], source: str) -> None:
     try:
-        config_type = load_node_kind(kind).config_type  # type: ignore[attr-defined]
+        config_type = load_node_kind(kind).config_type
     except UnknownNodeKind as exc:
         raise ConfigError(source, str(exc)) from exc
     convert(data, config_type, source)
