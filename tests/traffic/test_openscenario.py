@@ -202,5 +202,5 @@ def test_an_entity_condition_without_its_entities_is_refused_by_name(tmp_path: P
         assert entities is not None
         by_entity.remove(entities)
     tree.write(path)
-    with pytest.raises(ConfigError, match=r"event 'pull out': <\w+Condition> names no Trigger"):
+    with pytest.raises(ConfigError, match=r"study.xosc: event 'pull out': <\w+Condition>"):
         import_triggers(path)
