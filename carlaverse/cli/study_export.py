@@ -1,7 +1,7 @@
 """`carlaverse study export OUT [--to DIR] [--study FILE]`: a study run as tables and a report.
 
-Registered in `carlaverse study` by `add_parser(sub)` and the `export` entry of its actions;
-the tables, their columns and the report are described in `carlaverse.study.export`.
+An action of `carlaverse study` (`add_parser`, `run`); the tables, their columns and the
+report are described in `carlaverse.study.export`.
 """
 
 from __future__ import annotations
@@ -62,10 +62,3 @@ def run(args: argparse.Namespace) -> int:
     tell(f"carlaverse {NAME}: {dest}: {counts} rows; report.html; "
          f"{len(done.excluded)} things left out (README.md says which)")  # fmt: skip
     return Exit.OK
-
-
-def main(argv: list[str]) -> int:
-    """The action on its own (tests; before `carlaverse study` registers it)."""
-    parser = argparse.ArgumentParser(prog="carlaverse study export")
-    add_arguments(parser)
-    return run(parser.parse_args(argv))

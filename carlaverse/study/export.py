@@ -142,6 +142,8 @@ def _write_readme(
         f"{th.drac_limit_mps2:g} m/s², standstill below {th.standstill_mps:g} m/s.", "",
         "## Tables", "",
         *(f"- `{name}`: {len(cols)} columns" for name, cols in COLUMNS.items()), "",
+        "## Notes between trials", "",
+        *([f"- {line}" for line in run.notes] or ["- none"]), "",
         "## Left out", "",
         *([f"- {line}" for line in excluded] or ["- nothing"]), "",
     ]  # fmt: skip

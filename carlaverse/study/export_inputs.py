@@ -84,6 +84,7 @@ class StudyRun:
     roles: dict[str, str]  # participant -> role
     sites: dict[str, str]  # participant -> site ("" without the study file)
     attempts: list[Attempt]
+    notes: list[str] = field(default_factory=list)  # the operator's notes between trials
 
     def seats(self, attempt: Attempt) -> list[Seat]:
         return [Seat(pid, self.roles.get(pid, ""), self.sites.get(pid, ""), condition)
@@ -110,23 +111,32 @@ def read_run(folder: Path, sites: dict[str, str] | None = None) -> StudyRun:
         raise StudyLogError(f"{folder}: no study log here ({LOG_NAME}): is it a study's --out?")
     study, roles = "", {}
     attempts: dict[tuple[str, int], Attempt] = {}
-    notes: dict[str, list[str]] = {}
+    latest: dict[str, Attempt] = {}  # trial -> its attempt begun last: where a note belongs
+    between: list[str] = []
     for event in read_events(log):
         kind, trial = event["event"], str(event.get("trial", ""))
         if kind == "study":
             study, roles = str(event.get("study", "")), dict(event.get("participants", {}))
         elif kind == "trial_start":
             attempt = _started(event)
-            attempts[(attempt.trial, attempt.attempt)] = attempt
+            attempts[(attempt.trial, attempt.attempt)] = latest[attempt.trial] = attempt
             roles |= {str(k): str(v) for k, v in dict(event.get("who", {})).items()}
         elif kind in ("trial_live", "trial_end"):
             key = (trial, int(event.get("attempt", 1)))
             _ended(attempts.setdefault(key, Attempt(trial, key[1])), event)
-        elif kind == "note" and trial:
-            notes.setdefault(trial, []).append(str(event.get("text", "")))
-    for attempt in attempts.values():
-        attempt.notes = notes.get(attempt.trial, [])
-    return StudyRun(folder, study, roles, sites or {}, list(attempts.values()))
+        elif kind == "note":
+            _note(latest.get(trial), between, event)
+    return StudyRun(folder, study, roles, sites or {}, list(attempts.values()), between)
+
+
+def _note(attempt: Attempt | None, between: list[str], event: dict[str, Any]) -> None:
+    """A note during a trial belongs to its attempt; one between trials to the run."""
+    text = str(event.get("text", ""))
+    if attempt is not None and attempt.outcome == "running":
+        attempt.notes.append(text)
+    else:
+        trial = f" (trial {event['trial']})" if event.get("trial") else ""
+        between.append(f"{event.get('t', '')}{trial}: {text}")
 
 
 def _started(event: dict[str, Any]) -> Attempt:

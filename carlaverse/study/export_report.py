@@ -53,6 +53,8 @@ def write_report(
         _table(tables["trials"], trial_list),
         "<h2>LSL streams</h2>",
         _table(tables["lsl"], streams),
+        "<h2>Notes between trials</h2>",
+        _list(run.notes or ["none"]),
         "<h2>Left out</h2>",
         _excluded(tables, excluded),
     ]
@@ -117,7 +119,8 @@ def _figure(title: str, by_condition: dict[str, list[float]], line: float | None
             ax.hlines(median(values), x - 0.25, x + 0.25, color="black")
     if line is not None:
         ax.axhline(line, color="red", linestyle="--", linewidth=1, label="threshold")
-        ax.legend(loc="upper right")
+        ax.legend(loc="best")
+    ax.margins(y=0.15)
     ax.set_xticks(range(len(names)), names)
     ax.set_title(title)
     ax.set_xlabel("condition (bar: median)")
@@ -155,6 +158,10 @@ def _excluded(tables: dict[str, Rows], excluded: list[str]) -> str:
         "summaries; a DRAC beyond the friction limit is flagged and kept out of max DRAC.",
         *excluded,
     ]
+    return _list(lines)
+
+
+def _list(lines: list[str]) -> str:
     return "<ul>" + "".join(f"<li>{html.escape(line)}</li>" for line in lines) + "</ul>"
 
 

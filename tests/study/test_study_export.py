@@ -30,7 +30,7 @@ import pytest
 from mcap.reader import make_reader
 
 from carlaverse import messages as m
-from carlaverse.cli.study_export import main
+from carlaverse.cli import main
 from carlaverse.keys import Keys, tile_of, tile_token
 from carlaverse.study.answers import AnswerStore
 from carlaverse.study.export import COLUMNS, export_study
@@ -112,7 +112,9 @@ def _record(path: Path, session: str, trial: str, lsl_drop_every: int) -> None:
     sink.close()
 
 
-def _log_trial(log: StudyLog, out: Path, trial: str, attempt: int, outcome: str) -> None:
+def _log_trial(
+    log: StudyLog, out: Path, trial: str, attempt: int, outcome: str, note: str = ""
+) -> None:
     kind, block = ("practice", 0) if trial == "t01" else ("main", 1)
     condition = CONDITION[trial]
     link = LAGGED if condition == "lagged" else {"delay_ms": 0.0, "jitter_ms": 0.0, "loss": 0.0}
@@ -123,6 +125,8 @@ def _log_trial(log: StudyLog, out: Path, trial: str, attempt: int, outcome: str)
                who={"P01": "driver", "P02": "cyclist"},
                recording=f"trials/{trial}.mcap")  # fmt: skip
     log.append("trial_live", trial=trial, attempt=attempt, session_t=100.0)
+    if note:  # an operator's note during the trial (the runner logs it with the trial's id)
+        log.append("note", trial=trial, text=note)
     if outcome == "completed":
         _record(out / "trials" / f"{trial}.mcap", session, trial, 10 if trial == "t03" else 0)
     figures = {"P01": {"P02": {"p50_m": 0.1, "p95_m": 0.3, "max_m": 0.5}}}
@@ -155,8 +159,8 @@ def run_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     )
     _log_trial(log, out, "t01", 1, "completed")
     _log_trial(log, out, "t02", 1, "completed")
-    log.append("note", trial="t03", text="P02 adjusted the seat")
-    _log_trial(log, out, "t03", 1, "redo")
+    log.append("note", trial="", text="break: the cyclist asked for water")
+    _log_trial(log, out, "t03", 1, "redo", note="P02 adjusted the seat")
     _log_trial(log, out, "t03", 2, "completed")
     with AnswerStore(out / "answers.jsonl") as store:
         _answer(store, "t02", "P01", SSQ_ANSWERS)
@@ -169,7 +173,7 @@ def run_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 @pytest.fixture(scope="module")
 def exported(run_folder: Path) -> Path:
     dest = run_folder / "export"
-    code = main([str(run_folder / "out"), "--to", str(dest), "--study",
+    code = main(["study", "export", str(run_folder / "out"), "--to", str(dest), "--study",
                  str(run_folder / "study.yaml")])  # fmt: skip
     assert code == 0
     return dest
@@ -221,11 +225,13 @@ def test_trials_list_every_attempt_per_participant_with_their_keys(exported: Pat
     assert len(rows) == 8
     redo = [r for r in rows if r["trial"] == "t03" and r["attempt"] == 1]
     assert {r["outcome"] for r in redo} == {"redo"}
+    redone = next(r for r in redo if r["participant"] == "P02")
+    assert redone["notes"] == "P02 adjusted the seat"  # the note of the attempt it was made in
     lagged = next(r for r in rows if r["trial"] == "t03" and r["attempt"] == 2
                   and r["participant"] == "P02")  # fmt: skip
     assert (lagged["condition"], lagged["role"], lagged["site"]) == ("lagged", "cyclist", "lab-b")
     assert (lagged["delay_ms"], lagged["jitter_ms"]) == (150.0, 10.0)  # the study file's link
-    assert lagged["notes"] == "P02 adjusted the seat"
+    assert lagged["notes"] == ""
     practice = [r for r in rows if r["trial"] == "t01"]
     assert all(r["practice"] and r["block"] == 0 for r in practice)
     p01 = next(r for r in rows if r["trial"] == "t02" and r["participant"] == "P01")
@@ -329,6 +335,7 @@ def test_the_report_is_self_contained_and_says_what_is_left_out(exported: Path) 
     assert "Practice trials (t01)" in page
     assert "trial t03 attempt 1: redo" in page  # the redone attempt, and why it is not measured
     assert "lagged" in page and "direct" in page
+    assert "break: the cyclist asked for water" in page  # a note between trials
     assert "trial t03 attempt 1: redo" in (exported / "README.md").read_text()
 
 
@@ -346,7 +353,7 @@ def test_no_export_file_names_a_person(run_folder: Path, exported: Path) -> None
 def test_a_folder_without_a_log_is_one_line_naming_it(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    assert main([str(tmp_path)]) == 2
+    assert main(["study", "export", str(tmp_path)]) == 2
     said = capsys.readouterr().err.strip().splitlines()
     assert len(said) == 1 and str(tmp_path) in said[0] and "study-log.jsonl" in said[0]
 
