@@ -31,6 +31,7 @@ class RouterConfig(StrictStruct):
 # File kinds that are not node kinds, each told apart by its top-level fields.
 FILE_KINDS = (
     "scenario", "vehicle", "roster", "router", "rig", "trainer-table", "hmi", "zenohd", "audio",
+    "study",
 )  # fmt: skip
 
 
@@ -47,7 +48,8 @@ def detect_kind(path: Path, data: Any) -> str:
                          ("roster", {"sites", "nodes"}), ("router", {"fabric"}),
                          ("rig", {"camera"}), ("hmi", {"layouts"}),
                          ("trainer-table", {"resistance_percent"}),
-                         ("audio", {"layout"})):  # fmt: skip
+                         ("audio", {"layout"}),
+                         ("study", {"participants", "conditions"})):  # fmt: skip
         if fields <= data.keys() and (kind != "router" or data.keys() == {"fabric"}):
             return kind
     raise ConfigError(str(path), "cannot tell the schema: pass --kind or set node.kind in the file")
@@ -139,6 +141,18 @@ def _check_audio(path: Path, data: Any, kind: str) -> None:
     convert(data, AudioConfig, str(path))
 
 
+def _check_study(path: Path, data: Any, kind: str) -> None:
+    from carlaverse.study.schedule import plan, shared_conflict
+    from carlaverse.study.study_file import load_study
+    from carlaverse.study.trial_setup import check_materials
+
+    study = load_study(path)  # also pseudonyms, known participants and conditions
+    conflict = shared_conflict(study, plan(study))
+    if conflict:
+        raise ConfigError(str(path), conflict)
+    check_materials(study, path.parent)  # every scenario and node config it names
+
+
 def _check_node(path: Path, data: Any, kind: str) -> None:
     try:
         node_type = load_node_kind(kind)
@@ -175,4 +189,5 @@ CHECKS: dict[str, Callable[[Path, Any, str], None]] = {
     "hmi": _check_hmi,
     "zenohd": _check_zenohd,
     "audio": _check_audio,
+    "study": _check_study,
 }

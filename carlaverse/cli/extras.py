@@ -46,6 +46,7 @@ EXTRA_OF_MODULE: dict[str, str] = {
     "psutil": "launcher",
     "segno": "launcher",
     "osi3": "osi",  # osi-python: `record --osi`, `carlaverse osi`
+    "pylsl": "study",  # Lab Streaming Layer (it ships liblsl): `record --lsl`, study streams
 }
 # mediapipe is no extra's: it requires opencv-contrib-python, a second cv2 beside the body
 # extra's opencv-python-headless, so it is installed without its dependencies (README "Body pose").

@@ -62,7 +62,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.epilog = "Topics, frames and units: docs/protocol.md, section 'ROS 2 over Zenoh'."
     sub = parser.add_subparsers(dest="role", metavar="ROLE", required=True)
     view = sub.add_parser("view", help="publish the session as ROS 2 topics (an observer)")
-    av = sub.add_parser("av", help="join a ROS 2 AV (its Odometry topic) as an ego")
+    av = sub.add_parser(
+        "av", help="join a ROS 2 AV as an ego once its Odometry topic publishes",
+        description="Wait for the AV's first nav_msgs/Odometry, then join the session as an "
+        "ego (its id, actor kind, extent) whose poses are that odometry; publish its "
+        "collisions and, unless --no-world, the world. Quiet for the despawn timeout: "
+        "despawned like any silent node.",
+    )  # fmt: skip
     for role in (view, av):
         role.add_argument("--id", dest="node_id", help="node id in the session")
         role.add_argument("--config", help="YAML with node:, fabric:, ros2: (and av:) sections")

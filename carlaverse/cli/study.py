@@ -5,6 +5,7 @@ carlaverse study plan STUDY.yaml [--json]
 carlaverse study run STUDY.yaml --out DIR [--people FILE] [--connect EP]
 carlaverse study agent --study NAME --participant P01 --connect EP
 carlaverse study control DIR pause|resume|abort|redo|note TEXT
+carlaverse study export DIR [--to EXPORT] [--study STUDY.yaml]
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import sys
 import threading
 from pathlib import Path
 
+from carlaverse.cli import study_export
 from carlaverse.cli.common import fail, print_json, say, stop_on_signals, tell
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
@@ -81,11 +83,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     steer = sub.add_parser("control", help="steer a running study (pause, resume, abort ...)")
     steer.add_argument("out", type=Path, help="the run's output folder")
     steer.add_argument("command", nargs="+", help=f"one of {', '.join(control.COMMANDS)}")
+    study_export.add_parser(sub)
 
 
 def run(args: argparse.Namespace) -> int:
     action = {"validate": _validate, "plan": _plan, "run": _run, "agent": _agent,
-              "status": _status, "control": _control}[args.action]  # fmt: skip
+              "status": _status, "control": _control,
+              "export": study_export.run}[args.action]  # fmt: skip
     try:
         return action(args)
     except (ConfigError, StudyLogError, KeySpaceError) as exc:

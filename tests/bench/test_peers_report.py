@@ -141,3 +141,47 @@ def test_the_callback_steps_are_timed_warm_and_after_idle(monkeypatch: pytest.Mo
     assert float(warm) == pytest.approx(sum(float(w) for w, _ in pairs), abs=0.3)
     assert float(spaced) == pytest.approx(sum(float(s) for _, s in pairs), abs=0.3)
     assert "one call after each 1 ms idle" in line
+
+
+def test_receiver_cpu_is_split_by_thread_per_pose(report: ModuleType) -> None:
+    """Each group's CPU over the poses each receiver got, averaged over the receivers: 2 ms and
+    4 ms of main thread over 4 poses each are 0.5 and 1 ms a pose, 750 µs on average."""
+    groups = {"main thread": 0.0, "callback thread": 0.0, "library threads": 0.0,
+              "Python threads": 0.0}  # fmt: skip
+    runs = {"pose": [run("pose", [[1.0] * 4, [1.0] * 4], {"tx": 0.001, "rx0": 1, "rx1": 1})]}
+    for rx, main_s in zip(runs["pose"][0]["receivers"], (0.002, 0.004), strict=True):
+        rx["thread_cpu_s"] = groups | {"main thread": main_s, "library threads": 0.0008}
+    rows = [report.pool("pose", runs["pose"])]
+    (line,) = report.by_thread(rows, runs)
+    assert "pose path (this project): main thread 750.0, library threads 200.0." in line
+    assert report.by_thread(rows, {"pose": [run("pose", [[1.0] * 4], {"rx0": 1, "tx": 1})]}) == []
+
+
+def test_threads_are_told_apart_by_who_started_them(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A `threading` thread that burns 50 ms of its own CPU time is counted under Python
+    threads, and the main thread, which only waits for it meanwhile, gets less than that
+    (Linux's per-thread nanosecond counts, read while the worker still lives)."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    import threading
+    import time
+
+    from peers.threads import MAIN, PYTHON, by_group, thread_times
+
+    burnt, release = threading.Event(), threading.Event()
+
+    def burn() -> None:
+        end = time.thread_time() + 0.05
+        while time.thread_time() < end:
+            pass
+        burnt.set()
+        release.wait()
+
+    before = thread_times()
+    worker = threading.Thread(target=burn)
+    worker.start()
+    assert burnt.wait(30)
+    spent = by_group(before, thread_times())
+    release.set()
+    worker.join()
+    assert spent[PYTHON] >= 0.05 * 0.99  # thread_time and schedstat count the same CPU time
+    assert spent[MAIN] < 0.05

@@ -13,6 +13,7 @@ REPO = Path(__file__).resolve().parents[2]
 NOT_SHIPPED = {".venv", ".git", "tests", "build", "dist", ".pytest_cache", ".ruff_cache"}
 # What each shipped file must be recognised as (a file here under another schema is a bug).
 EXPECTED = {
+    "examples/studies/latency-dyad.yaml": "study",
     "scenarios/town.yaml": "scenario",
     "scenarios/crossing.yaml": "scenario",
     "scenarios/ring.yaml": "scenario",

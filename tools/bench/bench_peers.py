@@ -29,7 +29,7 @@ from typing import Any
 from benchdoc import RunInfo, command_line, write_section
 from peers.profile import SAMPLE_RATE_HZ, PySpy, profile_lines
 from peers.registry import COMPARED, DIAGNOSTIC, REFERENCE, TRANSPORTS, load
-from peers.report import Row, pool, split, table, verdict, versions
+from peers.report import Row, by_thread, pool, split, table, verdict, versions
 from peers.run import RunFailed, run_once
 from peers.steps import steps_line
 
@@ -174,7 +174,7 @@ def main(argv: list[str] | None = None) -> int:
     lines += [f"- Not run: {reason}." for reason in not_run]
     lines += [f"- Failed run (left out): {why}." for why in failed]
     if args.diagnose:
-        lines.append(steps_line())
+        lines += [*by_thread(rows, runs), steps_line()]
     if args.profile:
         lines += ["", *profile(args)]
     text = "\n".join(lines)

@@ -17,6 +17,7 @@ from typing import Any
 
 from carlaverse.support.stats import percentile
 from peers.registry import LOW_LATENCY, REFERENCE, load
+from peers.threads import GROUPS
 
 
 @dataclass(frozen=True, slots=True)
@@ -176,6 +177,38 @@ def split(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]:
     if "dds" in by_name:
         line += f"; bare Zenoh p50 / CycloneDDS p50 = {zenoh / by_name['dds'].p(0.5):.2f}"
     return [line + "."]
+
+
+def by_thread(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]:
+    """Each transport's receiver CPU per pose split by thread group (`peers.threads`): which
+    thread of the pose path's receivers spends what bare Zenoh's do not."""
+    parts = []
+    for row in rows:
+        receivers = [rx for run in runs[row.name] for rx in run["receivers"] if rx["received"]]
+        if not receivers or any("thread_cpu_s" not in rx for rx in receivers):
+            continue
+        spent = {
+            group: statistics.fmean(rx["thread_cpu_s"][group] / rx["received"] for rx in receivers)
+            for group in GROUPS
+        }
+        parts.append(
+            f"{load(row.name).label}: "
+            + ", ".join(
+                f"{group} {s_per_pose * 1e6:.1f}"
+                for group, s_per_pose in spent.items()
+                if s_per_pose > 0
+            )
+        )
+    if not parts:
+        return []
+    return [
+        "- Receiver CPU by thread, µs per pose (mean over the measured receivers; main thread: "
+        "the pose path's node loop, elsewhere it only waits; callback thread: zenoh-python's, "
+        "which runs the subscriber's callback; library threads: Zenoh's own runtime, or the "
+        "other library's; Python threads: the node client's control thread): "
+        + "; ".join(parts)
+        + "."
+    ]
 
 
 def versions() -> str:

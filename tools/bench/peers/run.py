@@ -25,6 +25,7 @@ import psutil
 
 from peers.arrivals import Arrivals
 from peers.registry import load
+from peers.threads import by_group, thread_times
 from peers.transport import Plan, free_ports, process_context, sample
 
 WARM_UP_S = 1.0  # [s] least warm-up, so discovery and presence have settled on every path
@@ -115,16 +116,18 @@ def receiver_main(name: str, plan: Plan, index: int, sig: Signals) -> None:
         arrivals = Arrivals(sig.warmed[index], sig.counter, index)
         receiver = load(name).open_receiver(plan, index, arrivals)
         sig.ready[index].set()
-        cpu_s = _receive_until(receiver, sig.measuring, sig.finished)
+        cpu_s, threads_s = _receive_until(receiver, sig.measuring, sig.finished)
         report = getattr(receiver, "report", dict)()
-        sig.results.put(("receiver", index, arrivals.summary() | report | {"cpu_s": cpu_s}))
+        spent = {"cpu_s": cpu_s, "thread_cpu_s": threads_s}
+        sig.results.put(("receiver", index, arrivals.summary() | report | spent))
         receiver.close()
     except Exception as exc:
         sig.results.put(("error", f"{name} receiver {index}: {type(exc).__name__}: {exc}"))
 
 
-def _receive_until(receiver: Any, measuring: Any, finished: Any) -> float:
-    """Serve the receiver until `finished`; its CPU time [s] since `measuring` was set.
+def _receive_until(receiver: Any, measuring: Any, finished: Any) -> tuple[float, dict[str, float]]:
+    """Serve the receiver until `finished`; its CPU time [s] since `measuring` was set, and
+    that time by thread group (`peers.threads`; read outside the process's figure).
 
     A receiver that needs its main loop (`poll_period_s`, the pose path's `update()`) gets
     it; the others wait without waking, so no harness work is charged to them.
@@ -132,10 +135,12 @@ def _receive_until(receiver: Any, measuring: Any, finished: Any) -> float:
     period_s = getattr(receiver, "poll_period_s", None)
     if period_s is None:
         measuring.wait()
+        threads_start = thread_times()
         cpu_start_s = cpu_seconds()
         finished.wait()
-        return cpu_seconds() - cpu_start_s
-    cpu_start_s = None
+        cpu_s = cpu_seconds() - cpu_start_s
+        return cpu_s, by_group(threads_start, thread_times())
+    cpu_start_s, threads_start = None, {}
     # `finished` is looked at every FINISHED_CHECK_S, not on every tick: reading a process
     # shared Event takes its semaphores, harness work that would be charged to this receiver
     # alone (the receivers above only wait).
@@ -144,10 +149,12 @@ def _receive_until(receiver: Any, measuring: Any, finished: Any) -> float:
     while tick % every or not finished.is_set():
         receiver.poll()
         if cpu_start_s is None and measuring.is_set():
+            threads_start = thread_times()
             cpu_start_s = cpu_seconds()
         time.sleep(period_s)  # the node loop's own pacing
         tick += 1
-    return cpu_seconds() - (cpu_start_s or cpu_seconds())
+    cpu_s = cpu_seconds() - (cpu_start_s or cpu_seconds())
+    return cpu_s, by_group(threads_start, thread_times())
 
 
 def run_once(name: str, rate_hz: float, seconds: float, measured: int, watch: Any = None,
