@@ -34,7 +34,7 @@ from carlaverse.study.links import ParticipantLinks
 from carlaverse.study.schedule import Trial, world_condition
 from carlaverse.study.study_file import LinkCondition, Study
 from carlaverse.study.study_log import COMPLETED, StudyLog
-from carlaverse.study.trial_setup import node_config, write_scenario
+from carlaverse.study.trial_setup import interpolation_of, node_config, write_scenario
 from carlaverse.study.view_error import true_tracks, view_errors
 from carlaverse.study.view_probe import ViewProbe, probe_id
 from carlaverse.transport.session import FabricSettings, open_session, reachable
@@ -164,12 +164,15 @@ class TrialRun:
         self._authority.wait_for_line(AUTHORITY_READY, READY_TIMEOUT_S)
         ids = set(self.roles)
         self._watch = ViewProbe("study-watch", self.session, self.ctx.router, ids)
+        briefs = {pid: self._brief(pid) for pid in sorted(ids)}
         if self.ctx.study.trial.view_probe_hz > 0:
             for pid in ids:
-                endpoint = self.ctx.links.endpoint(pid)
-                self._probes[pid] = ViewProbe(probe_id(pid), self.session, endpoint, ids - {pid})
-        for pid in sorted(ids):
-            self.ctx.set_brief(self._brief(pid))
+                self._probes[pid] = ViewProbe(
+                    probe_id(pid), self.session, self.ctx.links.endpoint(pid), ids - {pid},
+                    interpolation_of(briefs[pid].node_config_yaml),
+                )  # fmt: skip
+        for brief in briefs.values():
+            self.ctx.set_brief(brief)
         outcome = self._wait_present(ids)
         if outcome is not None:
             return outcome
