@@ -93,6 +93,13 @@ def test_people_file_must_be_private_and_outside(
     assert main(["study", "run", str(study), "--out", str(out), "--people", str(inside)]) == 2
     err = capsys.readouterr().err
     assert "outside the study and output folders" in err and "Jane" not in err
+    reversed_file = tmp_path / "private" / "reversed.yaml"
+    reversed_file.write_text("Jane Doe: P01\n")
+    reversed_file.chmod(0o600)
+    flipped = ["study", "run", str(study), "--out", str(out), "--people", str(reversed_file)]
+    assert main(flipped) == 2
+    err = capsys.readouterr().err
+    assert "PSEUDONYM: PERSON" in err and "Jane" not in err
     in_out = _people(out / "people.yaml", 0o600)
     assert main(["study", "run", str(study), "--out", str(out), "--people", str(in_out)]) == 2
     assert not (out / "study-log.jsonl").exists()  # refused before anything ran
