@@ -244,20 +244,20 @@ def test_trajectories_match_the_recorded_poses(run_folder: Path, exported: Path)
     for trial, (v0, a, _, u) in MOTION.items():
         driver, cyclist = rows[(trial, "P01")], rows[(trial, "P02")]
         recording = run_folder / "out" / "trials" / f"{trial}.mcap"
-        # on the 10 Hz grid the path is sampled at the same points the poses lie on (a straight
-        # line), so its length is the raw poses' to rounding
         assert driver["distance_m"] == pytest.approx(_raw_distance(recording, "P01"), abs=1e-6)
         # closed form: v0 T + a T²/2
         assert driver["distance_m"] == pytest.approx(v0 * DURATION_S + a * DURATION_S**2 / 2,
                                                      abs=1e-6)  # fmt: skip
         assert cyclist["distance_m"] == pytest.approx(u * DURATION_S, abs=1e-6)
         assert driver["max_speed_mps"] == pytest.approx(v0 + a * DURATION_S, abs=1e-6)
-        # the mean of a speed linear in t over an evenly spaced grid: its midpoint value
+        # distance over time: (v0 T + a T²/2) / T
         assert driver["mean_speed_mps"] == pytest.approx(v0 + a * DURATION_S / 2, abs=1e-6)
-        # dv/dt; the pose layout carries velocity as float32 (7 digits): differenced over
-        # 0.1 s, its rounding is ~1e-5 m/s²
-        assert driver["max_accel_mps2"] == pytest.approx(a, abs=1e-4)
-        assert cyclist["max_accel_mps2"] == pytest.approx(0.0, abs=1e-4)
+        # the driver's node sends its acceleration, a; the cyclist's none, so theirs is
+        # differentiated from a constant velocity: 0
+        assert (driver["max_accel_mps2"], driver["accel_source"]) == (a, "sent")
+        assert (cyclist["max_accel_mps2"], cyclist["accel_source"]) == (0.0, "differentiated")
+        assert driver["p95_accel_mps2"] == a  # constant
+        assert driver["samples"] == DURATION_S * POSE_HZ + 1
         assert driver["duration_s"] == pytest.approx(DURATION_S, abs=1e-6)
         assert driver["condition"] == CONDITION[trial]
 
