@@ -109,3 +109,23 @@ def test_external_agent_and_pause(tmp_path: Path) -> None:
     assert all(r == "trigger crossed fired at session time 42.000 s" for _, _, r in ends)
     start = next(e for e in _events(out) if e["event"] == "trial_start" and e["trial"] == "t02")
     assert start["links"] == {"P07": {"delay_ms": 80.0, "jitter_ms": 0.0, "loss": 0.0}}
+
+
+def test_missing_roles_are_named_and_the_run_ends_5(tmp_path: Path) -> None:
+    study = tmp_path / "ext.yaml"
+    study.write_text(STUDY.replace("start_timeout_s: 150", "start_timeout_s: 2"))
+    out = tmp_path / "out"
+    runner = start_child(["study", "run", str(study), "--out", str(out)], name="runner")
+    try:  # nobody starts P07's agent
+        deadline = time.monotonic() + 120
+        while runner.running and time.monotonic() < deadline:
+            time.sleep(0.2)
+        runner.finish_reading()
+    finally:
+        stop_children([runner])
+    assert runner.exit_code == 5, runner.log.text()  # Exit.NOT_ADMITTED
+    (end,) = [e for e in _events(out) if e["event"] == "trial_end"]
+    assert (end["trial"], end["outcome"]) == ("t01", "not_started")
+    assert end["reason"] == "not present within 2 s: P07 (cyclist)"
+    assert "run again with --out" in runner.log.text()
+    assert list((out / "trials").glob("t01.attempt1.not_started.mcap"))
