@@ -44,12 +44,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     check = sub.add_parser("validate", help="check a study file, its scenarios and node configs")
-    check.add_argument("file", type=Path)
+    check.add_argument("file", type=Path, help="the study file (YAML)")
     schedule = sub.add_parser("plan", help="print every trial: participant x condition")
-    schedule.add_argument("file", type=Path)
+    schedule.add_argument("file", type=Path, help="the study file (YAML)")
     schedule.add_argument("--json", action="store_true", help="the plan as JSON")
     run = sub.add_parser("run", help="run the trials not yet completed in --out")
-    run.add_argument("file", type=Path)
+    run.add_argument("file", type=Path, help="the study file (YAML)")
     run.add_argument("--out", type=Path, required=True, help="output folder (log, recordings)")
     run.add_argument(
         "--connect", action="append", default=[], metavar="EP",
