@@ -37,7 +37,7 @@ from carlaverse.study.export import COLUMNS, export_study
 from carlaverse.study.lsl_record import StreamStats
 from carlaverse.study.lsl_sink import LslSample, SharedSink
 from carlaverse.study.questionnaires import SSQ_SYMPTOMS, score, ssq
-from carlaverse.study.study_log import LOG_NAME, StudyLog
+from carlaverse.study.study_log import LOG_NAME, StudyLog, StudyLogError
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -356,6 +356,31 @@ def test_a_folder_without_a_log_is_one_line_naming_it(
     assert main(["study", "export", str(tmp_path)]) == 2
     said = capsys.readouterr().err.strip().splitlines()
     assert len(said) == 1 and str(tmp_path) in said[0] and "study-log.jsonl" in said[0]
+
+
+def test_a_log_naming_a_person_is_not_exported(tmp_path: Path) -> None:
+    """A hand-edited log with a name where a pseudonym belongs is refused, naming the file."""
+    out = tmp_path / "out"
+    out.mkdir()
+    StudyLog(out / LOG_NAME).append("study", study="exp", digest="0" * 16, run_id="abc123",
+                                    trials=1, participants={"Zelda": "driver"})  # fmt: skip
+    with pytest.raises(StudyLogError, match="'Zelda' is not a pseudonym"):
+        export_study(out, tmp_path / "x")
+    assert not (tmp_path / "x").exists()
+
+
+def test_answers_from_an_unknown_node_are_left_out_without_its_id(
+    run_folder: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    (out / "trials").mkdir(parents=True)
+    (out / LOG_NAME).write_bytes((run_folder / "out" / LOG_NAME).read_bytes())
+    with AnswerStore(out / "answers.jsonl") as store:
+        _answer(store, "t02", "Zelda", SSQ_ANSWERS)
+    done = export_study(out, tmp_path / "x")
+    assert done.tables["questionnaires"] == []
+    assert any("answers to 't02.ssq' from a node" in line for line in done.excluded)
+    assert "Zelda" not in (tmp_path / "x" / "README.md").read_text()
 
 
 def test_export_without_the_study_file_leaves_the_site_empty(
