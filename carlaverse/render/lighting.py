@@ -101,8 +101,8 @@ class SceneLighting:
         self.rain: Rain | None = None
         if not preset.shaded:
             return
-        # by (night, sun up, flags compiled in), made on need
-        self._shaders: dict[tuple[bool, bool, int | None], Shader] = {}
+        # by (night, sun up, flags compiled in, wet), made on need
+        self._shaders: dict[tuple[bool, bool, int | None, bool], Shader] = {}
         self._flagged: list[tuple[NodePath, int]] = []  # nodes with a program of their own
         _start_inputs(world)
         for node, material in _materials(road.get_parent(), road):
@@ -159,17 +159,18 @@ class SceneLighting:
         if self.dome is not None:
             self.dome.aim(day.towards_sun)
         night, sun_up = day.night > 0.0, day.towards_sun[2] > SUN_UP_Z
+        wet = self.weather.shown.wetness > 0.0  # the shaders' wetness input is clamped to 0..1
         compiled = None if self.preset.per_pixel else 0
-        self.world.set_shader(self._shader(night, sun_up, compiled))
+        self.world.set_shader(self._shader(night, sun_up, compiled, wet))
         for node, flags in self._flagged:
-            node.set_shader(self._shader(night, sun_up, flags))
+            node.set_shader(self._shader(night, sun_up, flags, wet))
         if self.shadow is not None:
             self.shadow.aim(day.towards_sun)
         if self.street is not None:
             self.street.night(day.night)
 
-    def _shader(self, night: bool, sun_up: bool, flags: int | None) -> Shader:
-        key = (night, sun_up, flags)
+    def _shader(self, night: bool, sun_up: bool, flags: int | None, wet: bool) -> Shader:
+        key = (night, sun_up, flags, wet)
         if key not in self._shaders:
             self._shaders[key] = Shader.make(Shader.SL_GLSL, *surface_sources(self.preset, *key))
         return self._shaders[key]
