@@ -36,7 +36,7 @@ from carlaverse.study.answers import AnswerStore
 from carlaverse.study.export import COLUMNS, export_study
 from carlaverse.study.lsl_record import StreamStats
 from carlaverse.study.lsl_sink import LslSample, SharedSink
-from carlaverse.study.questionnaires import SSQ_SYMPTOMS, score, ssq
+from carlaverse.study.questionnaires import SSQ_SYMPTOMS, Questionnaire, nasa_tlx, score, ssq
 from carlaverse.study.study_log import LOG_NAME, StudyLog, StudyLogError
 
 pytestmark = pytest.mark.timeout(120)
@@ -71,6 +71,9 @@ def _ssq_ratings(**rated: int) -> dict[str, int | str]:
 
 
 SSQ_ANSWERS = _ssq_ratings(nausea=2, headache=1)
+# the raw TLX (Hart & Staveland 1988, unweighted): the mean of the six ratings, here 210 / 6
+TLX_RATINGS = {"mental": 50, "physical": 20, "temporal": 30, "performance": 40, "effort": 60,
+               "frustration": 10}  # fmt: skip
 
 
 def _poses(trial: str, t0: float) -> dict[str, list[m.Pose]]:
@@ -135,8 +138,11 @@ def _log_trial(
                view_error=figures if outcome == "completed" else {})  # fmt: skip
 
 
-def _answer(store: AnswerStore, trial: str, pid: str, answers: dict[str, int | str]) -> None:
-    form = ssq()
+def _answer(
+    store: AnswerStore, trial: str, pid: str, answers: dict[str, int | str],
+    form: Questionnaire | None = None,
+) -> None:  # fmt: skip
+    form = form or ssq()
     request = form.request(trial)
     store.asked(pid, request)
     scores = score(form, answers)  # what the runner stores with a final set
@@ -165,6 +171,7 @@ def run_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     with AnswerStore(out / "answers.jsonl") as store:
         _answer(store, "t02", "P01", SSQ_ANSWERS)
         _answer(store, "t03", "P01", _ssq_ratings(fatigue=3))
+        _answer(store, "t02", "P02", dict(TLX_RATINGS), nasa_tlx(weighted=False))
     # a people file where a careless operator might leave it: in the run's folder itself
     (out / "people.yaml").write_text(f"P01: {REAL_NAME}\n")
     return root
@@ -311,6 +318,8 @@ def test_questionnaire_scores_match_the_published_ssq_weights(exported: Path) ->
     assert scores[("t02", "total")] == pytest.approx(18.70)
     # t03: fatigue (O) 3: total = 3 x 3.74
     assert scores[("t03", "total")] == pytest.approx(11.22)
+    tlx = next(r for r in rows if r["questionnaire"] == "raw-tlx" and r["measure"] == "raw_tlx")
+    assert (tlx["participant"], tlx["condition"], tlx["value"]) == ("P02", "direct", 35.0)
     item = next(r for r in rows if r["trial"] == "t02" and r["measure"] == "nausea"
                 and r["measure_kind"] == "item")  # fmt: skip
     assert (item["value"], item["condition"], item["role"]) == (2.0, "direct", "driver")
@@ -336,6 +345,8 @@ def test_the_report_is_self_contained_and_says_what_is_left_out(exported: Path) 
     assert "trial t03 attempt 1: redo" in page  # the redone attempt, and why it is not measured
     assert "lagged" in page and "direct" in page
     assert "break: the cyclist asked for water" in page  # a note between trials
+    # the summary's direct row: SSQ total 18.70 (P01, t02) and raw TLX 35.00 (P02, t02)
+    assert "<td>18.70</td><td>35.00</td>" in page
     assert "trial t03 attempt 1: redo" in (exported / "README.md").read_text()
 
 
