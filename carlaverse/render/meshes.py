@@ -105,6 +105,23 @@ class MeshBuilder:
         self._tris.add_vertices(i[0], i[1], i[2])
         self._tris.add_vertices(i[0], i[2], i[3])
 
+    def fan(self, hub: Point3, rim: Sequence[Point3], normal: Point3, color: Color) -> None:
+        """A flat fan of triangles from `hub` round the closed `rim`, its front facing `normal`:
+        one vertex per point, each rim vertex shared by the two triangles that meet there."""
+        centre = self._add(hub, normal, color)
+        ring = [self._add(p, normal, color) for p in rim]
+        for k, a in enumerate(ring):
+            b = ring[(k + 1) % len(ring)]
+            u = [rim[k][i] - hub[i] for i in range(3)]
+            v = [rim[(k + 1) % len(rim)][i] - hub[i] for i in range(3)]
+            cross = (
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            )
+            front = sum(c * n for c, n in zip(cross, normal, strict=True)) >= 0
+            self._tris.add_vertices(centre, *((a, b) if front else (b, a)))
+
     def flat_quad(self, corners: Sequence[Point2], z: float, color: Color,
                   uvs: Sequence[Point2] | None = None) -> None:  # fmt: skip
         """A horizontal quad facing up, whatever its corners' order: a strip round a bend
