@@ -27,7 +27,6 @@ from carlaverse import messages as m
 from carlaverse.keys import Keys
 from carlaverse.procs import Child, ChildFailed, stop_children
 from carlaverse.recording.recorder import Recorder
-from carlaverse.recording.sink import McapSink
 from carlaverse.study.control import Command
 from carlaverse.study.end_condition import EndCondition
 from carlaverse.study.links import ParticipantLinks
@@ -35,6 +34,7 @@ from carlaverse.study.schedule import Trial, world_condition
 from carlaverse.study.study_file import LinkCondition, Study
 from carlaverse.study.study_log import COMPLETED, StudyLog
 from carlaverse.study.trial_setup import interpolation_of, node_config, write_scenario
+from carlaverse.study.trial_sink import TrialSink
 from carlaverse.study.view_error import true_tracks, view_errors
 from carlaverse.study.view_probe import ViewProbe, probe_id
 from carlaverse.transport.session import FabricSettings, open_session, reachable
@@ -139,7 +139,7 @@ class TrialRun:
 
     def _start_recorder(self, scenario: str) -> tuple[Recorder, Any]:
         session = open_session(reachable(FabricSettings(connect=[self.ctx.router])))
-        sink = McapSink(self.recording, monotonic=time.monotonic)
+        sink = TrialSink(self.recording, monotonic=time.monotonic)
         sink.metadata(METADATA_NAME, self._metadata(scenario))
         recorder = Recorder(session, Keys(self.session), sink)
         recorder.start()
