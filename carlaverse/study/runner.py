@@ -30,6 +30,7 @@ from carlaverse.study import control
 from carlaverse.study.briefs import Briefer
 from carlaverse.study.leftovers import ChildList
 from carlaverse.study.links import ParticipantLinks
+from carlaverse.study.run_lock import RunLock
 from carlaverse.study.schedule import Trial, digest, plan
 from carlaverse.study.study_file import Study
 from carlaverse.study.study_log import COMPLETED, LOG_NAME, StudyLog, StudyLogError
@@ -72,12 +73,19 @@ class StudyRunner:
         self.trials = plan(study)
         self.out = settings.out
         (self.out / TRIALS_DIR).mkdir(parents=True, exist_ok=True)
+        self.lock = RunLock(self.out).acquire()  # before the log is read (and a torn line cut)
         self.log = StudyLog(self.out / LOG_NAME)
         self.children_file = ChildList(self.out)
         self._children: list[Child] = []
         self._agents: list[Child] = []
 
     def run(self) -> RunResult:
+        try:
+            return self._run()
+        finally:
+            self.lock.release()
+
+    def _run(self) -> RunResult:
         self._open_log()
         left = self.children_file.stop_leftovers()
         if left:
