@@ -10,6 +10,8 @@ simulated devices. Each trial is a `TrialRun`. The output folder holds:
     OUT/trials/<trial>.attempt<N>.<outcome>.mcap   an attempt that did not complete
     OUT/trials/<trial>.scenario.yaml   the scenario a trial ran (overrides merged)
     OUT/control-<time>-<pid>.cmd   commands waiting for the runner (control.py)
+    OUT/.runner.lock               held while a runner runs into OUT (run_lock.py)
+    OUT/.runner-children.json      the running runner's children (leftovers.py)
 
 A run begun again on the same folder goes on from the first trial not completed; a trial a
 kill interrupted is logged `killed` and run again as a new attempt.
