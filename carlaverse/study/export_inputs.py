@@ -16,11 +16,11 @@ from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from carlaverse.study.answers import ANSWERS_NAME
 from carlaverse.study.study_file import PSEUDONYM
 from carlaverse.study.study_log import COMPLETED, LOG_NAME, StudyLogError, read_events
 from carlaverse.study.trial import TRIALS_DIR
 
-ANSWERS_NAME = "answers.jsonl"  # where the runner stores questionnaire answers (asking.py)
 MIXED = "mixed"  # the condition of a trial-level row whose participants' conditions differ
 
 

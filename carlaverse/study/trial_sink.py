@@ -11,13 +11,14 @@ from __future__ import annotations
 from collections.abc import Mapping
 
 from carlaverse.recording.archive import HOSTNAMES_METADATA
-from carlaverse.recording.sink import McapSink
+from carlaverse.study.lsl_sink import SharedSink
 
 WITHHELD = "withheld (study recording)"
 
 
-class TrialSink(McapSink):
-    """McapSink with the participants' host names withheld."""
+class TrialSink(SharedSink):
+    """A SharedSink (LSL inlets may write into it too) with the participants' host names
+    withheld."""
 
     def metadata(self, name: str, values: Mapping[str, str]) -> None:
         if name == HOSTNAMES_METADATA:
