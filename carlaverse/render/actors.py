@@ -85,7 +85,7 @@ class ActorLayer:
     def __init__(self, parent: NodePath) -> None:
         self.root = parent.attach_new_node("actors")
         self._protos: dict[tuple[str, bool], NodePath] = {}
-        self._lamp = lamp_prototype()
+        self.lamp_prototype = lamp_prototype()  # shared by every lamp: `lighting.lamps`
         self._limb = limb_prototype()
         self._bar = bar_prototype()
         self._wheel = {"road": road_wheel(), "spoked": spoked_wheel()}
@@ -131,7 +131,7 @@ class ActorLayer:
         drawn.body.set_scale(*size)
         self._protos[key].instance_to(drawn.body)
         if actor.kind in LAMPS:
-            drawn.lamps = LampSet(drawn.body, LAMPS[actor.kind], self._lamp)
+            drawn.lamps = LampSet(drawn.body, LAMPS[actor.kind], self.lamp_prototype)
         extent = Extent(actor.length, actor.width, actor.height)
         wheel = self._wheel["spoked" if actor.kind == "bicycle" else "road"]
         drawn.wheels = Wheelset(node, wheel_places(actor.kind, extent), wheel)

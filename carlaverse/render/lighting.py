@@ -54,7 +54,7 @@ class Material:
     untextured: bool = False  # no texture to fetch (a pixel's fetch is dear on llvmpipe)
 
     def flags(self) -> int:
-        """The flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4."""
+        """The flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4 (LAMP 8: `lamps`)."""
         flags = (1 if self.pools else 0) | (2 if self.windows else 0)
         return flags | (4 if self.untextured else 0)
 
@@ -81,6 +81,7 @@ OWN_VEHICLE_MATERIAL = Material(0.0, 0.35, 0.12, untextured=True)
 # Roads are drawn before the rest of the opaque scene: the ground beneath them then fails the
 # depth test before it is shaded (on llvmpipe a shaded pixel is the frame's cost).
 ROAD_BIN, ROAD_BIN_SORT = "road_first", 15  # Panda3D's "opaque" bin sorts at 20
+LAMP_FLAG = 8  # shaders.py's LAMP: a program that only glows
 FLAT_M = 0.3  # [m] geometry no taller casts no shadow worth a pass (ground, roads, kerbs)
 
 
@@ -134,6 +135,13 @@ class SceneLighting:
             self._aim_sun()
         if self.boxes is not None:
             root.hide(SHADOW_MASK)
+
+    def lamps(self, prototype: NodePath) -> None:
+        """Give the vehicles' lamp prototype a program of its own where light is per vertex: a
+        lamp glows whatever the light, and its vertices (a tenth of a car's) skip lighting."""
+        if self.preset.shaded and not self.preset.per_pixel:
+            self._flagged.append((prototype, VEHICLE_MATERIAL.flags() | LAMP_FLAG))
+            self._aim_sun()
 
     def update(self, frame: SceneFrame, head: NodePath, own: str | None) -> bool:
         """Light `frame` seen from `head`; True if the weather changed (the clear colour too)."""

@@ -388,7 +388,9 @@ void main() {
     v_beam = beam_coords(world.xyz);
     v_albedo = vec4(surface_at(N, V, to_linear(base.rgb)).albedo, through);
 #endif
-    if (emissive()) {
+    // a lamp's program has LAMP compiled in: the lighting below is dead code there, where
+    // llvmpipe would otherwise run it for every lamp vertex (it runs both sides of a branch)
+    if (flagged(LAMP) || emissive()) {
         v_shade = v_sun = mix(to_display(tone_map(fog.rgb)), base.rgb, through);
         return;
     }
@@ -468,6 +470,7 @@ def shader_defines(preset: Preset, night: bool, sun_up: bool = True,
         "POOLS": "1",
         "WINDOWS": "2",
         "UNTEXTURED": "4",
+        "LAMP": "8",
         "HEAD_REACH_M": f"{HEAD_REACH_M}",
     }
     if flags is not None:
