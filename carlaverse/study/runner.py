@@ -148,13 +148,13 @@ class StudyRunner:
 
     def _lsl(self) -> LslSession | None:
         """The study's LSL streams found and its marker outlets' prefix set; None without LSL.
-        LslError (one line naming the fix) when pylsl or a stream is missing."""
+        LslUnavailable, LslConfigConflict or StreamMissing (one line naming the fix)."""
         wanted = self.study.lsl
         if wanted is None:
             return None
+        network = LslNetwork(wanted.scope, wanted.session_id, tuple(wanted.known_peers))
         return LslSession.prepare(
-            wanted.streams, network=LslNetwork(wanted.scope, wanted.session_id),
-            wait_s=wanted.wait_s, markers=wanted.markers,
+            wanted.streams, network=network, wait_s=wanted.wait_s, markers=wanted.markers,
             stream_prefix=f"carlaverse-{self.study.name}-{self.log.state.run_id}",
         )  # fmt: skip
 

@@ -123,8 +123,9 @@ class LslSettings(StrictStruct):
     """LSL streams recorded into every trial's recording, and the study's own marker outlets."""
 
     streams: list[str] = []  # LSL stream names, found once before the first trial
-    scope: Literal["machine", "link", "site", "organization", "global"] = "machine"
+    scope: Literal["machine", "lab"] = "machine"  # this host only, or the lab's network
     session_id: str = "default"  # liblsl's SessionID: only equal ids see each other
+    known_peers: list[str] = []  # hosts asked directly where the lab's multicast is blocked
     wait_s: Annotated[float, msgspec.Meta(gt=0, le=600)] = 10.0  # [s] to find the streams
     markers: bool = True  # trial_start/trial_end markers and the session clock as LSL outlets
 

@@ -86,7 +86,7 @@ def test_questionnaires_and_lsl_load(tmp_path: Path) -> None:
     [
         (("[ssq, raw-tlx]", "[ssq, sus]"), "$.questionnaires.after_trial[1]"),
         (("kind: bike, hmi_port: 8081}", "kind: bike}"), "$.participants[1].hmi_port"),
-        (("lsl: {streams: [ECG]}", "lsl: {streams: [ECG], scope: lab}"), "$.lsl.scope"),
+        (("lsl: {streams: [ECG]}", "lsl: {streams: [ECG], scope: planet}"), "$.lsl.scope"),
         (("lsl: {streams: [ECG]}", "lsl: {stream: [ECG]}"), "stream"),
         (("timeout_s: 300", "timeout_s: 0"), "$.questionnaires.timeout_s"),
     ],
