@@ -117,7 +117,8 @@ class StudyAgent:
         self.say(f"{self.participant}: joining trial {brief.trial} (session {brief.session})")
 
     def _relay_hmi(self, line: str) -> None:
-        """Where the node's HMI is (its port may be any free one): the participant's page."""
+        """Where the node's HMI is (its port may be any free one): the participant's page.
+        Only that line: the pairing URL's token (an HMI beyond loopback) stays on the node."""
         if HMI_SAYS in line:
             self.say(f"{self.participant}: {line[line.index(HMI_SAYS) :].strip()}")
 
