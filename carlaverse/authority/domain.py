@@ -8,6 +8,7 @@ domain never touches Zenoh itself, so it can be tested without a network.
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Protocol
@@ -73,8 +74,18 @@ class GlobalDomain(Protocol):
     def close(self) -> None: ...
 
 
+# Without a scenario, each embodied node starts in a row of its own, side by side along y,
+# all heading east (+x): first at the origin, as before, the next 8 m to its right, and so on.
+# With one start for all, two participants stood on one spot, in contact from their first pose.
+ROW_GAP_M = 8.0
+
+
 class EmptyDomain:
     """A world with nothing global in it: membership only (tests, minimal sessions)."""
+
+    def __init__(self) -> None:
+        self._rows: dict[str, int] = {}  # node id -> its row, kept for a re-join
+        self._lock = threading.Lock()  # joins are answered on Zenoh's threads
 
     def ego_joined(self, track: EgoTrack) -> None:
         pass
@@ -95,7 +106,11 @@ class EmptyDomain:
         return None
 
     def spawn_point(self, node_kind: str, node_id: str) -> SpawnPoint | None:
-        return None
+        if node_kind == "observer":
+            return None  # nothing to place
+        with self._lock:
+            row = self._rows.setdefault(node_id, len(self._rows))
+        return SpawnPoint(0.0, -ROW_GAP_M * row, 0.0, 0.0)
 
     def close(self) -> None:
         pass

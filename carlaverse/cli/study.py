@@ -44,12 +44,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     sub = parser.add_subparsers(dest="action", metavar="ACTION", required=True)
     check = sub.add_parser("validate", help="check a study file, its scenarios and node configs")
-    check.add_argument("file", type=Path)
+    check.add_argument("file", type=Path, help="the study file (YAML)")
     schedule = sub.add_parser("plan", help="print every trial: participant x condition")
-    schedule.add_argument("file", type=Path)
+    schedule.add_argument("file", type=Path, help="the study file (YAML)")
     schedule.add_argument("--json", action="store_true", help="the plan as JSON")
     run = sub.add_parser("run", help="run the trials not yet completed in --out")
-    run.add_argument("file", type=Path)
+    run.add_argument("file", type=Path, help="the study file (YAML)")
     run.add_argument("--out", type=Path, required=True, help="output folder (log, recordings)")
     run.add_argument(
         "--connect", action="append", default=[], metavar="EP",
@@ -75,6 +75,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     agent.add_argument("--participant", required=True, help="the participant's pseudonym")
     agent.add_argument("--connect", required=True, metavar="EP",
                        help="the participant's link (the runner prints it)")  # fmt: skip
+    agent.add_argument("--hmi", type=int, metavar="PORT",
+                       help="the node serves its web HMI on PORT (0: any free one), where the "
+                       "participant answers the study's questionnaires")  # fmt: skip
     agent.add_argument("--exit-with-parent", action="store_true",
                        help="end when the process that started it ends (local launch)")  # fmt: skip
     status = sub.add_parser("status", help="where a run stands: each trial from its log")
@@ -128,6 +131,7 @@ def _plan(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from carlaverse.cli.record_lsl import LSL_ERRORS
     from carlaverse.recording.sink import RecordingError
     from carlaverse.study.people import load_people
     from carlaverse.study.runner import RunSettings, StudyRunner
@@ -150,6 +154,8 @@ def _run(args: argparse.Namespace) -> int:
     except FabricError as exc:  # the router named cannot be reached, a session not opened
         return fail("study", str(exc), Exit.FABRIC)
     except RecordingError as exc:
+        return fail("study", str(exc), Exit.FAILED)
+    except LSL_ERRORS as exc:  # pylsl or a stream the study file names is missing
         return fail("study", str(exc), Exit.FAILED)
     why = f" ({result.reason})" if result.reason else ""
     again = "" if result.outcome == "done" else f"; run again with --out {args.out} to resume"
@@ -174,7 +180,8 @@ def _agent(args: argparse.Namespace) -> int:
         session = open_session(FabricSettings(mode="client", connect=[args.connect]), stop=stop)
     except FabricError as exc:
         return fail("study", str(exc), stop.exit_code() if stop.is_set() else Exit.FABRIC)
-    agent = StudyAgent(session, args.study, args.participant, args.connect, say("study agent"))
+    agent = StudyAgent(session, args.study, args.participant, args.connect, say("study agent"),
+                       hmi_port=args.hmi)  # fmt: skip
     tell(f"study agent of {args.participant} in study {args.study}, via {args.connect}")
     try:
         agent.run(stop)

@@ -34,8 +34,12 @@ def study_panel(runs: StudyRuns) -> None:
             study_file = ui.input("study file").props("dense data-testid=study-file")
             folder = ui.input("run folder", value="study-runs/run-1")
             folder.props("dense data-testid=study-out")
-            ui.button("Start", on_click=lambda: _act(runs.start, study_file.value, folder.value))
-            ui.button("Open", on_click=lambda: _act(runs.open, folder.value)).props("outline")
+            start = ui.button(
+                "Start", on_click=lambda: _act(runs.start, study_file.value, folder.value)
+            )
+            start.props("data-testid=study-start")
+            follow = ui.button("Open", on_click=lambda: _act(runs.open, folder.value))
+            follow.props("outline data-testid=study-open")
         with ui.row().classes("items-end"):
             for name in COMMANDS:
                 button = ui.button(name, on_click=lambda n=name: _act(runs.send, n))

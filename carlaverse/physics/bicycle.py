@@ -47,6 +47,15 @@ class BicycleParams(StrictStruct):
     stop_hold_s: NonNegative = 1.0  # a knock-back holds the bike still this long
     fall_hold_s: NonNegative = 3.0  # a fallen rider stays down this long
     push_decay_s: Positive = 0.3  # a sideways push fades with this time constant
+    # How fast the bike's speed may follow the wheel's reading. A trainer or sensor reports
+    # in steps (BLE: 1-4 Hz; a sim profile: jumps), and a 0.25 m/s step taken in one 5 ms tick
+    # is 50 m/s² in the pose (0.15 -> 2.67 m/s in one tick was seen: 503 m/s²), which every
+    # receiver's dead reckoning then projects. The body cannot do that: a sprint from rest is
+    # about 2.5 m/s², and braking is bounded near 0.6 g by the rider pitching over the front
+    # wheel (Wilson, Bicycling Science, 3rd ed., ch. 7), below the tyres' friction μg.
+    # (`WheelReading` applies them to what the sensor says, before `Bicycle.step`.)
+    max_accel_mps2: Positive = 3.0
+    max_decel_mps2: Positive = 6.0
 
 
 @dataclass(slots=True)
@@ -147,3 +156,31 @@ class Bicycle:
         self._push[0] *= keep
         self._push[1] *= keep
         self._dv_forward *= keep
+
+
+class WheelReading:
+    """The wheel speed a trainer or sensor reports, as the bike can follow it: each tick it
+    moves toward the reading by at most `max_accel_mps2` (`max_decel_mps2` slowing) × dt,
+    so a step in the reading becomes a ramp the rider's body could ride (see the params).
+    The first reading after a start or a `reset` (a spawn) is taken as it is: it is how fast
+    the rider already goes, not a change."""
+
+    def __init__(self, params: BicycleParams) -> None:
+        self.params = params
+        self.mps: float | None = None
+
+    def reset(self) -> None:
+        self.mps = None
+
+    def follow(self, reading_mps: float, dt: float, stopped: bool = False) -> float:
+        """The speed to ride this tick; `stopped`: the bike is held still (a fall, a knock),
+        and rides on from rest."""
+        p, reading = self.params, max(0.0, reading_mps)
+        if stopped:
+            self.mps = 0.0
+        elif self.mps is None:
+            self.mps = reading
+        else:
+            step = max(-p.max_decel_mps2 * dt, min(p.max_accel_mps2 * dt, reading - self.mps))
+            self.mps = max(0.0, self.mps + step)
+        return self.mps

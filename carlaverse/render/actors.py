@@ -4,7 +4,8 @@ Each vehicle is a placed node (position and heading) holding its body, scaled to
 from one prototype per kind (`bodies`, so 200 cars share one mesh) with its lamps
 (`lamps.LampSet`), and its wheels in metres (`running_gear.Wheelset`), which roll by the
 distance the actor moved along its heading and whose front pair steers by the actor's
-road-wheel angle (sent, or from its yaw rate and speed: `motion`). A cyclist's legs pedal
+road-wheel angle (sent, or from its yaw rate and speed: `motion`); a two-wheeler's handlebar
+turns with its front wheel. A cyclist's legs pedal
 with the rolled distance. Pedestrians are articulated figures (`figure.Figure`): posed from
 the skeleton a walker sends, else walking with a gait from their speed (`gait`), its phase
 advancing with the distance walked.
@@ -26,6 +27,8 @@ from carlaverse.messages import Extent
 from carlaverse.render import palette
 from carlaverse.render.bodies import (
     WHEELS,
+    bar_place,
+    bar_prototype,
     leg_geometry,
     prototype,
     wheel_places,
@@ -36,6 +39,7 @@ from carlaverse.render.gait import advance_phase, crank_angle, pelvis_drop, walk
 from carlaverse.render.lamps import LAMPS, LampSet, lamp_prototype
 from carlaverse.render.motion import Motion
 from carlaverse.render.running_gear import (
+    Handlebar,
     PedallingLegs,
     Wheelset,
     limb_prototype,
@@ -62,6 +66,7 @@ class _Drawn:
     body: NodePath | None = None  # scaled to the extent (unit-frame prototype, lamps)
     lamps: LampSet | None = None
     wheels: Wheelset | None = None
+    bar: Handlebar | None = None
     legs: PedallingLegs | None = None
     figure: Figure | None = None
     motion: Motion = field(default_factory=Motion)
@@ -80,8 +85,9 @@ class ActorLayer:
     def __init__(self, parent: NodePath) -> None:
         self.root = parent.attach_new_node("actors")
         self._protos: dict[tuple[str, bool], NodePath] = {}
-        self._lamp = lamp_prototype()
+        self.lamp_prototype = lamp_prototype()  # shared by every lamp: `lighting.lamps`
         self._limb = limb_prototype()
+        self._bar = bar_prototype()
         self._wheel = {"road": road_wheel(), "spoked": spoked_wheel()}
         self._drawn: dict[str, _Drawn] = {}
 
@@ -125,10 +131,13 @@ class ActorLayer:
         drawn.body.set_scale(*size)
         self._protos[key].instance_to(drawn.body)
         if actor.kind in LAMPS:
-            drawn.lamps = LampSet(drawn.body, LAMPS[actor.kind], self._lamp)
+            drawn.lamps = LampSet(drawn.body, LAMPS[actor.kind], self.lamp_prototype)
         extent = Extent(actor.length, actor.width, actor.height)
         wheel = self._wheel["spoked" if actor.kind == "bicycle" else "road"]
         drawn.wheels = Wheelset(node, wheel_places(actor.kind, extent), wheel)
+        bar = bar_place(actor.kind, extent)
+        if bar is not None:
+            drawn.bar = Handlebar(node, bar, self._bar)
         if actor.kind == "bicycle":
             drawn.legs = PedallingLegs(node, leg_geometry(extent), self._limb)
         return drawn
@@ -148,6 +157,8 @@ def _ride(drawn: _Drawn, a: ActorDraw, t: float) -> None:
         if steer is None:
             steer = m.road_wheel_angle(wheels.wheelbase_m(a.length), speed, yaw_rate)
         drawn.wheels.steer(steer)
+        if drawn.bar is not None:
+            drawn.bar.steer(steer)
     if drawn.legs is not None and drawn.wheels is not None and drawn.wheels.places:
         radius = drawn.wheels.places[0].radius_m
         drawn.legs.pedal(crank_angle(m.rolled_m, radius, start=drawn.start))

@@ -9,10 +9,11 @@ the body's faces, standing `GLASS_PROUD` off them: a polygon offset did not reli
 a face seen square-on. For the same reason the bodies' end faces stop at `END`, short of the
 box's ends, which the lamps (`lamps`) reach.
 
-Wheels and a cyclist's legs move, so they are not in the scaled body: an unevenly scaled frame
-would shear a turning wheel. `wheel_places` and `leg_geometry` put them in metres for the
-actor's own extent. Wheels are sized for the kind's typical extent (`KIND_EXTENTS`) and scaled
-uniformly by the smaller of the length and height ratios, so they stay round and in the box.
+Wheels, a two-wheeler's handlebar and a cyclist's legs move, so they are not in the scaled
+body: an unevenly scaled frame would shear a turning wheel. `wheel_places`, `bar_place` and
+`leg_geometry` put them in metres for the actor's own extent. Wheels are sized for the kind's
+typical extent (`KIND_EXTENTS`) and scaled uniformly by the smaller of the length and height
+ratios, so they stay round and in the box.
 Two-wheelers and their riders are modelled in metres at the typical extent (`_Sculpt.metric`).
 """
 
@@ -234,7 +235,6 @@ def _motorcycle(s: _Sculpt, body: Color) -> None:
     s.box_m((0, -0.77, 0.66), (0.18, 0.54, 0.08), body)  # tail, its lamp to the box's end
     s.beam_m((0, 0.55, 1.0), (0, 0.693, 0.3), 0.09, FRAME)  # fork
     s.box_m((0, 0.96, 0.8), (0.28, 0.16, 0.2), body)  # nacelle, its lamp to the box's front
-    s.box_m((0, 0.52, 1.05), (0.8, 0.04, 0.04), FRAME)  # handlebar and mirrors: the width
     s.beam_m((0, -0.3, 0.85), (0, -0.05, 1.3), 0.36, JACKET)
     s.box_m((0, -0.02, 1.28), (0.26, 0.28, 0.22), FRAME)  # helmet: the top
     for side in (-1.0, 1.0):
@@ -257,7 +257,6 @@ def _bicycle(s: _Sculpt, body: Color) -> None:
                  ((0, 0.40, 0.74), front), ((0, 0.36, 0.88), (0, 0.36, 1.0))):  # fmt: skip
         s.beam_m(a, b, 0.04, body)
     s.box_m((0, -0.28, 0.93), (0.14, 0.26, 0.05), FRAME)  # saddle
-    s.box_m((0, 0.295, 1.0), (0.6, 0.03, 0.03), FRAME)  # handlebar: the width
     s.box_m((0, -0.675, 0.78), (0.14, 0.45, 0.02), FRAME)  # rear rack: the back
     s.beam_m((0, -0.8, 0.78), rear, 0.02, FRAME)
     s.box_m((0, 0.725, 0.82), (0.34, 0.35, 0.24), BASKET)  # front basket: the front
@@ -289,6 +288,43 @@ def prototype(kind: str, ego: bool) -> NodePath:
     sculpt = _Sculpt(kind)
     SCULPTORS.get(kind, _other)(sculpt, body_color(kind, ego))
     return sculpt.node()
+
+
+# ----------------------------------------------------------------- a two-wheeler's handlebar
+
+# In metres at the kind's typical extent: the middle of the bar's bottom face and its size
+# (across, along, up). It turns with the steer about its stem, a vertical axis through its
+# middle, as the front wheel turns (`running_gear.Handlebar`); straight, it spans the width.
+BARS: dict[str, tuple[Point3, Point3]] = {
+    "motorcycle": ((0.0, 0.52, 1.05), (0.8, 0.04, 0.04)),  # with its mirrors
+    "bicycle": ((0.0, 0.295, 1.0), (0.6, 0.03, 0.03)),
+}
+
+
+@dataclass(frozen=True, slots=True)
+class BarPlace:
+    """A handlebar of one actor, in metres in its frame (x right, y forward, z up)."""
+
+    stem: Point3  # the middle of the bar's bottom face, on the axis it turns about
+    size: Point3  # across, along, up
+
+
+def bar_place(kind: str, size: Extent) -> BarPlace | None:
+    """Where an actor of `kind` and extent `size` has its handlebar (None: it has none)."""
+    bar = BARS.get(kind)
+    if bar is None:
+        return None
+    t = KIND_EXTENTS[kind]
+    k = (size.width / t.width, size.length / t.length, size.height / t.height)
+    (x, y, z), (across, along, up) = bar
+    return BarPlace((x * k[0], y * k[1], z * k[2]), (across * k[0], along * k[1], up * k[2]))
+
+
+def bar_prototype() -> NodePath:
+    """A unit box standing on the middle of its bottom face: each bar instances it, scaled."""
+    mesh = MeshBuilder("handlebar")
+    mesh.box((0.0, 0.0, 0.0), (1.0, 1.0, 1.0), FRAME)
+    return NodePath(mesh.node())
 
 
 # ----------------------------------------------------------------- a cyclist's legs

@@ -54,7 +54,7 @@ class Material:
     untextured: bool = False  # no texture to fetch (a pixel's fetch is dear on llvmpipe)
 
     def flags(self) -> int:
-        """The flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4."""
+        """The flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4 (LAMP 8: `lamps`)."""
         flags = (1 if self.pools else 0) | (2 if self.windows else 0)
         return flags | (4 if self.untextured else 0)
 
@@ -81,6 +81,7 @@ OWN_VEHICLE_MATERIAL = Material(0.0, 0.35, 0.12, untextured=True)
 # Roads are drawn before the rest of the opaque scene: the ground beneath them then fails the
 # depth test before it is shaded (on llvmpipe a shaded pixel is the frame's cost).
 ROAD_BIN, ROAD_BIN_SORT = "road_first", 15  # Panda3D's "opaque" bin sorts at 20
+LAMP_FLAG = 8  # shaders.py's LAMP: a program that only glows
 FLAT_M = 0.3  # [m] geometry no taller casts no shadow worth a pass (ground, roads, kerbs)
 
 
@@ -101,8 +102,8 @@ class SceneLighting:
         self.rain: Rain | None = None
         if not preset.shaded:
             return
-        # by (night, sun up, flags compiled in), made on need
-        self._shaders: dict[tuple[bool, bool, int | None], Shader] = {}
+        # by (night, sun up, flags compiled in, wet), made on need
+        self._shaders: dict[tuple[bool, bool, int | None, bool], Shader] = {}
         self._flagged: list[tuple[NodePath, int]] = []  # nodes with a program of their own
         _start_inputs(world)
         for node, material in _materials(road.get_parent(), road):
@@ -135,6 +136,13 @@ class SceneLighting:
         if self.boxes is not None:
             root.hide(SHADOW_MASK)
 
+    def lamps(self, prototype: NodePath) -> None:
+        """Give the vehicles' lamp prototype a program of its own where light is per vertex: a
+        lamp glows whatever the light, and its vertices (a tenth of a car's) skip lighting."""
+        if self.preset.shaded and not self.preset.per_pixel:
+            self._flagged.append((prototype, VEHICLE_MATERIAL.flags() | LAMP_FLAG))
+            self._aim_sun()
+
     def update(self, frame: SceneFrame, head: NodePath, own: str | None) -> bool:
         """Light `frame` seen from `head`; True if the weather changed (the clear colour too)."""
         changed = self.weather.update(frame.weather, frame.t)
@@ -159,17 +167,18 @@ class SceneLighting:
         if self.dome is not None:
             self.dome.aim(day.towards_sun)
         night, sun_up = day.night > 0.0, day.towards_sun[2] > SUN_UP_Z
+        wet = self.weather.shown.wetness > 0.0  # the shaders' wetness input is clamped to 0..1
         compiled = None if self.preset.per_pixel else 0
-        self.world.set_shader(self._shader(night, sun_up, compiled))
+        self.world.set_shader(self._shader(night, sun_up, compiled, wet))
         for node, flags in self._flagged:
-            node.set_shader(self._shader(night, sun_up, flags))
+            node.set_shader(self._shader(night, sun_up, flags, wet))
         if self.shadow is not None:
             self.shadow.aim(day.towards_sun)
         if self.street is not None:
             self.street.night(day.night)
 
-    def _shader(self, night: bool, sun_up: bool, flags: int | None) -> Shader:
-        key = (night, sun_up, flags)
+    def _shader(self, night: bool, sun_up: bool, flags: int | None, wet: bool) -> Shader:
+        key = (night, sun_up, flags, wet)
         if key not in self._shaders:
             self._shaders[key] = Shader.make(Shader.SL_GLSL, *surface_sources(self.preset, *key))
         return self._shaders[key]

@@ -17,6 +17,7 @@ import math
 from collections.abc import Callable, Sequence
 
 from panda3d.core import (
+    BoundingVolume,
     Geom,
     GeomNode,
     GeomTriangles,
@@ -62,6 +63,9 @@ class MeshBuilder:
             self._stages.append((TextureStage.get_default(), texture))
         self._tris = GeomTriangles(Geom.UH_static)
         self._count = 0
+        # cull by a box rather than Panda3D's default sphere: a sphere round a flat tile of
+        # ground reaches over the eye's plane and would keep tiles behind the eye drawn
+        self.box_bounds = False
 
     @property
     def empty(self) -> bool:
@@ -100,6 +104,23 @@ class MeshBuilder:
         i = [self._add(p, n, color, uv) for p, uv in zip((a, b, c, d), corners, strict=True)]
         self._tris.add_vertices(i[0], i[1], i[2])
         self._tris.add_vertices(i[0], i[2], i[3])
+
+    def fan(self, hub: Point3, rim: Sequence[Point3], normal: Point3, color: Color) -> None:
+        """A flat fan of triangles from `hub` round the closed `rim`, its front facing `normal`:
+        one vertex per point, each rim vertex shared by the two triangles that meet there."""
+        centre = self._add(hub, normal, color)
+        ring = [self._add(p, normal, color) for p in rim]
+        for k, a in enumerate(ring):
+            b = ring[(k + 1) % len(ring)]
+            u = [rim[k][i] - hub[i] for i in range(3)]
+            v = [rim[(k + 1) % len(rim)][i] - hub[i] for i in range(3)]
+            cross = (
+                u[1] * v[2] - u[2] * v[1],
+                u[2] * v[0] - u[0] * v[2],
+                u[0] * v[1] - u[1] * v[0],
+            )
+            front = sum(c * n for c, n in zip(cross, normal, strict=True)) >= 0
+            self._tris.add_vertices(centre, *((a, b) if front else (b, a)))
 
     def flat_quad(self, corners: Sequence[Point2], z: float, color: Color,
                   uvs: Sequence[Point2] | None = None) -> None:  # fmt: skip
@@ -165,19 +186,23 @@ class MeshBuilder:
     def grid(self, bounds: tuple[float, float, float, float], z: float, color: Color,
              cells: int, shade: Callable[[float, float], float] | None = None) -> None:  # fmt: skip
         """A flat rectangle cut into cells × cells quads, facing up; `shade(x, y)` scales the
-        colour at each corner (smoothly, as neighbouring quads share their corners' values)."""
+        colour at each corner. A corner is one vertex shared by the quads that meet there: its
+        values were the same in each, and a vertex is lit once instead of up to four times (on
+        llvmpipe the vertex shader runs on the thread that submits the scene)."""
         xmin, ymin, xmax, ymax = bounds
         dx, dy = (xmax - xmin) / cells, (ymax - ymin) / cells
+        xs = [xmin + i * dx for i in range(cells)] + [xmax]  # the edge exact: a neighbour's
+        ys = [ymin + j * dy for j in range(cells)] + [ymax]
+        corner = [
+            [self._add((x, y, z), UP, color if shade is None else _shade(color, shade(x, y)))
+             for y in ys]
+            for x in xs
+        ]  # fmt: skip
         for i in range(cells):
             for j in range(cells):
-                x0, y0 = xmin + i * dx, ymin + j * dy
-                corners = ((x0, y0, z), (x0 + dx, y0, z), (x0 + dx, y0 + dy, z), (x0, y0 + dy, z))
-                if shade is None:
-                    self.quad(*corners, color)
-                    continue
-                k = [self._add(p, UP, _shade(color, shade(p[0], p[1]))) for p in corners]
-                self._tris.add_vertices(k[0], k[1], k[2])
-                self._tris.add_vertices(k[0], k[2], k[3])
+                a, b, c, d = corner[i][j], corner[i + 1][j], corner[i + 1][j + 1], corner[i][j + 1]
+                self._tris.add_vertices(a, b, c)
+                self._tris.add_vertices(a, c, d)
 
     def polygon(self, outline: Sequence[Point2], z: float, color: Color) -> None:
         """A flat filled polygon (any simple outline, either winding), facing up."""
@@ -252,6 +277,9 @@ class MeshBuilder:
             state = RenderState.make(attrib)
         for extra in self._attribs:
             state = state.add_attrib(extra)
+        if self.box_bounds:  # the geom's own bounds too: the node's box would hold its sphere
+            geom.set_bounds_type(BoundingVolume.BT_box)
+            node.set_bounds_type(BoundingVolume.BT_box)
         node.add_geom(geom, state)
         return node
 

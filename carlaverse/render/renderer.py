@@ -53,6 +53,7 @@ class Renderer:
         self.lighting = SceneLighting(self.world, self.graphics, road, road_map, self.bounds,
                                       config.draw_distance_m)  # fmt: skip
         self.lighting.vehicles(self.actors.root)
+        self.lighting.lamps(self.actors.lamp_prototype)
         self.rig = CameraRig(self.world, self.graphics, self.layout, config.draw_distance_m,
                              VIEW_MASK)  # fmt: skip
         self.rig.set_sky(self.lighting.weather.sky)

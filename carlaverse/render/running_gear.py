@@ -17,7 +17,7 @@ import math
 
 from panda3d.core import NodePath
 
-from carlaverse.render.bodies import FRAME, LegGeometry, WheelPlace
+from carlaverse.render.bodies import FRAME, BarPlace, LegGeometry, WheelPlace
 from carlaverse.render.gait import leg_to, pedal
 from carlaverse.render.meshes import Color, MeshBuilder
 from carlaverse.render.shapes import beam, disc_x, facing, ring_x
@@ -83,6 +83,22 @@ class Wheelset:
         for place, hub in zip(self.places, self.hubs, strict=True):
             if place.front:
                 hub.set_h(math.degrees(angle))
+
+
+class Handlebar:
+    """A two-wheeler's handlebar under its (unscaled, placed) node, turned about its stem by
+    the steer, as the front wheel is: a left steer (positive) takes its left end back."""
+
+    def __init__(self, parent: NodePath, place: BarPlace, prototype: NodePath) -> None:
+        self.stem = parent.attach_new_node("handlebar")
+        self.stem.set_pos(*place.stem)
+        bar = self.stem.attach_new_node("bar")
+        bar.set_scale(*place.size)
+        prototype.instance_to(bar)
+
+    def steer(self, angle: float) -> None:
+        """Turn the bar by the road-wheel angle [rad], left positive."""
+        self.stem.set_h(math.degrees(angle))
 
 
 def limb_prototype() -> NodePath:

@@ -2,7 +2,10 @@
 their own: `scene_buildings`, `scene_trees`).
 
 The ground reaches `GROUND_MARGIN_M` beyond the map, cut into cells so that per-vertex fog has
-vertices near the eye; it and the parks share one grass texture (parks tinted greener).
+vertices near the eye; it and the parks share one grass texture (parks tinted greener). The
+ground is a mesh per tile (`GROUND_TILES` per side), so the tiles out of the camera's view are
+culled instead of every vertex of the ground being lit each frame (it was half the vertices
+the cpu preset lit in bench_render's view).
 """
 
 from __future__ import annotations
@@ -17,17 +20,14 @@ from carlaverse.render.textures import TextureSet
 
 GROUND_MARGIN_M = 200.0  # [m] the ground plane reaches this far beyond the map
 GROUND_CELLS = 80  # per side: fog is per vertex, so the ground needs vertices near the eye
+GROUND_TILES = 4  # per side; divides GROUND_CELLS: the tiles' cells are the ground's cells
 MEADOW_SHADE = 0.12  # ± share of brightness the ground's large patches vary by
 
 
 def build_land(bounds: tuple[float, float, float, float], areas: Iterable[MapArea],
                tex: TextureSet) -> list[MeshBuilder]:  # fmt: skip
     """Grass (the ground and every park) and water; kinds it does not know are skipped."""
-    xmin, ymin, xmax, ymax = bounds
-    m = GROUND_MARGIN_M
     grass = MeshBuilder("grass", tex.grass.texture, tex.grass.tile_m)
-    grass.grid((xmin - m, ymin - m, xmax + m, ymax + m), palette.GROUND_Z,
-               tex.grass.tint(palette.GROUND), GROUND_CELLS, meadow)  # fmt: skip
     water = MeshBuilder("water")
     for area in areas:
         outline = open_outline(area.polygon)
@@ -37,7 +37,26 @@ def build_land(bounds: tuple[float, float, float, float], areas: Iterable[MapAre
             water.polygon(outline, palette.WATER_Z, palette.WATER)
         elif area.kind == "vegetation":
             grass.polygon(outline, palette.JUNCTION_Z, tex.grass.tint(palette.VEGETATION))
-    return [grass, water]
+    return [*ground(bounds, tex), grass, water]
+
+
+def ground(bounds: tuple[float, float, float, float], tex: TextureSet) -> list[MeshBuilder]:
+    """The ground under and around the map, a mesh per tile."""
+    xmin, ymin, xmax, ymax = bounds
+    m, n = GROUND_MARGIN_M, GROUND_TILES
+    x0, y0, x1, y1 = xmin - m, ymin - m, xmax + m, ymax + m
+    # a tile's edges are computed the same way for both tiles that share them
+    xs = [x0 + i * (x1 - x0) / n for i in range(n)] + [x1]
+    ys = [y0 + j * (y1 - y0) / n for j in range(n)] + [y1]
+    tiles = []
+    for i in range(n):
+        for j in range(n):
+            tile = MeshBuilder(f"ground/{i}-{j}", tex.grass.texture, tex.grass.tile_m)
+            tile.box_bounds = True
+            tile.grid((xs[i], ys[j], xs[i + 1], ys[j + 1]), palette.GROUND_Z,
+                      tex.grass.tint(palette.GROUND), GROUND_CELLS // n, meadow)  # fmt: skip
+            tiles.append(tile)
+    return tiles
 
 
 def meadow(x: float, y: float) -> float:

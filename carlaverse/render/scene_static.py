@@ -2,7 +2,8 @@
 
 `Renderer._build_map` attaches `road` under the node wetness darkens and `land` beside it.
 Each entry is one mesh with one texture state, so the map costs a draw call per entry: about
-a dozen, and one per 100 m square that has trees (squares out of view are culled). Everything
+a dozen, one per 100 m square that has trees and one per tile of the ground in view (squares
+and tiles out of view are culled). Everything
 random is seeded by the map's name, so every node that draws the same map draws the same trees
 and facades.
 """

@@ -61,7 +61,15 @@ uniform vec3 ground_ambient;
 uniform vec4 fog;             // rgb colour, a = extinction [1/m]
 uniform float exposure;
 uniform float night;
+#if WET
 uniform float wetness;
+#else
+// dry weather: a constant, so every wet term (the sun's highlight and the sky mirrored by a
+// wet surface, lit per vertex) folds away when the program compiles. llvmpipe shades vertices
+// on the thread that submits the scene: these terms were a third of the cpu preset's cost
+// over flat there, and by a dry day they add exactly nothing.
+const float wetness = 0.0;
+#endif
 uniform vec4 surface;         // x wet response, y roughness, z flags (POOLS...), w gloss
 uniform vec4 clouds;          // x cover 0..1, y unused, zw drift of the pattern (sky)
 
@@ -382,7 +390,9 @@ void main() {
     v_beam = beam_coords(world.xyz);
     v_albedo = vec4(surface_at(N, V, to_linear(base.rgb)).albedo, through);
 #endif
-    if (emissive()) {
+    // a lamp's program has LAMP compiled in: the lighting below is dead code there, where
+    // llvmpipe would otherwise run it for every lamp vertex (it runs both sides of a branch)
+    if (flagged(LAMP) || emissive()) {
         v_shade = v_sun = mix(to_display(tone_map(fog.rgb)), base.rgb, through);
         return;
     }
@@ -436,12 +446,14 @@ void main() {
 
 
 def shader_defines(preset: Preset, night: bool, sun_up: bool = True,
-                   flags: int | None = None) -> str:  # fmt: skip
+                   flags: int | None = None, wet: bool = True) -> str:  # fmt: skip
     """The `#define`s that switch a program's features for one preset: by day or night, with
-    shadows only while the sun is up, and with the surface's flags compiled in when given."""
+    shadows only while the sun is up, with the surface's flags compiled in when given, and
+    with the wet terms only where the weather is wet (`wet`)."""
     values = {
         "PER_PIXEL": int(preset.per_pixel),
         "NIGHT": int(night),
+        "WET": int(wet),
         "SHADOW_TAPS": preset.shadow_taps if preset.shadow_map_px and sun_up else 0,
         "SHADOW_PX": f"{max(preset.shadow_map_px, 1)}.0",
         "HEADLIGHTS": preset.headlights,
@@ -460,6 +472,7 @@ def shader_defines(preset: Preset, night: bool, sun_up: bool = True,
         "POOLS": "1",
         "WINDOWS": "2",
         "UNTEXTURED": "4",
+        "LAMP": "8",
         "HEAD_REACH_M": f"{HEAD_REACH_M}",
     }
     if flags is not None:
@@ -468,18 +481,19 @@ def shader_defines(preset: Preset, night: bool, sun_up: bool = True,
 
 
 def program(preset: Preset, *stages: str, night: bool = False, sun_up: bool = True,
-            flags: int | None = None) -> str:  # fmt: skip
+            flags: int | None = None, wet: bool = True) -> str:  # fmt: skip
     """One stage's full source: version, the preset's switches, the common part, the stage."""
-    defines = shader_defines(preset, night, sun_up, flags)
+    defines = shader_defines(preset, night, sun_up, flags, wet)
     return "\n".join(("#version 330", defines, COMMON, *stages))
 
 
-def surface_sources(preset: Preset, night: bool, sun_up: bool,
-                    flags: int | None = None) -> tuple[str, str]:  # fmt: skip
+def surface_sources(preset: Preset, night: bool, sun_up: bool, flags: int | None = None,
+                    wet: bool = True) -> tuple[str, str]:  # fmt: skip
     """Vertex and fragment source of the surface shader for this preset and time of day;
-    `flags` (POOLS 1, WINDOWS 2, UNTEXTURED 4) compiled in, else read from `surface.z`."""
+    `flags` (POOLS 1, WINDOWS 2, UNTEXTURED 4) compiled in, else read from `surface.z`;
+    `wet` False compiles the weather's wetness in as 0 (a dry day)."""
     vs_body, fs_body = (PIXEL_VS, PIXEL_FS) if preset.per_pixel else (VERTEX_LIT_VS, VERTEX_LIT_FS)
-    key: dict[str, Any] = {"night": night, "sun_up": sun_up, "flags": flags}
+    key: dict[str, Any] = {"night": night, "sun_up": sun_up, "flags": flags, "wet": wet}
     vs = program(preset, SURFACE_HEAD, VERTEX_IN, vs_body, **key)
     fs = program(preset, SURFACE_HEAD, SHADOW_LOOKUP, EMISSION, fs_body, **key)
     return vs, fs

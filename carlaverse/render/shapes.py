@@ -85,11 +85,12 @@ def profile_x(mesh: MeshBuilder, outline: Sequence[Point2], x0: float, x1: float
 
 def disc_x(mesh: MeshBuilder, center: Point3, radius: Point2, side: float, color: Color,
            sides: int = 12) -> None:  # fmt: skip
-    """A flat disc in the plane x = center[0], facing +x (side 1) or −x (side −1)."""
+    """A flat disc in the plane x = center[0], facing +x (side 1) or −x (side −1): a fan whose
+    vertices its triangles share (every wheel of every vehicle has two, each vertex lit per
+    frame by the cpu preset)."""
     cx, cy, cz = center
-    ring = _ring(cy, cz, radius, sides)
-    for (y0, z0), (y1, z1) in zip(ring, ring[1:] + ring[:1], strict=True):
-        facing(mesh, ((cx, cy, cz), (cx, y0, z0), (cx, y1, z1)), (side, 0.0, 0.0), color)
+    rim = [(cx, y, z) for y, z in _ring(cy, cz, radius, sides)]
+    mesh.fan((cx, cy, cz), rim, (side, 0.0, 0.0), color)
 
 
 def ring_x(mesh: MeshBuilder, center: Point3, width: float, outer: float, inner: float,

@@ -28,6 +28,7 @@ log = logging.getLogger(__name__)
 
 STALE_S = 3.0  # [s] without a brief: the runner is gone, the node is stopped
 POLL_S = 0.1  # [s] how often the loop looks at the newest brief
+HMI_SAYS = "HMI at "  # how the node's line naming its HMI's URL goes on
 NODE_STOP_GRACE_S = 5.0  # [s] from SIGINT (the node leaves the session) to SIGTERM
 
 
@@ -42,8 +43,10 @@ class StudyAgent:
         connect: str,
         say: Callable[[str], None],
         monotonic: Callable[[], float] = time.monotonic,
+        hmi_port: int | None = None,
     ) -> None:
         self.participant = participant
+        self.hmi_port = hmi_port  # the node serves its HMI (questionnaires) here; None: none
         self.connect = connect
         self.say = say
         self.monotonic = monotonic
@@ -105,10 +108,19 @@ class StudyAgent:
             argv += ["--config", str(config)]
         if brief.backend:
             argv += ["--backend", brief.backend]
-        self._node = start_child(argv, name=f"node {self.participant}", role="node")
+        if self.hmi_port is not None:
+            argv += ["--hmi", str(self.hmi_port)]
+        self._node = start_child(argv, name=f"node {self.participant}", role="node",
+                                 on_stderr=self._relay_hmi)  # fmt: skip
         self._running = (brief.trial, brief.attempt)
         self.nodes_started += 1
         self.say(f"{self.participant}: joining trial {brief.trial} (session {brief.session})")
+
+    def _relay_hmi(self, line: str) -> None:
+        """Where the node's HMI is (its port may be any free one): the participant's page.
+        Only that line: the pairing URL's token (an HMI beyond loopback) stays on the node."""
+        if HMI_SAYS in line:
+            self.say(f"{self.participant}: {line[line.index(HMI_SAYS) :].strip()}")
 
     def _node_ended(self) -> None:
         assert self._node is not None

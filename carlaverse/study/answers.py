@@ -25,6 +25,8 @@ import msgspec
 
 from carlaverse import messages as m
 
+ANSWERS_NAME = "answers.jsonl"  # a study run's answers file, in its output folder
+
 
 class Asked(msgspec.Struct, frozen=True, tag="asked"):
     """A questionnaire was sent to a node (its items, for the export)."""

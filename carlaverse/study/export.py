@@ -5,7 +5,8 @@
 writes, into the export folder, one table per measure (each as Parquet and CSV):
 
     trials          one row per participant per trial attempt: outcome, times, link, view error
-    trajectories    per participant per completed trial: distance, speed, acceleration
+    trajectories    per participant per completed trial: distance, speed, acceleration (from
+                    every recorded pose)
     encounters      per pair per completed trial: least TTC, gap, DRAC, PET, the flags
     triggers        per scenario trigger per completed trial: fired or not, when, its values
     questionnaires  per participant per questionnaire: every score and item (long)
@@ -34,6 +35,7 @@ from carlaverse.recording.sink import RecordingError
 from carlaverse.study import export_measures as em
 from carlaverse.study import export_tables as et
 from carlaverse.study.export_inputs import StudyRun, read_run, study_sites
+from carlaverse.study.export_paths import read_poses
 
 COLUMNS = {
     "trials": et.TRIALS,
@@ -91,12 +93,13 @@ def collect(
         progress(f"trial {attempt.trial}: {path.name}")
         try:
             read = read_recording(path, rate_hz)
+            poses = read_poses(path, set(attempt.conditions))
             lsl = em.lsl_rows(attempt, path)
         except (RecordingError, OSError) as exc:
             excluded.append(f"trial {attempt.trial}: its recording cannot be read ({exc})")
             continue
         pairs, conflicts = measure(read.tracks, th)
-        measured = et.Measured(attempt, read, pairs, conflicts, th)
+        measured = et.Measured(attempt, read, pairs, conflicts, poses)
         tables["trajectories"] += et.trajectory_rows(run, measured)
         tables["encounters"] += et.encounter_rows(run, measured)
         tables["triggers"] += et.trigger_rows(run, measured)
@@ -136,8 +139,9 @@ def _write_readme(
         f"({len(run.attempts)} trial attempts, {len(run.completed())} completed). Participants "
         "appear by pseudonym only.", "",
         "Each table is a Parquet file and a CSV file with the same rows; `columns.json` "
-        "describes every column. Measures come from `carlaverse analyze`'s analysis of each "
-        f"completed trial's recording, on a {rate_hz:g} Hz grid: TTC threshold "
+        "describes every column. Trajectories are summarised from every recorded pose; encounters "
+        "come from `carlaverse analyze`'s analysis of each completed trial's recording, on a "
+        f"{rate_hz:g} Hz grid: TTC threshold "
         f"{th.ttc_s:g} s, horizon {th.ttc_horizon_s:g} s, DRAC limit "
         f"{th.drac_limit_mps2:g} m/s², standstill below {th.standstill_mps:g} m/s.", "",
         "## Tables", "",

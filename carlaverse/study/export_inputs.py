@@ -10,15 +10,17 @@ pseudonym -> person mapping is never read: nothing here can carry it into an exp
 from __future__ import annotations
 
 import json
+import re
 from dataclasses import dataclass, field
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any
 
+from carlaverse.study.answers import ANSWERS_NAME
+from carlaverse.study.study_file import PSEUDONYM
 from carlaverse.study.study_log import COMPLETED, LOG_NAME, StudyLogError, read_events
 from carlaverse.study.trial import TRIALS_DIR
 
-ANSWERS_NAME = "answers.jsonl"  # where the runner stores questionnaire answers (asking.py)
 MIXED = "mixed"  # the condition of a trial-level row whose participants' conditions differ
 
 
@@ -126,7 +128,17 @@ def read_run(folder: Path, sites: dict[str, str] | None = None) -> StudyRun:
             _ended(attempts.setdefault(key, Attempt(trial, key[1])), event)
         elif kind == "note":
             _note(latest.get(trial), between, event)
+    _check_pseudonyms(log, [*roles, *(p for a in attempts.values() for p in a.conditions)])
     return StudyRun(folder, study, roles, sites or {}, list(attempts.values()), between)
+
+
+def _check_pseudonyms(log: Path, ids: list[str]) -> None:
+    """A log edited by hand could name a person where a pseudonym belongs: refuse to export
+    it rather than carry the name on (the study file admits codes alone)."""
+    for pid in ids:
+        if not re.fullmatch(PSEUDONYM, pid):
+            raise StudyLogError(f"{log}: participant {pid!r} is not a pseudonym (up to four "
+                                "letters, then 1-6 digits): not exporting")  # fmt: skip
 
 
 def _note(attempt: Attempt | None, between: list[str], event: dict[str, Any]) -> None:

@@ -54,10 +54,9 @@ def questionnaire_rows(run: StudyRun) -> tuple[list[dict[str, Any]], list[str]]:
     for record in latest_answers(records).values():
         keys = _keys_of(run, record)
         if keys is None:
-            left_out.append(
-                f"{path.name}: answers of {record.node_id!r} to "
-                f"{record.request_id!r}: no such participant or trial in the log"
-            )
+            # the node's id is not repeated: it is no pseudonym the study knows
+            left_out.append(f"{path.name}: answers to {record.request_id!r} from a node that "
+                            "is no participant of that trial in the log")  # fmt: skip
             continue
         rows += [keys | _head(record) | r for r in _measures(record)]
     return rows, left_out

@@ -155,7 +155,8 @@ def _excluded(tables: dict[str, Rows], excluded: list[str]) -> str:
         f"Practice trials ({', '.join(practice) or 'none'}) are in the tables but not in the "
         "per-condition summaries: the design runs them to learn, not to analyse.",
         "An infinite TTC (never on a collision course) and NPC-only pairs are not in the TTC "
-        "summaries; a DRAC beyond the friction limit is flagged and kept out of max DRAC.",
+        "summaries (a pair of two participants counts once for each, in their own "
+        "condition); a DRAC beyond the friction limit is flagged and kept out of max DRAC.",
         *excluded,
     ]
     return _list(lines)

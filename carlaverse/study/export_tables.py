@@ -1,9 +1,10 @@
 """The study export's tables of what happened in the trials: trials, trajectories, encounters
 and triggers, one row per observation, keyed by participant, trial and condition.
 
-The measures are the analysis's own (`carlaverse.analysis`: the tracks of `carlaverse analyze`
-and its TTC, gap, DRAC and PET per pair); this module only joins them with the study's keys,
-so a study's figures and one recording's `carlaverse analyze` report cannot disagree.
+The encounter measures are the analysis's own (`carlaverse.analysis`: the tracks of
+`carlaverse analyze` and its TTC, gap, DRAC and PET per pair); this module only joins them
+with the study's keys, so a study's figures and one recording's `carlaverse analyze` report
+cannot disagree. Trajectories are summarised from the poses as recorded (`export_paths`).
 """
 
 from __future__ import annotations
@@ -17,10 +18,11 @@ from typing import Any
 import numpy as np
 
 from carlaverse import messages as m
-from carlaverse.analysis.surrogate import Conflict, PairMeasures, Thresholds
+from carlaverse.analysis.surrogate import Conflict, PairMeasures
 from carlaverse.analysis.tracks import Recording
 from carlaverse.config import parse_yaml, read_text
 from carlaverse.study.export_inputs import Attempt, Seat, StudyRun, as_json, utc
+from carlaverse.study.export_paths import PATHS, path_figures
 
 KEYS = {
     "participant": "pseudonym (never a name: the mapping to people is never exported)",
@@ -52,16 +54,7 @@ TRIALS = KEYS | {
     "notes": "the operator's notes on the trial, ' | ' between them",
     "recording": "the attempt's recording, relative to the run's folder",
 }
-TRAJECTORIES = KEYS | {
-    "samples": "grid instants the participant was present (analysis grid, --rate-hz)",
-    "duration_s": "[s] time present on the grid",
-    "distance_m": "[m] path length: sum of the steps between consecutive grid positions",
-    "mean_speed_mps": "[m/s] mean of the recorded speed over the grid instants",
-    "max_speed_mps": "[m/s] largest recorded speed",
-    "max_accel_mps2": "[m/s²] largest |Δv|/Δt between consecutive grid instants",
-    "first_seen_rel_s": "[s] first grid instant, from the recording's start",
-    "last_seen_rel_s": "[s] last grid instant, from the recording's start",
-}
+TRAJECTORIES = KEYS | PATHS
 ENCOUNTERS = KEYS | {
     "a": "one road user of the pair (analysis id: a participant's pseudonym or an NPC id)",
     "b": "the other",
@@ -106,7 +99,7 @@ class Measured:
     recording: Recording
     pairs: list[PairMeasures]
     conflicts: list[Conflict]
-    thresholds: Thresholds
+    poses: dict[str, np.ndarray]  # participant -> their poses (export_paths.read_poses)
 
 
 def trial_rows(run: StudyRun) -> list[dict[str, Any]]:
@@ -129,33 +122,9 @@ def _trial_row(a: Attempt, seat: Seat) -> dict[str, Any]:
 
 
 def trajectory_rows(run: StudyRun, measured: Measured) -> list[dict[str, Any]]:
-    tracks, start = measured.recording.tracks, measured.recording.start
-    ids = [actor.id for actor in tracks.actors]
-    rows = []
-    for seat in run.seats(measured.attempt):
-        if seat.participant in ids:
-            figures = _trajectory(tracks, ids.index(seat.participant), start)
-            rows.append(seat.keys(measured.attempt) | figures)
-    return rows
-
-
-def _trajectory(tracks: Any, i: int, start: float) -> dict[str, Any]:
-    present = tracks.present[i]
-    dt = float(np.median(np.diff(tracks.t))) if len(tracks.t) > 1 else 0.0
-    steps = present[1:] & present[:-1]  # consecutive grid instants both present
-    dist = np.hypot(np.diff(tracks.x[i]), np.diff(tracks.y[i]))[steps]
-    dv = np.hypot(np.diff(tracks.vx[i]), np.diff(tracks.vy[i]))[steps]
-    speed = np.hypot(tracks.vx[i], tracks.vy[i])[present]
-    seen = tracks.t[present]
-    return {
-        "samples": int(present.sum()), "duration_s": float(steps.sum() * dt),
-        "distance_m": float(dist.sum()),
-        "mean_speed_mps": float(speed.mean()) if speed.size else math.nan,
-        "max_speed_mps": float(speed.max()) if speed.size else math.nan,
-        "max_accel_mps2": float((dv / dt).max()) if dv.size and dt > 0 else math.nan,
-        "first_seen_rel_s": float(seen[0] - start) if seen.size else math.nan,
-        "last_seen_rel_s": float(seen[-1] - start) if seen.size else math.nan,
-    }  # fmt: skip
+    start, poses = measured.recording.start, measured.poses
+    return [seat.keys(measured.attempt) | path_figures(poses[seat.participant], start)
+            for seat in run.seats(measured.attempt) if seat.participant in poses]  # fmt: skip
 
 
 def encounter_rows(run: StudyRun, measured: Measured) -> list[dict[str, Any]]:

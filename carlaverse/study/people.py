@@ -42,7 +42,11 @@ def load_people(path: Path, keep_out_of: list[Path], pseudonyms: list[str]) -> d
     if not isinstance(data, dict):
         raise ConfigError(str(path), "expected a mapping of pseudonym: person")
     people = {str(k): str(v) for k, v in data.items()}
-    for pid in people:
-        if pid not in pseudonyms:
-            raise ConfigError(str(path), f"{pid!r} is no participant of the study")
+    unknown = [pid for pid in people if pid not in pseudonyms]
+    if unknown:  # not echoed: a reversed mapping (Jane Doe: P01) would print the name
+        raise ConfigError(
+            str(path),
+            f"{len(unknown)} of its keys are no participant of the study: each line is "
+            "PSEUDONYM: PERSON (P01: <their name>)",
+        )
     return people

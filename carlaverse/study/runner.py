@@ -10,6 +10,8 @@ simulated devices. Each trial is a `TrialRun`. The output folder holds:
     OUT/trials/<trial>.attempt<N>.<outcome>.mcap   an attempt that did not complete
     OUT/trials/<trial>.scenario.yaml   the scenario a trial ran (overrides merged)
     OUT/control-<time>-<pid>.cmd   commands waiting for the runner (control.py)
+    OUT/.runner.lock               held while a runner runs into OUT (run_lock.py)
+    OUT/.runner-children.json      the running runner's children (leftovers.py)
 
 A run begun again on the same folder goes on from the first trial not completed; a trial a
 kill interrupted is logged `killed` and run again as a new attempt.
@@ -30,6 +32,9 @@ from carlaverse.study import control
 from carlaverse.study.briefs import Briefer
 from carlaverse.study.leftovers import ChildList
 from carlaverse.study.links import ParticipantLinks
+from carlaverse.study.lsl_api import LslNetwork
+from carlaverse.study.lsl_session import LslSession
+from carlaverse.study.run_lock import RunLock
 from carlaverse.study.schedule import Trial, digest, plan
 from carlaverse.study.study_file import Study
 from carlaverse.study.study_log import COMPLETED, LOG_NAME, StudyLog, StudyLogError
@@ -72,12 +77,19 @@ class StudyRunner:
         self.trials = plan(study)
         self.out = settings.out
         (self.out / TRIALS_DIR).mkdir(parents=True, exist_ok=True)
+        self.lock = RunLock(self.out).acquire()  # before the log is read (and a torn line cut)
         self.log = StudyLog(self.out / LOG_NAME)
         self.children_file = ChildList(self.out)
         self._children: list[Child] = []
         self._agents: list[Child] = []
 
     def run(self) -> RunResult:
+        try:
+            return self._run()
+        finally:
+            self.lock.release()
+
+    def _run(self) -> RunResult:
         self._open_log()
         left = self.children_file.stop_leftovers()
         if left:
@@ -85,6 +97,7 @@ class StudyRunner:
         todo = [t for t in self.trials if t.id not in self.log.state.completed]
         if not todo:
             return self._result("done")
+        lsl = self._lsl()  # before anything starts: a missing stream stops the run here
         router = self._router()
         links = ParticipantLinks(
             self.study.participants, router, self.settings.link_bind, self.study.design.seed
@@ -96,6 +109,7 @@ class StudyRunner:
             briefer.start()
             self._start_agents(links)
             ctx = self._context(router, links, briefer)
+            ctx.lsl = lsl
             return self._run_trials(ctx, todo)
         finally:
             briefer.close()
@@ -132,6 +146,18 @@ class StudyRunner:
                 partial.rename(set_aside_name(partial, attempt, "killed"))
         self.log.append("resumed", completed=sorted(state.completed))
 
+    def _lsl(self) -> LslSession | None:
+        """The study's LSL streams found and its marker outlets' prefix set; None without LSL.
+        LslUnavailable, LslConfigConflict or StreamMissing (one line naming the fix)."""
+        wanted = self.study.lsl
+        if wanted is None:
+            return None
+        network = LslNetwork(wanted.scope, wanted.session_id, tuple(wanted.known_peers))
+        return LslSession.prepare(
+            wanted.streams, network=network, wait_s=wanted.wait_s, markers=wanted.markers,
+            stream_prefix=f"carlaverse-{self.study.name}-{self.log.state.run_id}",
+        )  # fmt: skip
+
     def _router(self) -> str:
         connect = self.settings.connect or self.study.connect
         if connect:
@@ -146,11 +172,14 @@ class StudyRunner:
             for p in self.study.participants:
                 self.say(f"{p.id} ({p.role}, {p.site}): run `carlaverse study agent "
                          f"--study {self.study.name} --participant {p.id} "
-                         f"--connect {links.endpoint(p.id)}` on their machine")  # fmt: skip
+                         f"--connect {links.endpoint(p.id)}{_hmi_option(p.hmi_port)}` "
+                         "on their machine")  # fmt: skip
             return
         for p in self.study.participants:
             argv = ["study", "agent", "--study", self.study.name, "--participant", p.id,
                     "--connect", links.endpoint(p.id), "--exit-with-parent"]  # fmt: skip
+            if p.hmi_port is not None:
+                argv += ["--hmi", str(p.hmi_port)]
             self._agents.append(self._spawn(argv, f"agent {p.id}", self._relay_agent))
 
     def _context(self, router: str, links: ParticipantLinks, briefer: Briefer) -> StudyContext:
@@ -159,7 +188,7 @@ class StudyRunner:
             log=self.log, router=router, links=links, set_brief=briefer.set,
             idle_briefs=briefer.idle, spawn=self._spawn,
             take_command=lambda: control.take(self.out), stopped=self.stop.is_set,
-            say=self.say, backend=self._backend(),
+            say=self.say, backend=self._backend(), stop=self.stop,
         )  # fmt: skip
 
     def _relay_agent(self, line: str) -> None:
@@ -231,3 +260,7 @@ class StudyRunner:
             self.log.append("stopped", outcome=outcome, reason=reason)
         completed = len(self.log.state.completed)
         return RunResult(outcome, reason, completed, len(self.trials))
+
+
+def _hmi_option(port: int | None) -> str:
+    return "" if port is None else f" --hmi {port}"

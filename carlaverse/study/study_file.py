@@ -30,6 +30,7 @@ import msgspec
 
 from carlaverse.config import ConfigError, StrictStruct, convert, parse_yaml, read_text
 from carlaverse.patterns import anchored
+from carlaverse.study.questionnaires import find_questionnaire
 
 # Up to four letters, then one to six digits: a code, never a name (issue 44.7).
 PSEUDONYM = anchored(r"[A-Za-z]{0,4}[0-9]{1,6}")
@@ -62,6 +63,9 @@ class Participant(StrictStruct):
     kind: Literal["drive", "bike", "walk", "scripted", "observer"] = "drive"
     config: str | None = None  # node config (path relative to the study file, or shipped)
     link_port: Annotated[int, msgspec.Meta(ge=0, le=65535)] = 0  # 0: any free port
+    # the node serves its web HMI here (0: any free port), where questionnaires are answered;
+    # None: no HMI (a study asking questionnaires then cannot reach this participant locally)
+    hmi_port: Annotated[int, msgspec.Meta(ge=0, le=65535)] | None = None
 
 
 class Condition(StrictStruct):
@@ -107,6 +111,25 @@ class TrialSettings(StrictStruct):
     end_on_contact: bool = False
 
 
+class Questionnaires(StrictStruct):
+    """What every participant answers on their node's HMI after each completed trial, before
+    their node leaves: built-in names (ssq, nasa-tlx, raw-tlx) or YAML files beside the study."""
+
+    after_trial: list[str] = []
+    timeout_s: Annotated[float, msgspec.Meta(gt=0, le=86400)] = 600.0  # [s] per questionnaire
+
+
+class LslSettings(StrictStruct):
+    """LSL streams recorded into every trial's recording, and the study's own marker outlets."""
+
+    streams: list[str] = []  # LSL stream names, found once before the first trial
+    scope: Literal["machine", "lab"] = "machine"  # this host only, or the lab's network
+    session_id: str = "default"  # liblsl's SessionID: only equal ids see each other
+    known_peers: list[str] = []  # hosts asked directly where the lab's multicast is blocked
+    wait_s: Annotated[float, msgspec.Meta(gt=0, le=600)] = 10.0  # [s] to find the streams
+    markers: bool = True  # trial_start/trial_end markers and the session clock as LSL outlets
+
+
 class Study(StrictStruct):
     """A whole study file."""
 
@@ -119,6 +142,8 @@ class Study(StrictStruct):
     # external: each participant's machine runs `carlaverse study agent` itself
     launch: Literal["local", "external"] = "local"
     connect: list[str] = []  # an existing router; empty: the runner starts one on loopback
+    questionnaires: Questionnaires = Questionnaires()
+    lsl: LslSettings | None = None  # None: no LSL at all (pylsl is not loaded)
 
 
 def load_study(path: str | Path) -> Study:
@@ -131,6 +156,13 @@ def load_study(path: str | Path) -> Study:
     problem = check_study(study)
     if problem:
         raise ConfigError(str(source), problem)
+    for i, name in enumerate(study.questionnaires.after_trial):
+        try:
+            find_questionnaire(name, source.parent)
+        except ConfigError as exc:
+            raise ConfigError(
+                str(source), f"{exc} - at `$.questionnaires.after_trial[{i}]`"
+            ) from None
     return study
 
 
@@ -151,6 +183,7 @@ def check_study(study: Study) -> str:
             for i, name in enumerate(study.design.practice)
         ),
         _ports(study.participants),
+        _hmi(study),
     ):
         if problem:
             return problem
@@ -202,3 +235,14 @@ def _condition(name: str, names: list[str], where: str) -> str:
 def _ports(participants: list[Participant]) -> str:
     ports = [p.link_port for p in participants if p.link_port]
     return _unique([str(port) for port in ports], "participants", "link_port")
+
+
+def _hmi(study: Study) -> str:
+    """Questionnaires are answered on the node's HMI: a local study must give each one."""
+    if not study.questionnaires.after_trial or study.launch != "local":
+        return ""
+    for i, p in enumerate(study.participants):
+        if p.hmi_port is None:
+            return (f"{p.id} answers questionnaires on their node's HMI: give hmi_port "
+                    f"(0: any free port) - at `$.participants[{i}].hmi_port`")  # fmt: skip
+    return ""

@@ -10,6 +10,8 @@ The runner is its one writer. Every line has `event` and `t` (UTC, ISO 8601) and
     trial_live   every role present: the trial's clock starts (present: participant -> node)
     trial_end    trial, attempt, outcome (completed | aborted | redo | lost | killed |
                  not_started | failed), reason, view_error (participant -> other -> figures)
+    questionnaire  trial, attempt, questionnaire (its id), missing (participants who did not
+                 answer in full; their answers are in OUT/answers.jsonl, answers.py)
     note         trial (or ""), text
     paused / unpaused / stopped
 

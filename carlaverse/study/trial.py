@@ -6,8 +6,12 @@ the trial's conditions as MCAP metadata (`carlaverse.study.trial`); the authorit
 the trial's scenario and seed; each participant's link gets the trial's delay, jitter and
 loss; the briefs name the trial, and each agent starts its participant's node; once every
 participant is drawn by the runner's own view (present, poses flowing) the trial is live for
-`trial.duration_s`, or until an end condition of its world (end_condition.py); then the
-briefs go idle (the nodes leave), the authority stops, and the recording closes. A trial that
+`trial.duration_s`, or until an end condition of its world (end_condition.py); then, if
+it completed, each participant answers the study's questionnaires on their node's HMI
+(`questionnaires.after_trial`, stored in OUT/answers.jsonl); then the briefs go idle (the
+nodes leave), the authority stops, and the recording closes. With an `lsl:` section the
+study's LSL streams are recorded into the trial's recording from its start to its end, with
+`trial_start`/`trial_end` markers at the live phase's ends (lsl_session.py). A trial that
 ends any other way (not completed) keeps its recording under
 `<trial>.attempt<N>.<outcome>.mcap`, so `<trial>.mcap` is always a completed one.
 """
@@ -15,9 +19,10 @@ ends any other way (not completed) keeps its recording under
 from __future__ import annotations
 
 import json
+import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -27,14 +32,18 @@ from carlaverse import messages as m
 from carlaverse.keys import Keys
 from carlaverse.procs import Child, ChildFailed, stop_children
 from carlaverse.recording.recorder import Recorder
-from carlaverse.recording.sink import McapSink
+from carlaverse.study.answers import ANSWERS_NAME, AnswerStore
+from carlaverse.study.asking import QuestionnaireIncomplete, ask_all
 from carlaverse.study.control import Command
 from carlaverse.study.end_condition import EndCondition
 from carlaverse.study.links import ParticipantLinks
+from carlaverse.study.lsl_session import LslSession, describe
+from carlaverse.study.questionnaires import find_questionnaire
 from carlaverse.study.schedule import Trial, world_condition
 from carlaverse.study.study_file import LinkCondition, Study
 from carlaverse.study.study_log import COMPLETED, StudyLog
-from carlaverse.study.trial_setup import node_config, write_scenario
+from carlaverse.study.trial_setup import interpolation_of, node_config, write_scenario
+from carlaverse.study.trial_sink import TrialSink
 from carlaverse.study.view_error import true_tracks, view_errors
 from carlaverse.study.view_probe import ViewProbe, probe_id
 from carlaverse.transport.session import FabricSettings, open_session, reachable
@@ -67,6 +76,8 @@ class StudyContext:
     backend: str = "sim"  # the node backend the agents are told ("" for the real devices)
     paused: bool = False  # an operator's pause: no next trial until resume
     monotonic: Callable[[], float] = time.monotonic  # [s] the clock presence is judged by
+    lsl: LslSession | None = None  # the study's LSL streams and markers, prepared once
+    stop: threading.Event = field(default_factory=threading.Event)  # set with `stopped`
 
 
 class TrialRun:
@@ -96,7 +107,10 @@ class TrialRun:
         )
         self._log_start(scenario)
         self.ctx.links.apply(self.link_conditions)
-        recorder, rec_session = self._start_recorder(scenario)
+        recorder, rec_session, sink = self._start_recorder(scenario)
+        lsl = self.ctx.lsl
+        if lsl is not None:  # inlets write into the sink beside the recorder, from now on
+            lsl.start(rec_session, Keys(self.session), sink)
         events = None
         if self._end.wanted:  # the callback decodes and sets a flag, nothing more
             events = rec_session.declare_subscriber(
@@ -106,12 +120,19 @@ class TrialRun:
         outcome, reason, figures = "failed", "", {}
         try:
             outcome, reason = self._run_live(scenario)
+            if lsl is not None and self._watch is not None:
+                lsl.trial_ended(self.trial.id, self._session_now(), attempt=self.attempt,
+                                outcome=outcome)  # fmt: skip
+            if outcome == COMPLETED:
+                self._ask(rec_session)  # before the nodes leave: their HMIs show the forms
         except ChildFailed as exc:
             reason = str(exc)
         finally:
             self._take_down()
             if events is not None:
                 events.undeclare()
+            if lsl is not None:  # before the recorder closes the sink it writes into
+                self.ctx.say(describe(lsl.stop()))
             recorder.stop()
             rec_session.close()
             self.ctx.links.apply({})
@@ -137,13 +158,13 @@ class TrialRun:
         self.ctx.say(f"trial {self.trial.id} (attempt {self.attempt}): session {self.session}, "
                      f"scenario {Path(scenario).name}")  # fmt: skip
 
-    def _start_recorder(self, scenario: str) -> tuple[Recorder, Any]:
+    def _start_recorder(self, scenario: str) -> tuple[Recorder, Any, TrialSink]:
         session = open_session(reachable(FabricSettings(connect=[self.ctx.router])))
-        sink = McapSink(self.recording, monotonic=time.monotonic)
+        sink = TrialSink(self.recording, monotonic=time.monotonic)
         sink.metadata(METADATA_NAME, self._metadata(scenario))
         recorder = Recorder(session, Keys(self.session), sink)
         recorder.start()
-        return recorder, session
+        return recorder, session, sink
 
     def _metadata(self, scenario: str) -> dict[str, str]:
         links = {pid: msgspec.to_builtins(c) for pid, c in self.link_conditions.items()}
@@ -164,17 +185,24 @@ class TrialRun:
         self._authority.wait_for_line(AUTHORITY_READY, READY_TIMEOUT_S)
         ids = set(self.roles)
         self._watch = ViewProbe("study-watch", self.session, self.ctx.router, ids)
+        briefs = {pid: self._brief(pid) for pid in sorted(ids)}
         if self.ctx.study.trial.view_probe_hz > 0:
             for pid in ids:
-                endpoint = self.ctx.links.endpoint(pid)
-                self._probes[pid] = ViewProbe(probe_id(pid), self.session, endpoint, ids - {pid})
-        for pid in sorted(ids):
-            self.ctx.set_brief(self._brief(pid))
+                self._probes[pid] = ViewProbe(
+                    probe_id(pid), self.session, self.ctx.links.endpoint(pid), ids - {pid},
+                    interpolation_of(briefs[pid].node_config_yaml),
+                )  # fmt: skip
+        for brief in briefs.values():
+            self.ctx.set_brief(brief)
         outcome = self._wait_present(ids)
         if outcome is not None:
             return outcome
+        live_t = self._session_now()
         self.ctx.log.append("trial_live", trial=self.trial.id, attempt=self.attempt,
-                            session_t=round(self._watch.client.now(), 3))  # fmt: skip
+                            session_t=round(live_t, 3))  # fmt: skip
+        if self.ctx.lsl is not None:
+            self.ctx.lsl.trial_started(self.trial.id, live_t, attempt=self.attempt,
+                                       conditions=json.dumps(self.trial.conditions))  # fmt: skip
         self._last_seen = dict.fromkeys(self.roles, self.ctx.monotonic())
         self.ctx.say(f"trial {self.trial.id} live: every role present")
         return self._live()
@@ -257,6 +285,34 @@ class TrialRun:
             if self.ctx.paused:
                 self.ctx.say("paused: the next trial waits for `resume`")
         return None
+
+    def _session_now(self) -> float:
+        assert self._watch is not None
+        return float(self._watch.client.now())
+
+    def _ask(self, session: Any) -> None:
+        """Each of the study's questionnaires, asked of every participant's node at once; the
+        answers are stored as they come. One that is not answered in full within its timeout
+        (or before the runner is stopped) is logged with who is missing; the trial stays
+        completed, its partial answers kept."""
+        settings = self.ctx.study.questionnaires
+        ids = sorted(self.roles)
+        with AnswerStore(self.ctx.out / ANSWERS_NAME) as store:
+            for name in settings.after_trial:
+                form = find_questionnaire(name, self.ctx.study_dir, self.ctx.study.design.seed)
+                self.ctx.say(f"trial {self.trial.id}: asking {form.id} of {', '.join(ids)}")
+                missing: list[str] = []
+                try:
+                    ask_all(session, Keys(self.session), store, ids, form, self.trial.id,
+                            settings.timeout_s, self.ctx.stop)  # fmt: skip
+                except QuestionnaireIncomplete as exc:
+                    missing = exc.missing
+                    self.ctx.say(f"trial {self.trial.id}: {form.id} not answered in full "
+                                 f"by {', '.join(missing)}")  # fmt: skip
+                self.ctx.log.append("questionnaire", trial=self.trial.id, attempt=self.attempt,
+                                    questionnaire=form.id, missing=missing)  # fmt: skip
+                if self.ctx.stopped():
+                    return
 
     def _take_down(self) -> None:
         self.ctx.idle_briefs()

@@ -15,6 +15,7 @@ import yaml
 from carlaverse.config import ConfigError, convert, parse_yaml, read_text, resolve_path
 from carlaverse.node_runtime import UnknownNodeKind, load_node_kind
 from carlaverse.study.study_file import Condition, Participant, Study
+from carlaverse.world.remote_actor import InterpolationSettings
 
 NO_SCENARIO = "none"
 # Scenario fields that name files relative to the scenario's own folder: made absolute when a
@@ -72,6 +73,17 @@ def node_config(participant: Participant, condition: Condition, study_dir: Path)
     data = merged(base, override)
     _check_node(participant.kind, data, f"{source} with condition {condition.id}'s node_config")
     return yaml.safe_dump(data, sort_keys=False)
+
+
+def interpolation_of(config_yaml: str) -> InterpolationSettings:
+    """How the node with this config draws the others (`node.interpolation`), so a probe of
+    its view draws them alike; the default for the kind's own config ("")."""
+    data = yaml.safe_load(config_yaml) if config_yaml else None
+    node = data.get("node") if isinstance(data, dict) else None
+    found = node.get("interpolation") if isinstance(node, dict) else None
+    if found is None:
+        return InterpolationSettings()
+    return convert(found, InterpolationSettings, "node.interpolation")
 
 
 def check_materials(study: Study, study_dir: Path) -> None:

@@ -15,6 +15,7 @@ from carlaverse.study.view_error import ViewSample
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.node_client import NodeClient, NodeSettings
 from carlaverse.transport.session import FabricSettings, open_session
+from carlaverse.world.remote_actor import InterpolationSettings
 
 PROBE_PREFIX = "view-"  # a probe's node id: view-<participant>
 
@@ -26,9 +27,12 @@ def probe_id(participant: str) -> str:
 class ViewProbe:
     """Observer of one participant's view; `sample` from the owner's thread."""
 
-    def __init__(self, node_id: str, session_name: str, endpoint: str, others: set[str]):
+    def __init__(
+        self, node_id: str, session_name: str, endpoint: str, others: set[str],
+        interpolation: InterpolationSettings | None = None,
+    ) -> None:  # fmt: skip
         """`node_id`: the probe's own id (`probe_id(participant)`); `others`: the ids whose
-        drawing it samples."""
+        drawing it samples; `interpolation`: how the participant's node draws them."""
         self.others = others
         self.samples: list[ViewSample] = []
         # a client: through the given endpoint alone (a peer would dial the others directly)
@@ -40,6 +44,7 @@ class ViewProbe:
             session=session_name,
             kind="observer",
             actor_kind="",
+            interpolation=interpolation or InterpolationSettings(),
         )
         self.client = NodeClient(self._session, settings, MonotonicClock()).start()
 

@@ -16,6 +16,10 @@ from carlaverse.messages import SpawnPoint
 from carlaverse.traffic.scenario import Spawn
 
 DEFAULT_KIND = "default"
+# With more nodes of a kind than its points, the next round of nodes queues this far behind
+# the round before it, along each point's heading: two nodes on one point would be in contact
+# from their first pose (a study run found a driver and a rider colliding at the start).
+QUEUE_GAP_M = 10.0
 
 
 def resolve_spawn(net: Any, spawn: Spawn) -> SpawnPoint:
@@ -49,6 +53,13 @@ def resolve_spawns(net: Any, spawns: dict[str, list[Spawn]]) -> dict[str, list[S
     return out
 
 
+def behind(point: SpawnPoint, rounds: int) -> SpawnPoint:
+    """`point` moved `rounds` × QUEUE_GAP_M back along its heading."""
+    back = rounds * QUEUE_GAP_M
+    return SpawnPoint(point.x - back * math.cos(point.yaw), point.y - back * math.sin(point.yaw),
+                      point.z, point.yaw)  # fmt: skip
+
+
 class SpawnAllocator:
     """Hands out spawn points in turn per node kind (thread-safe: joins arrive on Zenoh threads)."""
 
@@ -68,5 +79,5 @@ class SpawnAllocator:
                 return None
             turn = self._turn.get(kind, 0)
             self._turn[kind] = turn + 1
-            self._given[node_id] = points[turn % len(points)]
+            self._given[node_id] = behind(points[turn % len(points)], turn // len(points))
             return self._given[node_id]

@@ -23,7 +23,7 @@ from carlaverse_nodes.bike.trainer_command import TrainerCommand, TrainerLimit
 from carlaverse.hal.ffb_packet import FfbCommand
 from carlaverse.hal.trainer.resistance_table import ResistanceTable
 from carlaverse.messages import Impulse, Pose
-from carlaverse.physics.bicycle import Bicycle
+from carlaverse.physics.bicycle import Bicycle, WheelReading
 from carlaverse.physics.impulse import ImpulseInbox
 from carlaverse.physics.resistance import resistance_force
 
@@ -65,6 +65,7 @@ class BikeLoop:
         self.config = config
         self.table = table
         self.bike = Bicycle(config.bicycle)
+        self.wheel = WheelReading(config.bicycle)  # the sensor's steps, as a body can ride them
         self.fork = ForkFeel(config.fork, config.bicycle)
         self.trainer = TrainerCommand(table, config.bicycle.mass_kg, config.trainer_feel)
         self.t = 0.0
@@ -73,6 +74,7 @@ class BikeLoop:
 
     def place(self, x: float, y: float, yaw: float) -> None:
         self.bike.place(x, y, yaw)
+        self.wheel.reset()  # a spawn: the rider's next reading is taken as it is
 
     def step(self, dt: float, wheel_speed_mps: float, steer_axis: float, tailwind_mps: float,
              impulses: Iterable[Impulse] = (), now: float | None = None) -> BikeOutput:  # fmt: skip
@@ -81,7 +83,8 @@ class BikeLoop:
         now = self.t if now is None else now
         applied = self._collisions(impulses, now)
         p = self.config.bicycle
-        s = self.bike.step(dt, wheel_speed_mps, steer_axis * p.max_steer_rad)
+        riding = self.wheel.follow(wheel_speed_mps, dt, stopped=self.bike.state.hold_s > 0.0)
+        s = self.bike.step(dt, riding, steer_axis * p.max_steer_rad)
         force = resistance_force(
             self.config.resistance, p.mass_kg, s.speed_mps, self.grade_percent, tailwind_mps
         )

@@ -19,6 +19,7 @@ class SchedulingProbe(EmptyDomain):
     """Notes how the thread that ticks it is scheduled."""
 
     def __init__(self) -> None:
+        super().__init__()
         self.seen: list[tuple[int, int]] = []
 
     def tick(self, t: float, egos: Mapping[str, EgoTrack], out: Outbox) -> None:
@@ -65,6 +66,7 @@ def test_a_priority_out_of_range_is_refused_by_name() -> None:
 
 class FreezeProbe(EmptyDomain):
     def __init__(self) -> None:
+        super().__init__()
         self.frozen: list[int] = []
 
     def tick(self, t: float, egos: Mapping[str, EgoTrack], out: Outbox) -> None:

@@ -84,3 +84,26 @@ def test_the_shipped_bike_config_is_valid(capsys: pytest.CaptureFixture[str]) ->
 
     assert main(["config", "validate", "bike-sim"]) == 0
     assert "bike-sim.yaml: valid bike" in capsys.readouterr().out
+
+
+def test_a_step_in_the_wheel_reading_is_ridden_as_a_body_can() -> None:
+    """A trainer reports speed in steps (BLE, 1-4 Hz; a sim profile jumps). A rider cannot
+    gain 4 m/s in one 5 ms tick (800 m/s² in the pose, projected by every receiver's dead
+    reckoning): a strong sprint is about 2.5 m/s² and braking is bounded near 0.6 g, where
+    the rider goes over the bar (Wilson, Bicycling Science). So 2 → 6 m/s takes (6-2)/3 =
+    1.33 s at the 3 m/s² the bike allows, 6 → 0 takes 6/6 = 1 s, and no tick's acceleration
+    on the wire exceeds those limits; steady riding is unchanged."""
+    loop = loop_on(0.0)
+    out = loop.step(DT, 2.0, 0.0, 0.0)
+    assert out.speed_mps == 2.0  # the first reading is how fast the rider already goes
+    speeds, accels = [], []
+    for reading in [6.0] * round(2.0 / DT) + [0.0] * round(1.5 / DT):
+        out = loop.step(DT, reading, 0.0, 0.0)
+        speeds.append(out.speed_mps)
+        accels.append(math.hypot(out.ax, out.ay))
+    up = next(k for k, v in enumerate(speeds) if v >= 6.0 - 1e-9) + 1
+    assert up * DT == pytest.approx(4.0 / 3.0, abs=2 * DT)
+    down = next(k for k, v in enumerate(speeds[round(2.0 / DT) :]) if v <= 1e-9) + 1
+    assert down * DT == pytest.approx(1.0, abs=2 * DT)
+    assert max(accels) <= 6.0 + 1e-6
+    assert max(accels[: round(2.0 / DT)]) <= 3.0 + 1e-6

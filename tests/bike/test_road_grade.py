@@ -110,6 +110,7 @@ class ScenarioOnly(EmptyDomain):
     """Membership plus a scenario to serve on `authority/scenario` (no engine needed)."""
 
     def __init__(self, text: str) -> None:
+        super().__init__()
         self.reply = m.ScenarioReply(m.SCHEMA_VERSION, "hill", text)
 
     def scenario_reply(self) -> m.ScenarioReply:

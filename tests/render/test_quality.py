@@ -89,3 +89,31 @@ def test_same_frame_same_pixels_by_night_in_rain(quality) -> None:
             images.append(r.images()[0])
     assert images[0].shape == (H, W, 3)
     assert np.array_equal(images[0], images[1])
+
+
+@pytest.mark.usefixtures("offscreen_gl")
+def test_the_cpu_lamps_own_program_draws_what_the_vehicles_program_did() -> None:
+    """Lit per vertex, the vehicles' lamps get a program that only glows (the lighting is dead
+    code there; llvmpipe ran it for every lamp vertex). A lamp is emissive either way, so the
+    picture of a car's lit rear, by day and by a foggy night, is the one the vehicles' program
+    draws for it (within a rounding)."""
+    rear = car("c", 6.0, 0.0, lights=m.LIGHT_BRAKE | m.LIGHT_LOW_BEAM | m.LIGHT_LEFT_BLINKER)
+    eye = Eye(0.0, 0.0, 1.0, 0.0, math.radians(5.0))
+    for w in (weather(40.0), weather(-20.0, fog_density=0.3)):
+        frame = SceneFrame(0.0, (rear,), None, w)
+        with Renderer(config("cpu"), None) as r:
+            assert r.actors.lamp_prototype.get_shader() is not None  # its own program
+            r.draw(frame, eye=eye)
+            own = r.images()[0].astype(int)
+            r.actors.lamp_prototype.clear_shader()  # the vehicles' program, as before
+            r.draw(frame, eye=eye)
+            shared = r.images()[0].astype(int)
+        assert np.abs(own - shared).max() <= 1
+        assert (np.abs(own - background(w)).max(axis=-1) > 12).sum() > 50  # the car is seen
+
+
+def background(w: m.Weather) -> np.ndarray:
+    """The same view without the car."""
+    with Renderer(config("cpu"), None) as r:
+        r.draw(SceneFrame(0.0, (), None, w), eye=Eye(0.0, 0.0, 1.0, 0.0, math.radians(5.0)))
+        return r.images()[0].astype(int)

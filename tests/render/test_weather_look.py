@@ -53,6 +53,28 @@ def test_a_wet_road_is_brighter_towards_a_low_sun(quality, save_shot) -> None:
     assert seen[1.0] > 1.3 * seen[0.0], seen
 
 
+@pytest.mark.parametrize("quality", SHADED)
+def test_a_road_wets_when_the_weather_turns_wet(quality) -> None:
+    """A dry day's surfaces are drawn by programs with the wetness compiled in as 0 (cheaper
+    per vertex on llvmpipe): when the weather turns wet the renderer must change programs, so
+    one that drew the dry frame first draws the wet frame as a renderer that never saw it dry
+    does (the scene of the test above, where the wet road is the brighter)."""
+    eye = Pinhole(0.0, 0.0, 1.2, 0.0, math.radians(8.0), W, H, math.radians(60))
+    dry, wet = (SceneFrame(0.0, (), None, weather(10.0, 90.0, wetness=w)) for w in (0.0, 1.0))
+    at = Eye(eye.x, eye.y, eye.z, eye.yaw, eye.pitch)
+    with Renderer(config(quality, 60.0), road_map()) as r:
+        r.draw(dry, eye=at)
+        seen_dry = r.images()[0].astype(int)
+        r.draw(wet, eye=at)
+        turned = r.images()[0].astype(int)
+    fresh = shoot(quality, wet, eye, road_map(), fov_deg=60.0).astype(int)
+    assert np.abs(turned - fresh).max() <= 1
+    mirror = (1.2 / math.tan(math.radians(10.0)), 0.0, 0.0)
+    assert level(turned.astype(np.uint8), eye, mirror) > 1.3 * level(
+        seen_dry.astype(np.uint8), eye, mirror
+    )
+
+
 def sky_half(quality: str, precipitation: float, t: float, save_shot) -> np.ndarray:
     """The sky above the horizon, looking north 15° up (away from the road and its street
     lights), clear but for rain: the rows above the horizon's (15° below the image's middle)."""

@@ -4,12 +4,14 @@ rules, and control commands handed to a runner's folder."""
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 import pytest
 
 from carlaverse.cli import main
 from carlaverse.study import control
+from carlaverse.study.run_lock import RunLock
 from carlaverse.study.study_log import StudyLog
 
 STUDY = """
@@ -93,6 +95,13 @@ def test_people_file_must_be_private_and_outside(
     assert main(["study", "run", str(study), "--out", str(out), "--people", str(inside)]) == 2
     err = capsys.readouterr().err
     assert "outside the study and output folders" in err and "Jane" not in err
+    reversed_file = tmp_path / "private" / "reversed.yaml"
+    reversed_file.write_text("Jane Doe: P01\n")
+    reversed_file.chmod(0o600)
+    flipped = ["study", "run", str(study), "--out", str(out), "--people", str(reversed_file)]
+    assert main(flipped) == 2
+    err = capsys.readouterr().err
+    assert "PSEUDONYM: PERSON" in err and "Jane" not in err
     in_out = _people(out / "people.yaml", 0o600)
     assert main(["study", "run", str(study), "--out", str(out), "--people", str(in_out)]) == 2
     assert not (out / "study-log.jsonl").exists()  # refused before anything ran
@@ -134,3 +143,19 @@ def test_status_reads_the_log(tmp_path: Path, capsys: pytest.CaptureFixture[str]
     first, second = status["trials"]
     assert first["view_p95_m"] == {"P01>P02": 0.25} and first["recording"] == "trials/t01.mcap"
     assert second["outcome"] == "running"
+
+
+def test_one_runner_per_output_folder(
+    study: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    (out / "trials").mkdir(parents=True)
+    held = RunLock(out).acquire()  # as a runner running into `out` holds it
+    try:
+        assert main(["study", "run", str(study), "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert f"another study runner (pid {os.getpid()}) runs into this folder" in err
+        assert not (out / "study-log.jsonl").exists()  # refused before the log was touched
+    finally:
+        held.release()
+    RunLock(out).acquire().release()  # released: the next runner gets it

@@ -36,8 +36,8 @@ from carlaverse.study.answers import AnswerStore
 from carlaverse.study.export import COLUMNS, export_study
 from carlaverse.study.lsl_record import StreamStats
 from carlaverse.study.lsl_sink import LslSample, SharedSink
-from carlaverse.study.questionnaires import SSQ_SYMPTOMS, score, ssq
-from carlaverse.study.study_log import LOG_NAME, StudyLog
+from carlaverse.study.questionnaires import SSQ_SYMPTOMS, Questionnaire, nasa_tlx, score, ssq
+from carlaverse.study.study_log import LOG_NAME, StudyLog, StudyLogError
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -71,6 +71,9 @@ def _ssq_ratings(**rated: int) -> dict[str, int | str]:
 
 
 SSQ_ANSWERS = _ssq_ratings(nausea=2, headache=1)
+# the raw TLX (Hart & Staveland 1988, unweighted): the mean of the six ratings, here 210 / 6
+TLX_RATINGS = {"mental": 50, "physical": 20, "temporal": 30, "performance": 40, "effort": 60,
+               "frustration": 10}  # fmt: skip
 
 
 def _poses(trial: str, t0: float) -> dict[str, list[m.Pose]]:
@@ -135,8 +138,11 @@ def _log_trial(
                view_error=figures if outcome == "completed" else {})  # fmt: skip
 
 
-def _answer(store: AnswerStore, trial: str, pid: str, answers: dict[str, int | str]) -> None:
-    form = ssq()
+def _answer(
+    store: AnswerStore, trial: str, pid: str, answers: dict[str, int | str],
+    form: Questionnaire | None = None,
+) -> None:  # fmt: skip
+    form = form or ssq()
     request = form.request(trial)
     store.asked(pid, request)
     scores = score(form, answers)  # what the runner stores with a final set
@@ -165,6 +171,7 @@ def run_folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     with AnswerStore(out / "answers.jsonl") as store:
         _answer(store, "t02", "P01", SSQ_ANSWERS)
         _answer(store, "t03", "P01", _ssq_ratings(fatigue=3))
+        _answer(store, "t02", "P02", dict(TLX_RATINGS), nasa_tlx(weighted=False))
     # a people file where a careless operator might leave it: in the run's folder itself
     (out / "people.yaml").write_text(f"P01: {REAL_NAME}\n")
     return root
@@ -244,20 +251,20 @@ def test_trajectories_match_the_recorded_poses(run_folder: Path, exported: Path)
     for trial, (v0, a, _, u) in MOTION.items():
         driver, cyclist = rows[(trial, "P01")], rows[(trial, "P02")]
         recording = run_folder / "out" / "trials" / f"{trial}.mcap"
-        # on the 10 Hz grid the path is sampled at the same points the poses lie on (a straight
-        # line), so its length is the raw poses' to rounding
         assert driver["distance_m"] == pytest.approx(_raw_distance(recording, "P01"), abs=1e-6)
         # closed form: v0 T + a T²/2
         assert driver["distance_m"] == pytest.approx(v0 * DURATION_S + a * DURATION_S**2 / 2,
                                                      abs=1e-6)  # fmt: skip
         assert cyclist["distance_m"] == pytest.approx(u * DURATION_S, abs=1e-6)
         assert driver["max_speed_mps"] == pytest.approx(v0 + a * DURATION_S, abs=1e-6)
-        # the mean of a speed linear in t over an evenly spaced grid: its midpoint value
+        # distance over time: (v0 T + a T²/2) / T
         assert driver["mean_speed_mps"] == pytest.approx(v0 + a * DURATION_S / 2, abs=1e-6)
-        # dv/dt; the pose layout carries velocity as float32 (7 digits): differenced over
-        # 0.1 s, its rounding is ~1e-5 m/s²
-        assert driver["max_accel_mps2"] == pytest.approx(a, abs=1e-4)
-        assert cyclist["max_accel_mps2"] == pytest.approx(0.0, abs=1e-4)
+        # the driver's node sends its acceleration, a; the cyclist's none, so theirs is
+        # differentiated from a constant velocity: 0
+        assert (driver["max_accel_mps2"], driver["accel_source"]) == (a, "sent")
+        assert (cyclist["max_accel_mps2"], cyclist["accel_source"]) == (0.0, "differentiated")
+        assert driver["p95_accel_mps2"] == a  # constant
+        assert driver["samples"] == DURATION_S * POSE_HZ + 1
         assert driver["duration_s"] == pytest.approx(DURATION_S, abs=1e-6)
         assert driver["condition"] == CONDITION[trial]
 
@@ -311,6 +318,8 @@ def test_questionnaire_scores_match_the_published_ssq_weights(exported: Path) ->
     assert scores[("t02", "total")] == pytest.approx(18.70)
     # t03: fatigue (O) 3: total = 3 x 3.74
     assert scores[("t03", "total")] == pytest.approx(11.22)
+    tlx = next(r for r in rows if r["questionnaire"] == "raw-tlx" and r["measure"] == "raw_tlx")
+    assert (tlx["participant"], tlx["condition"], tlx["value"]) == ("P02", "direct", 35.0)
     item = next(r for r in rows if r["trial"] == "t02" and r["measure"] == "nausea"
                 and r["measure_kind"] == "item")  # fmt: skip
     assert (item["value"], item["condition"], item["role"]) == (2.0, "direct", "driver")
@@ -336,6 +345,8 @@ def test_the_report_is_self_contained_and_says_what_is_left_out(exported: Path) 
     assert "trial t03 attempt 1: redo" in page  # the redone attempt, and why it is not measured
     assert "lagged" in page and "direct" in page
     assert "break: the cyclist asked for water" in page  # a note between trials
+    # the summary's direct row: SSQ total 18.70 (P01, t02) and raw TLX 35.00 (P02, t02)
+    assert "<td>18.70</td><td>35.00</td>" in page
     assert "trial t03 attempt 1: redo" in (exported / "README.md").read_text()
 
 
@@ -356,6 +367,31 @@ def test_a_folder_without_a_log_is_one_line_naming_it(
     assert main(["study", "export", str(tmp_path)]) == 2
     said = capsys.readouterr().err.strip().splitlines()
     assert len(said) == 1 and str(tmp_path) in said[0] and "study-log.jsonl" in said[0]
+
+
+def test_a_log_naming_a_person_is_not_exported(tmp_path: Path) -> None:
+    """A hand-edited log with a name where a pseudonym belongs is refused, naming the file."""
+    out = tmp_path / "out"
+    out.mkdir()
+    StudyLog(out / LOG_NAME).append("study", study="exp", digest="0" * 16, run_id="abc123",
+                                    trials=1, participants={"Zelda": "driver"})  # fmt: skip
+    with pytest.raises(StudyLogError, match="'Zelda' is not a pseudonym"):
+        export_study(out, tmp_path / "x")
+    assert not (tmp_path / "x").exists()
+
+
+def test_answers_from_an_unknown_node_are_left_out_without_its_id(
+    run_folder: Path, tmp_path: Path
+) -> None:
+    out = tmp_path / "out"
+    (out / "trials").mkdir(parents=True)
+    (out / LOG_NAME).write_bytes((run_folder / "out" / LOG_NAME).read_bytes())
+    with AnswerStore(out / "answers.jsonl") as store:
+        _answer(store, "t02", "Zelda", SSQ_ANSWERS)
+    done = export_study(out, tmp_path / "x")
+    assert done.tables["questionnaires"] == []
+    assert any("answers to 't02.ssq' from a node" in line for line in done.excluded)
+    assert "Zelda" not in (tmp_path / "x" / "README.md").read_text()
 
 
 def test_export_without_the_study_file_leaves_the_site_empty(

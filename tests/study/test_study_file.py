@@ -63,3 +63,40 @@ def test_pseudonyms_refuse_names(tmp_path: Path) -> None:
         path = _write(tmp_path, GOOD.replace("P01, role: driver", f"'{bad}', role: driver"))
         with pytest.raises(ConfigError, match=r"participants\[0\]\.id"):
             load_study(path)
+
+
+ASKING = (
+    GOOD.replace("kind: drive}", "kind: drive, hmi_port: 0}").replace(
+        "kind: bike}", "kind: bike, hmi_port: 8081}"
+    )
+    + "questionnaires: {after_trial: [ssq, raw-tlx], timeout_s: 300}\nlsl: {streams: [ECG]}\n"
+)
+
+
+def test_questionnaires_and_lsl_load(tmp_path: Path) -> None:
+    study = load_study(_write(tmp_path, ASKING))
+    assert study.questionnaires.after_trial == ["ssq", "raw-tlx"]
+    assert [p.hmi_port for p in study.participants] == [0, 8081]
+    assert study.lsl is not None and study.lsl.streams == ["ECG"] and study.lsl.markers
+    assert load_study(_write(tmp_path, GOOD)).lsl is None  # no section: no LSL at all
+
+
+@pytest.mark.parametrize(
+    ("edit", "says"),
+    [
+        (("[ssq, raw-tlx]", "[ssq, sus]"), "$.questionnaires.after_trial[1]"),
+        (("kind: bike, hmi_port: 8081}", "kind: bike}"), "$.participants[1].hmi_port"),
+        (("lsl: {streams: [ECG]}", "lsl: {streams: [ECG], scope: planet}"), "$.lsl.scope"),
+        (("lsl: {streams: [ECG]}", "lsl: {stream: [ECG]}"), "stream"),
+        (("timeout_s: 300", "timeout_s: 0"), "$.questionnaires.timeout_s"),
+    ],
+)
+def test_bad_questionnaires_or_lsl_name_the_field(
+    tmp_path: Path, edit: tuple[str, str], says: str
+) -> None:
+    path = _write(tmp_path, ASKING.replace(*edit))
+    with pytest.raises(ConfigError) as caught:
+        load_study(path)
+    message = str(caught.value)
+    assert message.startswith(str(path)) and says in message
+    assert "\n" not in message

@@ -62,7 +62,7 @@ def test_study_tab_starts_follows_and_steers_a_run(launcher: ServedLauncher, pag
     page.get_by_role("tab", name="Study").click()
     page.get_by_test_id("study-file").fill("studies/tab.yaml")
     page.get_by_test_id("study-out").fill("study-runs/first")
-    page.get_by_role("button", name="Start").click()
+    page.get_by_test_id("study-start").click()
     out = launcher.config_dir / "study-runs" / "first"
     trials = page.get_by_test_id("study-trials")
     expect(trials).to_contain_text("t01", timeout=UI_TIMEOUT_MS)

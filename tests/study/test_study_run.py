@@ -32,6 +32,7 @@ from carlaverse.procs import start as start_child
 from carlaverse.study import control
 from carlaverse.study.leftovers import CHILDREN_NAME
 from carlaverse.study.status import run_status
+from carlaverse.study.trial_sink import WITHHELD
 
 pytestmark = pytest.mark.timeout(600)
 
@@ -95,6 +96,12 @@ def _mcap_text(path: Path) -> str:
             elif isinstance(record, Channel):
                 parts.append(record.topic + json.dumps(record.metadata))
     return "\n".join(parts)
+
+
+def _all_metadata(path: Path, name: str) -> list[dict[str, str]]:
+    with path.open("rb") as f:
+        return [dict(r.metadata) for r in StreamReader(f, skip_magic=False).records
+                if isinstance(r, Metadata) and r.name == name]  # fmt: skip
 
 
 def _metadata(path: Path, name: str) -> dict[str, str]:
@@ -191,6 +198,10 @@ def test_study_killed_mid_trial_resumes_and_completes(tmp_path: Path) -> None:
         for word in person.split():
             assert word not in everything
     assert "P01" in _mcap_text(trials / "t03.mcap") and "P02" in everything
+    # what the participants' machines are called is withheld, keyed by pseudonym still
+    records = _all_metadata(trials / "t03.mcap", "carlaverse.hostnames")  # one per refresh
+    assert {pid for hosts in records for pid in hosts} >= {"P01", "P02"}
+    assert {value for hosts in records for value in hosts.values()} == {WITHHELD}
 
     # `study status` tells the same story from the log
     status = run_status(out)

@@ -9,7 +9,7 @@ import pytest
 
 from carlaverse.config import ConfigError
 from carlaverse.study.study_file import Condition, Participant
-from carlaverse.study.trial_setup import merged, node_config, write_scenario
+from carlaverse.study.trial_setup import interpolation_of, merged, node_config, write_scenario
 from carlaverse.traffic.scenario import load_scenario
 
 
@@ -55,3 +55,11 @@ def test_node_config_override_merges_into_the_participants_file(tmp_path: Path) 
     wrong = Condition(id="wrong", node_config={"P02": {"node": {"pose_rate_hz": "fast"}}})
     with pytest.raises(ConfigError, match=r"condition wrong's node_config.*pose_rate_hz"):
         node_config(rider, wrong, tmp_path)
+
+
+def test_the_probe_draws_as_the_participants_node_does() -> None:
+    assert interpolation_of("").render_mode == "present"  # the kind's default config
+    past = interpolation_of("node: {kind: bike, interpolation: {render_mode: past}}\n")
+    assert past.render_mode == "past"
+    with pytest.raises(ConfigError, match="render_mode"):
+        interpolation_of("node: {interpolation: {render_mode: future}}\n")

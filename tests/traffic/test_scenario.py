@@ -69,7 +69,10 @@ def test_spawn_points_follow_the_lane_and_go_round_per_kind(net_cache: Path) -> 
     with domain_of("crossing", net_cache) as domain:
         first = domain.spawn_point("drive", "d1")
         second = domain.spawn_point("drive", "d2")
-        assert domain.spawn_point("drive", "d3") == first  # two drive points, in turn
+        # two drive points, in turn; the third driver queues 10 m behind the first (heading
+        # east: 10 m further west), never on top of it
+        third = domain.spawn_point("drive", "d3")
+        assert (third.x, third.y, third.yaw) == pytest.approx((first.x - 10.0, first.y, first.yaw))
         assert domain.spawn_point("drive", "d1") == first  # a re-join gets its point back
         assert first != second
         assert abs(first.yaw) < 1e-6  # WZ runs east

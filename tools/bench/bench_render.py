@@ -9,7 +9,10 @@ vehicle's low beams on), the synthetic crossing map is built once per quality, t
 frame moves all 216 actors (brake lamps and blinkers on some) and draws them from an ego's
 head. A frame is timed from the scene update to the pixels in RAM (`Renderer.draw` + reading
 every output back), as `carlaverse render` and a pixel test need them; a window would skip the
-read-back. The GL renderer string is the one the driver reports at run time.
+read-back. The GL renderer string is the one the driver reports at run time. Beside the wall
+time each frame's CPU time is taken (the process's, all threads: llvmpipe rasterises in
+threads of its own): on a machine whose cores other work shares, waiting for a core inflates
+the wall time of the quality that needs more of them, the CPU time much less.
 
 `--baseline` names a second quality drawn in the same run, frame for frame interleaved with
 the first (which of the two draws first alternates), so both see the same machine and load:
@@ -87,26 +90,29 @@ def bench(rig, weather: m.Weather, qualities: list[str], frames: int) -> list[di
     renderers = [Renderer(RenderConfig(output="offscreen", camera=rig, quality=q),
                           synthetic_map()) for q in qualities]  # fmt: skip
     times: list[list[float]] = [[] for _ in qualities]
+    cpu: list[list[float]] = [[] for _ in qualities]
     beams = weather.sun_altitude_deg < 0
     try:
         for k in range(frames + 3):  # the first frames compile shaders and upload meshes
             t = k / 60
             frame = SceneFrame(t, actors_at(t, beams), light_state(k, t), weather)
-            pairs = list(zip(renderers, times, strict=True))
+            pairs = list(zip(renderers, times, cpu, strict=True))
             # which draws first changes each frame: the one after another's pixels left the
             # caches pays for it (measured: ~8 % of a 1080p frame on llvmpipe)
-            for renderer, timed in pairs if k % 2 == 0 else pairs[::-1]:
-                start = time.perf_counter()
+            for renderer, timed, used in pairs if k % 2 == 0 else pairs[::-1]:
+                start, start_cpu = time.perf_counter(), time.process_time()
                 renderer.draw(frame, follow="ego-0")
                 renderer.images()
                 if k >= 3:
                     timed.append(time.perf_counter() - start)
+                    used.append(time.process_time() - start_cpu)
         out = []
-        for renderer, timed in zip(renderers, times, strict=True):
+        for renderer, timed, used in zip(renderers, times, cpu, strict=True):
             ms = np.array(timed) * 1e3
             size = "+".join(f"{w}×{h}" for w, h in renderer.layout.outputs)
             out.append({"quality": renderer.graphics.preset.name, "size": size,
                         "p50": float(np.percentile(ms, 50)), "p99": float(np.percentile(ms, 99)),
+                        "cpu_p50": float(np.percentile(np.array(used) * 1e3, 50)),
                         "gl": renderer.gl_renderer, "frames": len(timed)})  # fmt: skip
         return out
     finally:
@@ -194,29 +200,37 @@ def render_rows(qualities: list[str], frames: int) -> tuple[list[str], str, list
     where the `cpu` preset costs more than its budget against a `flat` baseline (None when
     the run did not compare those two)."""
     lines = ["| rig | weather | quality | output | frames | frame p50 [ms] | frame p99 [ms] | "
-             "fps at p50 | p50 / baseline |", "|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
+             "fps at p50 | p50 / baseline | CPU time p50 [ms] | CPU p50 / baseline |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]  # fmt: skip
     gl, over, compared = "", [], False
     for name, rig in RIGS.items():
         for weather_name, weather in WEATHERS.items():
             rows = bench(rig, weather, qualities, frames)
             base = rows[-1]["p50"] if len(rows) > 1 else float("nan")
+            base_cpu = rows[-1]["cpu_p50"] if len(rows) > 1 else float("nan")
             for r in rows:
                 gl = r["gl"]
                 ratio = f"{r['p50'] / base:.2f}" if len(rows) > 1 else "–"
+                cpu_ratio = f"{r['cpu_p50'] / base_cpu:.2f}" if len(rows) > 1 else "–"
                 if r["quality"] == "cpu" and rows[-1]["quality"] == "flat":
                     compared = True
                     if r["p50"] > BUDGET * base:
                         over.append(f"{name}, {weather_name} ({ratio}×)")
                 lines.append(f"| {name} | {weather_name} | {r['quality']} | {r['size']} | "
                              f"{r['frames']} | {r['p50']:.1f} | {r['p99']:.1f} | "
-                             f"{1e3 / r['p50']:.1f} | {ratio} |")  # fmt: skip
+                             f"{1e3 / r['p50']:.1f} | {ratio} | {r['cpu_p50']:.1f} | "
+                             f"{cpu_ratio} |")  # fmt: skip
                 print(lines[-1], flush=True)
     return lines, gl, over if compared else None
 
 
 def notes(gl_renderer: str, baseline: str) -> str:
     """What the frame times mean on the GL renderer this run had."""
-    text = "A frame is the scene update, the draw and reading every output's pixels back to RAM. "
+    text = (
+        "A frame is the scene update, the draw and reading every output's pixels back to RAM; "
+        "its CPU time is the process's, all threads (llvmpipe's too), less inflated than the "
+        "wall time by other work on the machine. "
+    )
     if baseline:
         text += (f"Each quality's frames alternate with the baseline's ({baseline}) in one run; "
                  f"the `cpu` preset's budget is {BUDGET}× `flat`'s p50. ")  # fmt: skip

@@ -205,7 +205,7 @@ def by_thread(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[st
         "- Receiver CPU by thread, µs per pose (mean over the measured receivers; main thread: "
         "the pose path's node loop, elsewhere it only waits; callback thread: zenoh-python's, "
         "which runs the subscriber's callback; library threads: Zenoh's own runtime, or the "
-        "other library's; Python threads: the node client's control thread): "
+        "other library's; Python threads: the node client's control thread, the harness's): "
         + "; ".join(parts)
         + "."
     ]

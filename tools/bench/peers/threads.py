@@ -2,10 +2,10 @@
 
 Linux counts each thread's CPU time in nanoseconds (`/proc/self/task/<tid>/schedstat`, first
 field). A thread's group is told by who made it: the main thread (the node loop of the pose
-path; elsewhere it only waits); threads Python's `threading` started (the node client's
-control thread); native threads that kept the process's own name (zenoh-python's callback
-thread, which runs the subscriber's Python callback); and native threads their library named
-(Zenoh's runtime: `rx-0`, `net-0`, `tx-0`, `acc-0`, ...).
+path; elsewhere it only waits); zenoh-python's callback thread, which runs the subscriber's
+Python callback (a `threading` thread named `... (pyo3-closure)`); the other threads Python
+knows (the node client's control thread); and native threads Python does not know (Zenoh's
+runtime: `rx-0`, `net-0`, `tx-0`, `acc-0`, ...; another library's own threads).
 """
 
 from __future__ import annotations
@@ -25,25 +25,27 @@ ThreadTimes = dict[int, tuple[str, int]]  # tid -> (group, CPU time [ns])
 
 def thread_times() -> ThreadTimes:
     """Every thread of this process now: its group and its CPU time [ns]."""
-    pid = os.getpid()
-    started = {t.native_id for t in threading.enumerate()}
-    own_name = Path("/proc/self/comm").read_text().strip()
+    python = {t.native_id: t.name for t in threading.enumerate()}
     times: ThreadTimes = {}
     for task in Path("/proc/self/task").iterdir():
         try:
-            name = (task / "comm").read_text().strip()
             ns = int((task / "schedstat").read_text().split()[0])
         except OSError:  # the thread ended between the listing and the read
             continue
         tid = int(task.name)
-        if tid == pid:
-            group = MAIN
-        elif tid in started:
-            group = PYTHON
-        else:
-            group = CALLBACK if name == own_name else LIBRARY
-        times[tid] = (group, ns)
+        times[tid] = (_group(tid, python.get(tid)), ns)
     return times
+
+
+def _group(tid: int, python_name: str | None) -> str:
+    if tid == os.getpid():
+        return MAIN
+    if python_name is None:
+        return LIBRARY
+    return CALLBACK if python_name.endswith(CALLBACK_THREAD) else PYTHON
+
+
+CALLBACK_THREAD = "(pyo3-closure)"  # how zenoh-python's callback thread is named
 
 
 def by_group(before: ThreadTimes, after: ThreadTimes) -> dict[str, float]:
