@@ -110,7 +110,7 @@ class EmptyDomain:
             return None  # nothing to place
         with self._lock:
             row = self._rows.setdefault(node_id, len(self._rows))
-        return SpawnPoint(0.0, -ROW_GAP_M * row, 0.0, 0.0)
+        return SpawnPoint(0.0, -ROW_GAP_M * row if row else 0.0, 0.0, 0.0)  # never -0.0
 
     def close(self) -> None:
         pass

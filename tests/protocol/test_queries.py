@@ -104,7 +104,9 @@ def test_defaults_fill_omitted_fields_and_unknown_keys_are_ignored(session) -> N
     # a Zenoh id in hex: up to 32 digits (its text drops leading zeros)
     assert reply["schema"] == m.SCHEMA_VERSION
     assert re.fullmatch(r"[0-9a-f]{1,32}", reply["authority_instance"])
-    assert reply["spawn"] is None  # no scenario, no spawn point: a node starts where it likes
+    # No scenario: each embodied node a row of its own (docs/protocol.md, Joining); the first
+    # to ask starts at the origin heading east, a SpawnPoint array [x, y, z, yaw].
+    assert reply["spawn"] == [0.0, 0.0, 0.0, 0.0]
 
 
 def test_arrays_may_stop_before_defaulted_fields_and_carry_extra_ones() -> None:
