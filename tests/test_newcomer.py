@@ -162,6 +162,16 @@ class Watcher:
         self.fabric: Any = None
 
     def sees(self, node_id: str) -> bool:
+        self._open()
+        self.client.update()
+        return node_id in self.client.world.present
+
+    def admitted(self) -> bool:
+        """Whether the session's authority has admitted the watcher: it runs and answers."""
+        self._open()
+        return bool(self.client.joined.is_set())
+
+    def _open(self) -> None:
         if self.client is None:
             from carlaverse.transport.clock import MonotonicClock
             from carlaverse.transport.node_client import NodeClient, NodeSettings
@@ -172,8 +182,6 @@ class Watcher:
             settings = NodeSettings(node_id="newcomer-watch", session=self.session,
                                     kind="observer", actor_kind="")  # fmt: skip
             self.client = NodeClient(self.fabric, settings, MonotonicClock()).start()
-        self.client.update()
-        return node_id in self.client.world.present
 
     def close(self) -> None:
         if self.client is not None:
@@ -182,10 +190,13 @@ class Watcher:
 
 
 def wait_ready(run: Running, watcher: Watcher) -> None:
-    """Until the line is ready — a join admitted to the session, a viewer's URL printed — or,
-    with nothing to wait for, DWELL_S; it must not have ended meanwhile."""
-    node_id = run.line.option("--id") if run.line.argv[1] == "join" else None
-    waits = node_id is not None or run.line.argv[1] == "view"
+    """Until the line is ready — a router accepting, an authority admitting, a join admitted
+    to the session, a viewer's URL printed — or, with nothing to wait for, DWELL_S; it must
+    not have ended meanwhile."""
+    verb = run.line.argv[1]
+    node_id = run.line.option("--id") if verb == "join" else None
+    listen = run.line.option("--listen") if verb == "router" else None
+    waits = node_id is not None or verb in ("view", "router", "authority")
     deadline = time.monotonic() + (READY_S if waits else DWELL_S)
     while time.monotonic() < deadline:
         if run.proc.poll() is not None and run.line.needs_sound_card():
@@ -195,10 +206,34 @@ def wait_ready(run: Running, watcher: Watcher) -> None:
         if node_id is not None and run.line.option("--session") == watcher.session \
                 and watcher.sees(node_id):  # fmt: skip
             return
-        if run.line.argv[1] == "view" and "http" in run.output():
+        if verb == "view" and "http" in run.output():
+            return
+        if listen is not None and _answers(int(listen.rpartition(":")[2])):
+            return
+        if verb == "authority" and run.line.option("--session") == watcher.session \
+                and watcher.admitted():  # fmt: skip
             return
         time.sleep(0.2)
     assert not waits, f"`{run.line.text}` never got ready:\n{run.output()}"
+
+
+def _wait_for_the_id_to_be_free(line: Line, earlier: list[Running], watcher: Watcher) -> None:
+    """A README line that reuses a node id (car-1 joins again in a later block) runs once the
+    earlier holder has ended and left the session, as a person typing it would see it:
+    before, the authority would refuse the id as held (or this test take the old holder's
+    presence for the new node's)."""
+    node_id = line.option("--id") if line.argv[1] == "join" else None
+    if node_id is None:
+        return
+    for run in earlier:
+        if run.line.option("--id") == node_id and run.line.argv[1] == "join":
+            judge(run, run.proc.wait(timeout=FINITE_S) if not run.line.runs_until_stopped()
+                  else stop(run))  # fmt: skip
+    if line.option("--session") == watcher.session and watcher.client is not None:
+        deadline = time.monotonic() + READY_S
+        while watcher.sees(node_id):
+            assert time.monotonic() < deadline, f"{node_id} never left the session"
+            time.sleep(0.2)
 
 
 def _answers(port: int) -> bool:
@@ -248,6 +283,7 @@ def test_every_readme_example_runs_against_the_readmes_session(scratch: Path) ->
                     continue
                 assert isinstance(line, Line)
                 index += 1
+                _wait_for_the_id_to_be_free(line, background + mine, watcher)
                 run = start(line, scratch, env, index)
                 started.append(run)
                 if line.background:

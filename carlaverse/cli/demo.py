@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--duration",
         type=float,
-        default=30.0,
+        default=15.0,
         metavar="S",
         help="how long the nodes run (default 30)",
     )
