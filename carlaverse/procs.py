@@ -24,6 +24,7 @@ rewrite every line kept (the launcher's hides URL tokens); `on_stderr` sees each
 from __future__ import annotations
 
 import json
+import multiprocessing
 import os
 import signal
 import socket
@@ -343,3 +344,19 @@ def _alive(process: Any) -> bool:
         return bool(process.is_running() and process.status() != psutil.STATUS_ZOMBIE)
     except psutil.NoSuchProcess:
         return False
+
+
+class ParentWatch:
+    """Whether the process that started this one still lives.
+
+    A parent killed outright (SIGKILL, the OOM killer, a crash in native code) never tells its
+    children to stop: a node's control loop, reparented to init, would tick on at 1 kHz for
+    ever, holding a core and the devices; a study agent would outlive its runner. A changed
+    parent pid is the sign: one syscall, cheap enough for every control poll of a loop."""
+
+    def __init__(self) -> None:
+        parent = multiprocessing.parent_process()  # the node, even if it is already gone
+        self.pid = parent.pid if parent is not None and parent.pid else os.getppid()
+
+    def gone(self) -> bool:
+        return os.getppid() != self.pid

@@ -11,7 +11,6 @@ carlaverse study export DIR [--to EXPORT] [--study STUDY.yaml]
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import threading
 from pathlib import Path
@@ -21,7 +20,7 @@ from carlaverse.cli.common import fail, print_json, say, stop_on_signals, tell
 from carlaverse.cli.exit_codes import Exit
 from carlaverse.config import ConfigError
 from carlaverse.keys import KeySpaceError, check_token
-from carlaverse.procs import ChildFailed
+from carlaverse.procs import ChildFailed, ParentWatch
 from carlaverse.study import control
 from carlaverse.study.schedule import Trial, plan, shared_conflict
 from carlaverse.study.study_file import Study, load_study
@@ -192,11 +191,11 @@ def _agent(args: argparse.Namespace) -> int:
 
 def _watch_parent(stop: threading.Event) -> None:
     """Set `stop` when the parent ends (the agent is then re-parented)."""
-    parent = os.getppid()
+    parent = ParentWatch()
 
     def watch() -> None:
         while not stop.wait(0.2):
-            if os.getppid() != parent:
+            if parent.gone():
                 stop.set()
 
     threading.Thread(target=watch, name="parent-watch", daemon=True).start()

@@ -15,13 +15,14 @@ from typing import Any
 from carlaverse_nodes.bike.bike_loop import BikeLoop, BikeOutput
 from carlaverse_nodes.bike.config import BikeNodeConfig
 from carlaverse_nodes.bike.shared_state import CONTROL, STATE
-from carlaverse_nodes.loop_events import ParentWatch, drain
+from carlaverse_nodes.loop_events import drain
 from carlaverse_nodes.map_route import DriverRoute
 
 from carlaverse.hal import open_ffb, open_input, open_speed_sensor, open_trainer
 from carlaverse.hal.trainer.resistance_table import ResistanceTable
 from carlaverse.messages import Impulse
 from carlaverse.physics.resistance import tailwind
+from carlaverse.procs import ParentWatch
 from carlaverse.realtime import Pacer, raise_priority
 from carlaverse.shm import SharedBlock, new_record
 

@@ -22,13 +22,14 @@ from carlaverse_nodes.drive.config import DriveNodeConfig, input_configs
 from carlaverse_nodes.drive.shared_state import CONTROL, INDICATORS, STATE
 from carlaverse_nodes.drive.touch import TouchButtons, TouchPress
 from carlaverse_nodes.drive.vehicle_loop import DriveLoop, LoopOutput
-from carlaverse_nodes.loop_events import ParentWatch, drain
+from carlaverse_nodes.loop_events import drain
 from carlaverse_nodes.map_route import DriverRoute
 
 from carlaverse.hal import FfbCommand, MotionFrame, open_ffb, open_input, open_motion
 from carlaverse.messages import Impulse, Override
 from carlaverse.physics.params import VehicleParams
 from carlaverse.physics.road_surface import RoadSurface
+from carlaverse.procs import ParentWatch
 from carlaverse.realtime import Pacer, raise_priority
 from carlaverse.shm import SharedBlock, new_record
 

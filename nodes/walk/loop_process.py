@@ -15,7 +15,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from carlaverse_nodes.loop_events import ParentWatch, drain
+from carlaverse_nodes.loop_events import drain
 from carlaverse_nodes.walk.config import WalkNodeConfig
 from carlaverse_nodes.walk.shared_state import CONTROL, STATE
 from carlaverse_nodes.walk.walk_control import WalkControl, WalkOutput
@@ -24,6 +24,7 @@ from carlaverse_nodes.walk.walkable import Walkable
 from carlaverse.hal import open_input, open_xr
 from carlaverse.hal.xr.eye_images import EyeImageBlock
 from carlaverse.messages import Impulse
+from carlaverse.procs import ParentWatch
 from carlaverse.realtime import Pacer, raise_priority
 from carlaverse.shm import SharedBlock, new_record
 from carlaverse.shm_layouts import EDGES, EYES
