@@ -5,7 +5,7 @@ Moving objects are the participants' egos (`ego/<id>/pose`) and the authority's 
 `recording/osi_lights.py`); the weather from `world/weather` (`recording/osi_environment.py`);
 lanes, boundaries and signal heads come from the recorded map
 (`recording/osi_map.py`), signal states from `world/lights`; all of it read in one pass over
-the recording (`recording/osi_world.py`).
+the recording (`recording/recorded_world.py`, shared with the analysis).
 
 Frames. The project's world frame is OSI's global frame: x east, y north, z up, right-handed,
 and its angles are OSI's too (ISO 8855 body axes x forward, y left, z up; yaw counter-clockwise
@@ -35,7 +35,8 @@ from osi3.osi_object_pb2 import MovingObject
 from carlaverse.recording.osi_environment import conditions
 from carlaverse.recording.osi_lights import fill_light_state
 from carlaverse.recording.osi_map import OsiIds, lanes, signal_heads, traffic_lights
-from carlaverse.recording.osi_world import ANGLES, COLUMN, ActorTrack, Latest, RecordedWorld
+from carlaverse.recording.osi_world import ANGLES, ActorTrack, Latest
+from carlaverse.recording.recorded_world import COLUMN, RecordedWorld
 
 VehicleType = MovingObject.VehicleClassification.Type
 ACTOR_REFERENCE_TYPE = "net.carlaverse.actor"  # source_reference.type: identifier is the id
@@ -97,7 +98,7 @@ class _Actors:
     def __init__(self, world: RecordedWorld, options: Options, ids: OsiIds) -> None:
         self.order = world.actor_ids()
         self.ids = [ids.of("actor", a) for a in self.order]
-        self.tracks = {a: ActorTrack(world.samples[a], options.max_gap_s) for a in self.order}
+        self.tracks = {a: ActorTrack(world.rows(a), options.max_gap_s) for a in self.order}
         self.templates = [
             _object_template(world, a, i) for a, i in zip(self.order, self.ids, strict=True)
         ]

@@ -2,7 +2,7 @@
 
 Position (parking) lights and low beams both light the tail lights; fog lights are front and
 rear; both blinkers at once are the hazard warning. An ego's `EgoState.indicator` is folded
-into the blinker bits first (`ego_bits`), so both sources read the same way.
+into the blinker bits first (`recorded_world.ego_bits`), so both sources read the same way.
 """
 
 from __future__ import annotations
@@ -14,14 +14,6 @@ from osi3.osi_object_pb2 import MovingObject
 from carlaverse import messages as m
 
 LightState = MovingObject.VehicleClassification.LightState  # a protobuf class (untyped)
-_BLINKERS = {"off": 0, "left": m.LIGHT_LEFT_BLINKER, "right": m.LIGHT_RIGHT_BLINKER,
-             "hazard": m.LIGHT_LEFT_BLINKER | m.LIGHT_RIGHT_BLINKER}  # fmt: skip
-
-
-def ego_bits(state: m.EgoState) -> int:
-    """The light bits of an ego's state, its indicator among them."""
-    blinkers = m.LIGHT_LEFT_BLINKER | m.LIGHT_RIGHT_BLINKER
-    return (state.lights & ~blinkers) | _BLINKERS.get(state.indicator, 0)
 
 
 def _on(bits: int, mask: int) -> int:

@@ -31,7 +31,7 @@ from carlaverse.recording.osi_ground_truth import (
     ground_truths,
     interface_version,
 )
-from carlaverse.recording.osi_world import read_world
+from carlaverse.recording.recorded_world import read_world
 from carlaverse.recording.sink import RecordingError
 
 TRACE_METADATA = "net.asam.osi.trace"
