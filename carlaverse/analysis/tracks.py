@@ -1,7 +1,8 @@
 """Every road user's trajectory in a recording, resampled onto one fixed time grid.
 
 Humans come from their pose telemetry (`ego/<id>/pose`), NPCs from the authority's batches
-(`world/npc`); both carry session time, position, heading and velocity. Each actor is sampled
+(`world/npc`); both carry session time, position, heading and velocity, read in the one pass
+over a recording the OSI export makes too (`recording/recorded_world.py`). Each actor is sampled
 by linear interpolation on a grid common to all (so pair measures compare the same instants),
 and is absent (NaN) before its first sample, after its last and across gaps longer than
 `max_gap_s` — interpolating over a dropout would invent motion nobody saw.
@@ -9,19 +10,16 @@ and is absent (NaN) before its first sample, after its last and across gaps long
 
 from __future__ import annotations
 
-from collections import defaultdict
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from carlaverse import keys as keyspace
 from carlaverse import messages as m
-from carlaverse.recording.reading import iter_samples
+from carlaverse.recording.recorded_world import COLUMN, Progress, RecordedWorld, read_world
 from carlaverse.recording.timeline import recording_start_time
 
-Progress = Callable[[int], None]  # called with the number of samples read so far
+RESAMPLED = ("x", "y", "yaw", "vx", "vy")  # the columns of Tracks, in its order
 
 
 @dataclass(frozen=True, slots=True)
@@ -65,20 +63,6 @@ class Recording:
     start: float = 0.0
 
 
-@dataclass
-class _Raw:
-    """What one pass over the recording collected, before resampling."""
-
-    samples: dict[str, list[np.ndarray]]  # id -> rows of (t, x, y, yaw, vx, vy)
-    kinds: dict[str, str]
-    extents: dict[str, m.Extent]
-    humans: set[str]
-    events: list[m.WorldEvent] = field(default_factory=list)
-    road_map: m.MapReply | None = None
-    read: int = 0
-    skipped: int = 0
-
-
 def read_tracks(
     path: str | Path,
     rate_hz: float = 10.0,
@@ -96,82 +80,27 @@ def read_recording(
     progress: Progress | None = None,
 ) -> Recording:
     """Tracks, events and map of a recording, in one pass over it (recordings run to GBs)."""
-    raw = _collect(Path(path), progress)
+    world = read_world(path, progress)
     start = recording_start_time(path)  # reads up to the first pose, not the file again
-    return Recording(_tracks(raw, rate_hz, max_gap_s), raw.events, raw.road_map, start)
+    return Recording(_tracks(world, rate_hz, max_gap_s), world.events, world.road_map, start)
 
 
-def _tracks(raw: _Raw, rate_hz: float, max_gap_s: float) -> Tracks:
-    series = {k: _sorted_rows(v) for k, v in raw.samples.items() if v}
+def _tracks(world: RecordedWorld, rate_hz: float, max_gap_s: float) -> Tracks:
+    ids = world.actor_ids()
+    series = {a: world.rows(a) for a in ids}
     if not series:
         return Tracks(np.zeros(0), [], *(np.zeros((0, 0)) for _ in range(5)))
     start = min(rows[0, 0] for rows in series.values())
     end = max(rows[-1, 0] for rows in series.values())
     t = start + np.arange(int(np.floor((end - start) * rate_hz)) + 1) / rate_hz
-    ids = sorted(series, key=lambda a: (a not in raw.humans, a))
-    actors = [_actor(a, raw) for a in ids]
+    actors = [_actor(a, world) for a in ids]
     columns = np.stack([_resample(series[a], t, max_gap_s) for a in ids])  # (N, 5, T)
     return Tracks(t, actors, *(columns[:, c, :] for c in range(5)))
 
 
-def _collect(path: Path, progress: Progress | None) -> _Raw:
-    raw = _Raw(defaultdict(list), {}, {}, set())
-    for sample in iter_samples(path):
-        raw.read += 1
-        if progress and raw.read % 10000 == 0:
-            progress(raw.read)
-        if sample.kind != "put":
-            continue
-        try:
-            _take(raw, keyspace.parse(sample.key), sample.payload)
-        except (keyspace.KeySpaceError, m.MessageError):
-            raw.skipped += 1  # a foreign or damaged sample says nothing about motion
-    return raw
-
-
-def _take(raw: _Raw, key: keyspace.ParsedKey, payload: bytes) -> None:
-    if key.area == "ego" and key.channel == "pose":
-        p = m.POSE.decode(payload)
-        raw.samples[key.node_id].append(np.array([[p.t, p.x, p.y, p.yaw, p.vx, p.vy]]))
-        raw.humans.add(key.node_id)
-    elif key.area == "world" and key.channel == "npc":
-        _take_batch(raw, m.NPC_BATCH.decode(payload))
-    elif key.area == "world" and key.channel == "events":
-        event = m.WORLD_EVENT.decode(payload)
-        raw.events.append(event)
-        if isinstance(event, m.Spawned) and event.actor_kind:
-            raw.kinds[event.node_id] = event.actor_kind
-    elif key.area == "authority" and key.channel == "map" and raw.road_map is None:
-        raw.road_map = m.MAP.decode(payload)
-    elif key.area == "authority" and key.channel == "snapshot":
-        for ego in m.SNAPSHOT.decode(payload).egos:
-            raw.kinds[ego.node_id] = ego.actor_kind or raw.kinds.get(ego.node_id, "other")
-            raw.extents[ego.node_id] = ego.extent
-
-
-def _take_batch(raw: _Raw, batch: m.NpcBatch) -> None:
-    rows = batch.array()
-    table = np.column_stack(
-        [np.full(len(rows), batch.t), *(rows[f].astype(np.float64) for f in
-                                        ("x", "y", "yaw", "vx", "vy"))]
-    )  # fmt: skip
-    for npc_id, row, source in zip(batch.ids, table, rows, strict=True):
-        raw.samples[npc_id].append(row[None, :])
-        if npc_id not in raw.extents and source["length"] > 0 and source["width"] > 0:
-            raw.extents[npc_id] = m.Extent(float(source["length"]), float(source["width"]))
-            raw.kinds[npc_id] = m.ACTOR_KINDS[min(int(source["kind"]), len(m.ACTOR_KINDS) - 1)]
-
-
-def _sorted_rows(chunks: list[np.ndarray]) -> np.ndarray:
-    rows = np.concatenate(chunks)
-    rows = rows[np.argsort(rows[:, 0], kind="stable")]
-    keep = np.concatenate([[True], np.diff(rows[:, 0]) > 0])  # one sample per instant
-    return rows[keep]
-
-
 def _resample(rows: np.ndarray, t: np.ndarray, max_gap_s: float) -> np.ndarray:
     """(5, T): x, y, yaw, vx, vy at grid times, NaN outside the samples and across gaps."""
-    times = rows[:, 0]
+    times = rows[:, COLUMN["t"]]
     out = np.full((5, len(t)), np.nan)
     inside = (t >= times[0]) & (t <= times[-1])
     after = np.clip(np.searchsorted(times, t, side="left"), 1, max(1, len(times) - 1))
@@ -179,7 +108,7 @@ def _resample(rows: np.ndarray, t: np.ndarray, max_gap_s: float) -> np.ndarray:
         inside &= (times[after] - times[after - 1]) <= max_gap_s
     else:
         inside &= np.isclose(t, times[0])
-    values = rows[:, 1:].copy()
+    values = rows[:, [COLUMN[c] for c in RESAMPLED]]  # a copy: fancy indexing
     values[:, 2] = np.unwrap(values[:, 2])  # heading is interpolated the short way round
     for c in range(5):
         out[c, inside] = np.interp(t[inside], times, values[:, c])
@@ -187,7 +116,7 @@ def _resample(rows: np.ndarray, t: np.ndarray, max_gap_s: float) -> np.ndarray:
     return out
 
 
-def _actor(actor_id: str, raw: _Raw) -> Actor:
-    kind = raw.kinds.get(actor_id, "other")
-    extent = raw.extents.get(actor_id) or m.KIND_EXTENTS.get(kind) or m.KIND_EXTENTS["other"]
-    return Actor(actor_id, kind, actor_id in raw.humans, extent.length, extent.width)
+def _actor(actor_id: str, world: RecordedWorld) -> Actor:
+    kind = world.kinds.get(actor_id, "other")
+    extent = world.extents.get(actor_id) or m.KIND_EXTENTS.get(kind) or m.KIND_EXTENTS["other"]
+    return Actor(actor_id, kind, actor_id in world.humans, extent.length, extent.width)
