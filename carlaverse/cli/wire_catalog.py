@@ -122,11 +122,13 @@ def _type_names(type_: Any) -> str:
 
 
 def message_structs() -> list[type[msgspec.Struct]]:
-    """Every Struct `carlaverse.messages` defines, in source order."""
+    """Every Struct the `carlaverse.messages` package defines, in the order it lists them."""
     return [
         v
         for v in vars(m).values()
-        if isinstance(v, type) and issubclass(v, msgspec.Struct) and v.__module__ == m.__name__
+        if isinstance(v, type)
+        and issubclass(v, msgspec.Struct)
+        and v.__module__.startswith(f"{m.__name__}.")
     ]
 
 

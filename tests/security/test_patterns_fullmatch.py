@@ -183,7 +183,7 @@ PATTERN_EXAMPLES = {
     "carlaverse.audio.config.*.Layout": "ring8",
     # a field's pattern equal to an alias's is checked once, under the alias: the sound
     # zones' names follow the node-id rule, as StudyId does
-    "carlaverse.messages.*.StudyId": "bridge-works.2",
+    "carlaverse.messages.study.*.StudyId": "bridge-works.2",
     "carlaverse.hmi.wire.*.StudyId": "t1.nasa-tlx",
     "carlaverse.study.study_file.*.Name": "latency-dyad",
     "carlaverse.study.study_file.*.Pseudonym": "p01",
