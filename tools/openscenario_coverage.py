@@ -6,7 +6,7 @@
 
 The table lists every element of the OpenSCENARIO 1.0–1.3 schemas that scenariogeneration
 installs (carlaverse/traffic/openscenario_coverage.py says how each status is found);
-tests/traffic/test_openscenario_coverage.py holds it to the importer's behaviour.
+tests/traffic/test_openscenario_coverage_*.py hold it to the importer's behaviour.
 """
 
 from __future__ import annotations

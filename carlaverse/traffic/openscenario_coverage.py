@@ -10,7 +10,7 @@ them) gets one of four statuses:
   catalogues) — the importer never looks there.
 
 The importer's own knowledge is in `EXPLICIT` (written by hand, held to its behaviour by
-tests/traffic/test_openscenario_coverage.py); every other element's status follows from where
+tests/traffic/test_openscenario_coverage_*.py); every other element's status follows from where
 the schema lets it appear: a condition or action the importer does not know is refused (the
 importer's message names it), anything that can only appear inside a refused element is
 refused with it, and anything only outside the storyboard is not read. Each child of a
