@@ -41,8 +41,8 @@ from carlaverse.messages import LIGHT_HIGH_BEAM, LIGHT_LOW_BEAM
 from carlaverse.render.frame import ActorDraw
 from carlaverse.render.quality import Preset
 from carlaverse.render.shaders import program
+from carlaverse.render.shaders.lamp_glare import GLARE_FS, GLARE_VS
 from carlaverse.render.shadows import SHADOW_MASK
-from carlaverse.render.sky_shaders import GLARE_FS, GLARE_VS
 
 LAMP_KINDS = {"car", "van", "truck", "bus", "motorcycle"}
 LOW_BEAM_I = 150.0  # intensity per unit solid angle, relative units (see the docstring)

@@ -31,8 +31,8 @@ from panda3d.core import (
 from carlaverse.messages import Weather
 from carlaverse.render.quality import Preset
 from carlaverse.render.shaders import program
+from carlaverse.render.shaders.rain_streaks import RAIN_FS, RAIN_VS
 from carlaverse.render.shadows import SHADOW_MASK
-from carlaverse.render.sky_shaders import RAIN_FS, RAIN_VS
 
 FALL_MPS = 6.5  # [m/s] terminal speed of a ~2 mm raindrop
 EXPOSURE_S = 1 / 30  # [s] a frame's motion blur: a streak's length is the fall in it

@@ -37,7 +37,7 @@ from panda3d.core import (
 
 from carlaverse.render.quality import Preset
 from carlaverse.render.shaders import SUN_DISC_RAD
-from carlaverse.render.sky_shaders import sky_sources, sun_sources
+from carlaverse.render.shaders.sky import sky_sources, sun_sources
 
 CLOUD_PX = 256  # side of the cloud texture
 CLOUD_OCTAVES = 6

@@ -1,5 +1,5 @@
-"""The renderer's GLSL, as text: what every program shares, and the surfaces' shader (the
-sky dome, the sun's disc, rain and glare are in `sky_shaders.py`).
+"""The renderer's GLSL, as text: what every program shares, the surfaces' shader, and what is
+drawn around the eye rather than lit (the sky dome, the sun's disc, rain streaks, lamp glare).
 
 Every program starts with the preset's `#define`s and `COMMON` (`program.program`): colour
 space, tone mapping, the sky's radiance in a direction, fog, and `light()` — what a surface
@@ -24,6 +24,9 @@ One module a job:
     per_pixel.py      the surface program lit per pixel (`full`)
     per_vertex.py     the surface program lit per vertex (`cpu`)
     surfaces.py       `surface_sources()`: the surface program for a preset, time and weather
+    sky.py            the sky dome and the sun's card (`sky_sources`, `sun_sources`)
+    rain_streaks.py   the rain streaks drawn around the eye
+    lamp_glare.py     the glare sprite of a lit headlamp
 
 Conventions: world frame (x east, y north, z up) [m]; colours linear RGB in the units of
 `sky.py` (1.0 = a clear zenith sun on a surface facing it); vertex colours and textures are

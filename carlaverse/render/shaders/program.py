@@ -2,9 +2,9 @@
 GLSL every program shares (`COMMON`), then its own stages.
 
 `COMMON` is put together in the order GLSL needs (a function before its callers): the inputs,
-the optics, the night's lights, a surface's light. The sky, rain and glare programs
-(`sky_shaders.py`) share it with the surfaces', so the sky seen directly, the sky mirrored in a
-wet road and the fog that swallows a distant house are one function.
+the optics, the night's lights, a surface's light. The sky, rain and glare programs (`sky.py`,
+`rain_streaks.py`, `lamp_glare.py`) share it with the surfaces', so the sky seen directly, the
+sky mirrored in a wet road and the fog that swallows a distant house are one function.
 """
 
 from __future__ import annotations

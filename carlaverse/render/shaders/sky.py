@@ -1,12 +1,12 @@
-"""The GLSL of what is drawn around the eye rather than lit: the sky dome, the sun's disc,
-rain streaks and headlamp glare. Each program is built with `shaders.program`, so it shares
-the surfaces' colour space, tone mapping, sky radiance and fog (`shaders.COMMON`).
+"""The sky's GLSL: the dome drawn around the eye (`sky_dome.py`) and, where the sky is lit
+per vertex, the sun's disc on a card of its own. Built with `program.program`, so the sky
+shares the surfaces' colour space, tone mapping, sky radiance and fog (`program.COMMON`).
 """
 
 from __future__ import annotations
 
 from carlaverse.render.quality import Preset
-from carlaverse.render.shaders import program
+from carlaverse.render.shaders.program import program
 
 # The sky: the clear sky through the fog layer, clouds, and the sun's disc in front unless a
 # cloud hides it. `sky_at` gives the clear sky and the lit cloud colour for a direction; the
@@ -107,71 +107,12 @@ void main() {
 }
 """
 
-RAIN_VS = """
-uniform mat4 p3d_ViewProjectionMatrix;
-uniform mat4 p3d_ViewMatrixInverse;
-uniform vec3 rain_box;    // [m] the streaks fill this box around the eye
-uniform vec4 rain_fall;   // xyz travelled by a drop since t = 0 [m], w share of drops shown
-uniform vec3 rain_step;   // [m] a streak's length and direction (the drop's motion blur)
-in vec4 p3d_Vertex;       // a drop's place in the unit box
-in vec4 p3d_Color;        // r: the drop's rank (shown when < rain_fall.w), g: 0 head, 1 tail
-out float v_alpha;
-
-void main() {
-    vec3 eye = p3d_ViewMatrixInverse[3].xyz;
-    vec3 p = p3d_Vertex.xyz * rain_box + rain_fall.xyz;
-    p = eye + (fract((p - eye) / rain_box + 0.5) - 0.5) * rain_box;  // wrap around the eye
-    p += rain_step * p3d_Color.g;
-    v_alpha = step(p3d_Color.r, rain_fall.w) * (1.0 - 0.7 * p3d_Color.g);
-    gl_Position = p3d_ViewProjectionMatrix * vec4(p, 1.0);
-}
-"""
-
-RAIN_FS = """
-in float v_alpha;
-out vec4 frag;
-void main() {
-    // a drop shows the world around it squeezed (bright sky, dark ground): about its mean
-    vec3 c = sky_horizon * 0.55 + sky_ambient * 0.25;
-    frag = vec4(to_display(tone_map(c)), RAIN_ALPHA * v_alpha);
-}
-"""
-
-GLARE_VS = """
-uniform mat4 p3d_ModelViewProjectionMatrix;
-uniform mat4 p3d_ModelMatrix;
-in vec4 p3d_Vertex;
-in vec4 p3d_Color;
-in vec2 p3d_MultiTexCoord0;
-out vec2 v_uv;
-out vec3 v_pos;
-out float v_level;
-void main() {
-    gl_Position = p3d_ModelViewProjectionMatrix * p3d_Vertex;
-    v_pos = (p3d_ModelMatrix * p3d_Vertex).xyz;
-    v_uv = p3d_MultiTexCoord0;
-    v_level = p3d_Color.r;
-}
-"""
-
-GLARE_FS = """
-uniform mat4 p3d_ViewMatrixInverse;
-in vec2 v_uv;
-in vec3 v_pos;
-in float v_level;
-out vec4 frag;
-void main() {
-    float r2 = dot(v_uv - 0.5, v_uv - 0.5) * 4.0;
-    float glow = exp(-r2 * 9.0) + 0.25 * exp(-r2 * 2.5);
-    float through = exp(-fog.a * length(p3d_ViewMatrixInverse[3].xyz - v_pos));
-    frag = vec4(HEAD_RGB * (glow * v_level * through), 1.0);  // added to what lies behind
-}
-"""
-
 
 def sky_sources(preset: Preset) -> tuple[str, str]:
+    """Vertex and fragment source of the sky dome for this preset."""
     return program(preset, SKY_COMMON, SKY_VS), program(preset, SKY_COMMON, SKY_FS)
 
 
 def sun_sources(preset: Preset) -> tuple[str, str]:
+    """Vertex and fragment source of the sun's card (presets lighting the sky per vertex)."""
     return program(preset, SKY_COMMON, SUN_VS), program(preset, SKY_COMMON, SUN_FS)
