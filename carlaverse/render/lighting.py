@@ -8,7 +8,7 @@
 - `headlights` (spotlights and glare from the vehicles' lamp bits), `street_lights`
   (poles and their baked light), `rain` (streaks around the eye).
 
-The surface shader (`shaders.SURFACE_*`) goes on the world node, so everything under it —
+The surface shader (`shaders.surfaces`) goes on the world node, so everything under it —
 map, actors, signal heads — is lit the same way; a node tunes its material with the
 `surface` input (wet response, roughness, flags, gloss). Lit per vertex (`cpu`), a node whose
 material has flags also gets a program with them compiled in (llvmpipe would run a flag's
@@ -54,7 +54,7 @@ class Material:
     untextured: bool = False  # no texture to fetch (a pixel's fetch is dear on llvmpipe)
 
     def flags(self) -> int:
-        """The flags of shaders.py: POOLS 1, WINDOWS 2, UNTEXTURED 4 (LAMP 8: `lamps`)."""
+        """The flags of `shaders.defines`: POOLS 1, WINDOWS 2, UNTEXTURED 4 (LAMP 8: `lamps`)."""
         flags = (1 if self.pools else 0) | (2 if self.windows else 0)
         return flags | (4 if self.untextured else 0)
 
@@ -81,7 +81,7 @@ OWN_VEHICLE_MATERIAL = Material(0.0, 0.35, 0.12, untextured=True)
 # Roads are drawn before the rest of the opaque scene: the ground beneath them then fails the
 # depth test before it is shaded (on llvmpipe a shaded pixel is the frame's cost).
 ROAD_BIN, ROAD_BIN_SORT = "road_first", 15  # Panda3D's "opaque" bin sorts at 20
-LAMP_FLAG = 8  # shaders.py's LAMP: a program that only glows
+LAMP_FLAG = 8  # `shaders.defines`' LAMP: a program that only glows
 FLAT_M = 0.3  # [m] geometry no taller casts no shadow worth a pass (ground, roads, kerbs)
 
 

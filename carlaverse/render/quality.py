@@ -32,7 +32,7 @@ class Preset:
     name: str
     shaded: bool  # own GLSL shading (sky, sun, tone mapping, weather, night); else fixed-function
     textured: bool  # the map's procedural textures (asphalt, paving, facades); else plain colours
-    per_pixel: bool  # light every pixel; else every vertex, the pixel only shadowed (shaders.py)
+    per_pixel: bool  # light every pixel; else every vertex, the pixel only shadowed (shaders/)
     shadow_map_px: int  # side of the sun's shadow map [px]; 0 = no shadows
     shadow_film_m: float  # [m] side of the square around the eye that shadows cover
     shadow_taps: int  # 1 (hardware 2×2 filter) or 4 (softer edges)

@@ -2,7 +2,7 @@
 
 Radiometry in relative linear units: 1.0 is the irradiance of a clear zenith sun on a surface
 facing it. A surface's colour is albedo × irradiance (sun + sky + lamps) × exposure, then tone
-mapped (`shaders.py`). No Panda3D here, so the numbers are testable on their own.
+mapped (`shaders/`). No Panda3D here, so the numbers are testable on their own.
 
 - **Sun**: direction from altitude and azimuth (compass bearing: 0 north = +y, 90 east = +x,
   clockwise). Its colour is the solar spectrum through the atmosphere's air mass

@@ -4,7 +4,7 @@ The dome is a sphere centred on the rig's head every frame, so it never comes ne
 sun stays at its direction however far the eye moves. Its vertex shader puts it on the far
 plane and it is drawn after the opaque scene with a less-or-equal depth test, so only the
 pixels nothing else covered are shaded (the sky costs what shows of it, not a full screen).
-Its shader (`shaders.SKY_*`) colours each direction: the gradient from horizon to zenith, the
+Its shader (`shaders.sky`) colours each direction: the gradient from horizon to zenith, the
 glow and disc of the sun, clouds from a tileable noise texture thresholded by cloudiness, and
 the fog layer in front.
 
