@@ -1,28 +1,41 @@
-"""The door of a local web server: which names it answers to, which pages may open its
-WebSockets, who must show a pairing token, and that no other site can frame it.
+"""The door of this project's local web servers (the HMI, the launcher): which names a
+server answers to, which pages may reach it, who must show its token, and that no other
+site can frame it. One rule, written once here, for every server that serves pages on a port.
 
-One pure ASGI middleware (no web framework imported), for any server of this project that
-serves pages on a port. Each HTTP request and WebSocket handshake passes, in this order:
+One pure ASGI middleware (no web framework imported), so a refused request never reaches
+the app. Each HTTP request and WebSocket handshake passes, in this order:
 
 1. **Host** (DNS rebinding): a page whose name an attacker rebound to 127.0.0.1 reaches the
    port, but its browser names the page's own host in `Host`. Served are only the names in
    `DoorPolicy.hosts` (127.0.0.1, localhost, [::1], the bind address, names an operator
    adds) and the IP address the connection actually arrived on (an address names itself:
-   rebinding needs a DNS name). Any port. Otherwise 403.
-2. **Token**, when the policy has one: the `DoorPolicy.cookie` cookie, `?token=` or
-   `Authorization: Bearer`, compared in constant time. Otherwise 401. An HTTP GET carrying
-   a good `?token=` is answered with the cookie (HttpOnly, SameSite=Strict) and a page that
-   goes on to the same address without the token, so it leaves the address bar.
-3. **Origin**, on WebSocket handshakes (cross-site WebSocket hijacking): browsers send the
-   page's origin on every handshake; it must be this server's own origin, `http(s)://` plus
-   the request's Host. Otherwise 403. A handshake without Origin is a program rather than
-   a browser, which could forge any Origin anyway, so Origin cannot stop it: it passes this
-   step, and the token (when the policy has one) is what stops it.
+   rebinding needs a DNS name), with or without a port. A malformed or repeated Host names
+   none of them. Otherwise 403.
+2. **Origin** (cross-site requests, WebSocket hijacking): browsers send the page's origin on
+   every handshake and on cross-origin requests; it must be this server's own, `http://` plus
+   the request's Host (a missing port is http's: RFC 6454). Otherwise 403. A client without
+   Origin is a program rather than a browser, which could forge any Origin anyway: the token
+   (when the policy has one) is what stops it.
+3. **Fetch Metadata** (what another page embeds): a request a browser marks in
+   `Sec-Fetch-Site` as made by another page (an `<img>`, a frame, a script) is refused unless
+   it comes from the server's own origin: another port on 127.0.0.1 is the same *site*, so a
+   Strict cookie goes along with it. Top-level navigations pass (a link, a QR code, a file://
+   page), and so does a client that sends no metadata. Otherwise 403.
+4. **Token**, when the policy has one: the `DoorPolicy.cookie` cookie, `Authorization: Bearer`
+   or `?token=`, compared in constant time. Otherwise 401.
 
-Refusals are counted by reason (`refused`), never raised into the server. Every HTTP
-response gets `X-Frame-Options: DENY` and `Content-Security-Policy: frame-ancestors 'none'`
-(clickjacking), `Referrer-Policy: no-referrer` (a token in an address never travels on)
-and `X-Content-Type-Options: nosniff`.
+A GET or HEAD whose address carries `?token=` (outside `DoorPolicy.script_paths`, where the
+app's scripts send it) pairs: a wrong one is 401 whatever cookie came along; a good one is
+answered with the cookie (HttpOnly, SameSite=Strict) and goes on to the same address without
+the token, so it leaves the address bar: by a page that refreshes to it (a navigation the
+server's own page makes is same-site, so the Strict cookie goes along); a server may answer
+otherwise (`WebGuard._paired`: the launcher redirects where it can).
+
+Refusals are counted by reason (`refused`) and never raised into the server; the 1st, 10th,
+100th… of each are logged, never with a token. Every HTTP response gets
+`X-Frame-Options: DENY` and `Content-Security-Policy: frame-ancestors 'none'` (clickjacking),
+`Referrer-Policy: no-referrer` (a token in an address never travels on) and
+`X-Content-Type-Options: nosniff`.
 
     policy = DoorPolicy(door_hosts("0.0.0.0", ["cabin-pc.lab"]), token=new_token(),
                         cookie="carlaverse-hmi-8080")
@@ -37,22 +50,23 @@ import ipaddress
 import logging
 import re
 import secrets
-from collections import Counter
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import Any
-from urllib.parse import parse_qsl, urlencode
+from typing import Any, NamedTuple
+from urllib.parse import parse_qsl, quote, urlencode
 
 log = logging.getLogger(__name__)
 
-Scope = dict[str, Any]
-Message = dict[str, Any]
+Scope = Any  # an ASGI connection scope (a mapping)
+Message = Any  # an ASGI message (a mapping)
 Receive = Any  # async () -> Message
 Send = Any  # async (Message) -> None
 App = Any  # an ASGI application
 
 LOOPBACK_NAMES = ("127.0.0.1", "localhost", "::1")
 TOKEN_BYTES = 32  # 256 bit: far beyond guessing over a network (issue 39 asks >= 128)
+QUERY_KEY = "token"
+REASONS = ("host", "origin", "site", "token")  # what a refusal is counted by
 FRAME_HEADERS = [
     (b"x-frame-options", b"DENY"),
     (b"content-security-policy", b"frame-ancestors 'none'"),
@@ -61,30 +75,40 @@ FRAME_HEADERS = [
 ]
 _AUTHORITY = re.compile(r"(?:\[(?P<v6>[0-9A-Fa-f:.]+)\]|(?P<name>[A-Za-z0-9._-]+))"
                         r"(?::(?P<port>[0-9]{1,5}))?")  # fmt: skip
-_ORIGIN = re.compile(r"(?P<scheme>https?)://(?P<authority>[^/?#]+)")
+_ORIGIN = re.compile(r"http://(?P<authority>[^/?#]+)")  # these servers speak plain HTTP
 _NAME = re.compile(r"(?!-)[a-z0-9-]{1,63}(?<!-)(?:\.(?!-)[a-z0-9-]{1,63}(?<!-))*")
-DEFAULT_PORTS = {"http": 80, "ws": 80, "https": 443, "wss": 443}
+HTTP_PORT = 80
 
 
 @dataclass(frozen=True)
 class DoorPolicy:
-    """Who a server answers: its host names, and the pairing token when one is asked for."""
+    """Who a server answers: its host names, and the token when one is asked for."""
 
     hosts: frozenset[str]  # normalised by `normal_host` (lower case, IPv6 without brackets)
     token: str | None = None  # None: no token asked (loopback, where Host/Origin suffice)
     cookie: str = "carlaverse-door"  # name of the cookie that keeps the token once paired
     host_hint: str = ""  # appended to a refused Host's message: how to add a name
+    token_hint: str = "open the URL with ?token= printed on its terminal"  # how to get in
+    server: str = "carlaverse"  # names the server in its refusals and log lines
+    script_paths: tuple[str, ...] = ()  # path prefixes whose `?token=` is a script's, not paired
+
+
+class Refusal(NamedTuple):
+    status: int  # the HTTP status it is answered with
+    reason: str  # one of REASONS
+    message: str  # one line, never holding a token
 
 
 def new_token() -> str:
-    """A fresh pairing token: 256 random bits, URL-safe base64 (43 characters)."""
+    """A fresh token: 256 random bits, URL-safe base64 (43 characters)."""
     return secrets.token_urlsafe(TOKEN_BYTES)
 
 
 def normal_host(name: str) -> str:
-    """A host name or address as the allow-list keeps it: lower case, no trailing dot,
-    no IPv6 brackets, an address in its compressed form (an IPv4-mapped one as IPv4)."""
-    name = name.lower().removesuffix(".")
+    """A host name or address as the allow-list keeps it: lower case, no IPv6 brackets, an
+    address in its compressed form (an IPv4-mapped one as IPv4). A trailing dot is kept:
+    to a browser `localhost.` is another origin, and none of this server's pages."""
+    name = name.lower()
     if name.startswith("[") and name.endswith("]"):
         name = name[1:-1]
     try:
@@ -97,13 +121,10 @@ def normal_host(name: str) -> str:
 
 def check_host_name(name: str) -> str:
     """`name` normalised if it is a DNS name or an IP address (no port); else ValueError."""
-    normal = normal_host(name)
-    try:
-        ipaddress.ip_address(normal)
-    except ValueError:
-        if not _NAME.fullmatch(normal) or len(normal) > 253:
-            raise ValueError(f"{name!r} is not a host name or an IP address (no port, "
-                             "no scheme: e.g. cabin-pc.lab or 192.168.1.20)") from None  # fmt: skip
+    normal = normal_host(name).removesuffix(".")  # an operator's `cabin-pc.lab.` is that name
+    if not _is_address(normal) and (not _NAME.fullmatch(normal) or len(normal) > 253):
+        raise ValueError(f"{name!r} is not a host name or an IP address (no port, "
+                         "no scheme: e.g. cabin-pc.lab or 192.168.1.20)")  # fmt: skip
     return normal
 
 
@@ -131,89 +152,132 @@ def split_authority(value: str) -> tuple[str, int | None] | None:
     return normal_host(found["v6"] or found["name"]), port
 
 
+def same_origin(origin: str, host: tuple[str, int | None]) -> bool:
+    """Whether `Origin` names the server the request reached: `http://`, the same host and
+    port as its Host header (a missing port is http's default)."""
+    found = _ORIGIN.fullmatch(origin)
+    if found is None:
+        return False  # "null" (a sandboxed or file page), https, anything malformed
+    named = split_authority(found["authority"])
+    if named is None:
+        return False
+    return named[0] == host[0] and (named[1] or HTTP_PORT) == (host[1] or HTTP_PORT)
+
+
+def embedded_elsewhere(headers: dict[str, str]) -> bool:
+    """Fetch Metadata's resource isolation: whether another page made this request (not
+    the server's own page, not a top-level navigation, not a client without metadata)."""
+    site = headers.get("sec-fetch-site")
+    if site in (None, "same-origin", "none"):
+        return False
+    navigation = headers.get("sec-fetch-mode") == "navigate"
+    return not (navigation and headers.get("sec-fetch-dest", "document") == "document")
+
+
+def judge(policy: DoorPolicy, scope: Scope) -> Refusal | None:
+    """Why `policy` refuses this request or handshake, or None to let it in (steps 1-4)."""
+    headers = request_headers(scope)
+    host = split_authority(headers.get("host", ""))
+    if host is None or not _known_host(policy, host[0], scope):
+        shown = headers.get("host", "")[:100]
+        message = f"Host {shown!r} is not a name of this server{policy.host_hint}"
+        return Refusal(403, "host", message)
+    origin = headers.get("origin")
+    if origin is not None and not same_origin(origin, host):
+        return Refusal(403, "origin", f"a page from {origin[:100]!r} may not reach this server")
+    if embedded_elsewhere(headers):
+        return Refusal(403, "site", "a request another page embeds is refused")
+    if policy.token is not None and not _holds_token(policy, scope, headers):
+        return token_refusal(policy)
+    return None
+
+
+def token_refusal(policy: DoorPolicy) -> Refusal:
+    return Refusal(401, "token", f"this server asks for its token: {policy.token_hint}")
+
+
+def pairing_token(policy: DoorPolicy, scope: Scope) -> str | None:
+    """The `?token=` of a page request that pairs (module docstring), else None."""
+    page = scope["type"] == "http" and scope.get("method") in ("GET", "HEAD")
+    scripts = str(scope.get("path", "/")).startswith(policy.script_paths)
+    return _query_token(scope) if policy.token is not None and page and not scripts else None
+
+
+def _known_host(policy: DoorPolicy, host: str, scope: Scope) -> bool:
+    if host in policy.hosts:
+        return True
+    server = scope.get("server") or ("", None)
+    return host == normal_host(str(server[0])) and _is_address(host)
+
+
+def _holds_token(policy: DoorPolicy, scope: Scope, headers: dict[str, str]) -> bool:
+    shown = [
+        _cookies(headers.get("cookie", "")).get(policy.cookie),
+        _bearer(headers.get("authorization", "")),
+        _query_token(scope),
+    ]
+    return any(tokens_equal(s, policy.token) for s in shown if s)
+
+
+def tokens_equal(shown: str, expected: str | None) -> bool:
+    """Constant-time comparison, so the time taken tells nothing of the token."""
+    if expected is None:
+        return False
+    return hmac.compare_digest(shown.encode("utf-8", "surrogateescape"), expected.encode())
+
+
+# ------------------------------------------------------------ the middleware
+
+
 class WebGuard:
     """Pure ASGI middleware that keeps the door by a `DoorPolicy` (module docstring)."""
 
     def __init__(self, app: App, policy: DoorPolicy) -> None:
         self.app = app
         self.policy = policy
-        self.refused: Counter[str] = Counter()  # by reason: host, token, origin
+        self.refused: dict[str, int] = dict.fromkeys(REASONS, 0)
 
     async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
-        kind = scope["type"]
-        if kind not in ("http", "websocket"):
-            await self.app(scope, receive, send)
+        if scope["type"] not in ("http", "websocket"):
+            await self.app(scope, receive, send)  # lifespan: the server's own start and stop
             return
-        status, reason, message = self._judge(scope)
-        if status:
-            self._count(reason, message)
-            if kind == "http":
-                await _http_reply(send, status, message.encode())
-            else:
-                await _deny_handshake(scope, receive, send, status, message)
-        elif kind == "websocket":
-            await self.app(scope, receive, send)
-        elif self._pairs(scope):
-            await _http_reply(send, 200, _pairing_page(scope), self._cookie_header())
+        refusal = judge(self.policy, scope)
+        shown = pairing_token(self.policy, scope) if refusal is None else None
+        if shown is not None and not tokens_equal(shown, self.policy.token):
+            refusal = token_refusal(self.policy)  # let in by its cookie; the URL's is wrong
+        if refusal is not None:
+            await self._refuse(scope, receive, send, refusal)
+        elif shown is not None:
+            await self._paired(scope, send, clean_url(scope))
         else:
             await self.app(scope, receive, with_frame_headers(send))
 
-    # ------------------------------------------------------------ the checks
+    async def _paired(self, scope: Scope, send: Send, clean: str) -> None:
+        """Answer a good `?token=`: the cookie, and on to `clean` (the address without it)."""
+        await send_reply(send, 200, pairing_page(clean), self.cookie_header())
 
-    def _judge(self, scope: Scope) -> tuple[int, str, str]:
-        """(0, "", "") to let the request in, else (status, reason, one-line message)."""
-        headers = _headers(scope)
-        host = split_authority(headers.get("host", ""))
-        if host is None or not self._known_host(host[0], scope):
-            shown = headers.get("host", "")[:100]
-            hint = self.policy.host_hint
-            return 403, "host", f"403: Host {shown!r} is not a name of this server{hint}"
-        if self.policy.token is not None and not self._holds_token(scope, headers):
-            return 401, "token", ("401: this server asks for its pairing token: open the URL "
-                                  "with ?token= printed on its terminal")  # fmt: skip
-        origin = headers.get("origin")
-        if scope["type"] == "websocket" and origin is not None and not _same_origin(origin, host):
-            return 403, "origin", f"403: a page from {origin[:100]!r} may not open this WebSocket"
-        return 0, "", ""
-
-    def _known_host(self, host: str, scope: Scope) -> bool:
-        if host in self.policy.hosts:
-            return True
-        server = scope.get("server") or ("", None)
-        return host == normal_host(str(server[0])) and _is_address(host)
-
-    def _holds_token(self, scope: Scope, headers: dict[str, str]) -> bool:
-        expected = self.policy.token
-        assert expected is not None
-        shown = [
-            _cookies(headers.get("cookie", "")).get(self.policy.cookie),
-            _query(scope).get("token"),
-            headers.get("authorization", "").removeprefix("Bearer ").strip() or None,
-        ]
-        return any(_equal(s, expected) for s in shown if s)
-
-    def _pairs(self, scope: Scope) -> bool:
-        """A GET that brings a good token in its address: pair it (cookie, clean address)."""
-        token, expected = _query(scope).get("token"), self.policy.token
-        if token is None or expected is None or scope.get("method") != "GET":
-            return False
-        return _equal(token, expected)
-
-    def _cookie_header(self) -> tuple[bytes, bytes]:
+    def cookie_header(self) -> tuple[bytes, bytes]:
         value = f"{self.policy.cookie}={self.policy.token}; Path=/; HttpOnly; SameSite=Strict"
         return b"set-cookie", value.encode()
 
-    def _count(self, reason: str, message: str) -> None:
-        self.refused[reason] += 1
-        if self.refused[reason] == 1:  # said once; the count carries the rest
-            log.warning("refused a request: %s", message)
+    async def _refuse(self, scope: Scope, receive: Receive, send: Send, refusal: Refusal) -> None:
+        self.refused[refusal.reason] += 1
+        count = self.refused[refusal.reason]
+        if str(count).strip("0") == "1":  # the 1st, 10th, 100th…: a flood stays quiet
+            log.warning("%s refused request #%d for its %s: %s", self.policy.server, count,
+                        refusal.reason, refusal.message)  # fmt: skip
+        body = f"{self.policy.server}: {refusal.message}\n".encode()
+        if scope["type"] == "http":
+            await send_reply(send, refusal.status, body)
+        else:
+            await _deny_handshake(scope, receive, send, refusal.status, body)
 
 
 # ------------------------------------------------------------ helpers
 
 
-def _headers(scope: Scope) -> dict[str, str]:
-    """Request headers, lower-case names; a repeated Host or Origin counts as missing."""
+def request_headers(scope: Scope) -> dict[str, str]:
+    """Request headers, lower-case names; a repeated Host or Origin counts as malformed."""
     found: dict[str, str] = {}
     repeated: set[str] = set()
     for raw_name, raw_value in scope.get("headers", []):
@@ -231,12 +295,14 @@ def _cookies(header: str) -> dict[str, str]:
     return {name: value for name, sep, value in pairs if sep}
 
 
-def _query(scope: Scope) -> dict[str, str]:
-    return dict(parse_qsl(scope.get("query_string", b"").decode("latin-1")))
+def _bearer(header: str) -> str | None:
+    scheme, _, value = header.partition(" ")
+    return value.strip() if scheme.lower() == "bearer" and value.strip() else None
 
 
-def _equal(shown: str, expected: str) -> bool:
-    return hmac.compare_digest(shown.encode("utf-8", "surrogateescape"), expected.encode())
+def _query_token(scope: Scope) -> str | None:
+    query = parse_qsl(scope.get("query_string", b"").decode("latin-1"))
+    return next((value for key, value in query if key == QUERY_KEY), None)
 
 
 def _is_address(host: str) -> bool:
@@ -247,30 +313,21 @@ def _is_address(host: str) -> bool:
     return True
 
 
-def _same_origin(origin: str, host: tuple[str, int | None]) -> bool:
-    """Whether `Origin` names the server the request reached (scheme http(s), same host
-    and port as its Host header; a missing port is the scheme's default)."""
-    found = _ORIGIN.fullmatch(origin)
-    if found is None:
-        return False  # "null" (a sandboxed or file page) and anything malformed
-    named = split_authority(found["authority"])
-    if named is None:
-        return False
-    default = DEFAULT_PORTS[found["scheme"]]
-    return named[0] == host[0] and (named[1] or default) == (host[1] or default)
+def clean_url(scope: Scope) -> str:
+    """The request's path and query without the token; never `//host` (another site)."""
+    path = "/" + str(scope.get("path", "/")).lstrip("/")
+    query = parse_qsl(scope.get("query_string", b"").decode("latin-1"))
+    rest = urlencode([(k, v) for k, v in query if k != QUERY_KEY])
+    return quote(path) + (f"?{rest}" if rest else "")
 
 
-def _pairing_page(scope: Scope) -> bytes:
-    """A page that goes on to the address without its token (the cookie now holds it).
-    A navigation from the server's own page, unlike a redirect of a link followed on
-    another site, is same-site, so the SameSite=Strict cookie goes with it."""
-    rest = [(k, v) for k, v in parse_qsl(scope.get("query_string", b"").decode("latin-1"))
-            if k != "token"]  # fmt: skip
-    path = "/" + str(scope.get("path", "/")).lstrip("/")  # never `//host`: another site
-    target = html.escape(path + (f"?{urlencode(rest)}" if rest else ""))
-    return (f"<!doctype html><meta charset='utf-8'><meta http-equiv='refresh' "
-            f"content='0;url={target}'><title>Paired</title>"
-            f"<p>Paired. <a href='{target}'>Continue</a></p>").encode()  # fmt: skip
+def pairing_page(url: str) -> bytes:
+    """A page that goes on to `url`. A navigation from the server's own page, unlike a
+    redirect of a link followed on another site, is same-site: the Strict cookie goes along."""
+    quoted = html.escape(url, quote=True)
+    return (f'<!doctype html><meta charset="utf-8"><meta http-equiv="refresh" '
+            f'content="0;url={quoted}"><title>Paired</title>'
+            f'<p>Paired. <a href="{quoted}">Continue</a></p>\n').encode()  # fmt: skip
 
 
 def with_frame_headers(send: Send) -> Send:
@@ -284,7 +341,8 @@ def with_frame_headers(send: Send) -> Send:
     return send_framed
 
 
-async def _http_reply(send: Send, status: int, body: bytes, *extra: tuple[bytes, bytes]) -> None:
+async def send_reply(send: Send, status: int, body: bytes, *extra: tuple[bytes, bytes]) -> None:
+    """A whole HTTP answer of the door's own, never cached, never to be framed."""
     kind = b"text/html; charset=utf-8" if status == 200 else b"text/plain; charset=utf-8"
     headers = [(b"content-type", kind), (b"content-length", str(len(body)).encode()),
                (b"cache-control", b"no-store"), *FRAME_HEADERS, *extra]  # fmt: skip
@@ -293,7 +351,7 @@ async def _http_reply(send: Send, status: int, body: bytes, *extra: tuple[bytes,
 
 
 async def _deny_handshake(
-    scope: Scope, receive: Receive, send: Send, status: int, message: str
+    scope: Scope, receive: Receive, send: Send, status: int, body: bytes
 ) -> None:
     """Refuse a WebSocket before accepting it: with `status` where the server can say it
     (the ASGI denial-response extension), else a close, which servers answer with 403."""
@@ -302,7 +360,6 @@ async def _deny_handshake(
     if "websocket.http.response" not in scope.get("extensions", {}):
         await send({"type": "websocket.close", "code": 1008})
         return
-    body = message.encode()
     headers = [(b"content-type", b"text/plain; charset=utf-8"),
                (b"content-length", str(len(body)).encode())]  # fmt: skip
     await send({"type": "websocket.http.response.start", "status": status, "headers": headers})

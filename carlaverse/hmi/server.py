@@ -167,7 +167,8 @@ class HmiServer:
         # nodes on one machine must not overwrite each other's token on a tablet.
         hosts = door_hosts(self.bind, self.allowed_hosts)
         hint = " (join --hmi-allow-host NAME adds one)"
-        return DoorPolicy(hosts, self.token, f"carlaverse-hmi-{self.port}", host_hint=hint)
+        return DoorPolicy(hosts, self.token, f"carlaverse-hmi-{self.port}", host_hint=hint,
+                          server="carlaverse HMI")  # fmt: skip
 
     def show_message(self, text: str, seconds: float = 5.0) -> None:
         """Show `text` on every page for `seconds` (also on pages that connect meanwhile)."""

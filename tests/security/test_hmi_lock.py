@@ -302,10 +302,10 @@ def test_the_pairing_address_leaves_a_strict_cookie_and_goes_on_without_the_toke
         attributes = {a.strip().lower() for a in cookie.split(";")[1:]}
         assert cookie.startswith(f"carlaverse-hmi-{port}={token};")
         assert attributes == {"path=/", "httponly", "samesite=strict"}
-        assert b"url=/dashboard?units=mph'" in paired.body and token.encode() not in paired.body
+        assert b'url=/dashboard?units=mph"' in paired.body and token.encode() not in paired.body
         # a path that a browser would read as another site's address goes on to this one
         twisted = http_get(port, f"//evil.example/x?token={token}", host)
-        assert b"url=/evil.example/x'" in twisted.body
+        assert b'url=/evil.example/x"' in twisted.body
         kept = {**host, "Cookie": f"other=1; carlaverse-hmi-{port}={token}"}
         assert http_get(port, "/dashboard", kept).status == 200
         assert http_get(port, "/api/status", {**host, "Authorization": f"Bearer {token}"}

@@ -3,7 +3,10 @@
 Expected values come from the standards: Host is `host [ ":" port ]` with an IPv6 address in
 brackets (RFC 9110 §7.2, RFC 3986 §3.2.2), names are case-insensitive (RFC 4343), an
 Origin is `scheme "://" host [ ":" port ]` whose missing port is the scheme's default
-(RFC 6454 §4, §7), and `null` is the origin of sandboxed and file pages.
+(RFC 6454 §4, §7), and `null` is the origin of sandboxed and file pages. The project's web
+servers speak plain HTTP, so an `https` origin is never their own page's; and `localhost.`,
+to a browser another origin than `localhost` (RFC 6454 compares hosts as strings), is none
+of their pages' names.
 """
 
 from __future__ import annotations
@@ -13,11 +16,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from carlaverse.web_guard import (
-    _same_origin,
     check_host_name,
     door_hosts,
     is_loopback,
     new_token,
+    same_origin,
     split_authority,
 )
 
@@ -25,7 +28,7 @@ from carlaverse.web_guard import (
 @pytest.mark.parametrize("value, expected", [
     ("127.0.0.1:8080", ("127.0.0.1", 8080)),
     ("LocalHost", ("localhost", None)),
-    ("localhost.:80", ("localhost", 80)),  # the root's dot names the same host
+    ("localhost.:80", ("localhost.", 80)),  # another origin to a browser: not its pages'
     ("[::1]:8080", ("::1", 8080)),
     ("[0:0:0:0:0:0:0:1]", ("::1", None)),  # one address, one spelling
     ("[::ffff:127.0.0.1]:1", ("127.0.0.1", 1)),  # IPv4-mapped: the IPv4 address
@@ -52,7 +55,7 @@ def test_any_text_parses_or_is_refused_never_raises(value: str) -> None:
     ("http://127.0.0.1:8080", ("127.0.0.1", 8080), True),
     ("http://LOCALHOST:8080", ("localhost", 8080), True),
     ("http://localhost", ("localhost", 80), True),  # http's default port
-    ("https://localhost", ("localhost", None), True),
+    ("https://localhost", ("localhost", None), False),  # these servers speak plain HTTP
     ("http://localhost", ("localhost", 443), False),
     ("http://127.0.0.1:8081", ("127.0.0.1", 8080), False),  # another local origin
     ("http://localhost:8080", ("127.0.0.1", 8080), False),  # another name: another origin
@@ -64,7 +67,7 @@ def test_any_text_parses_or_is_refused_never_raises(value: str) -> None:
     ("http://127.0.0.1:8080\n", ("127.0.0.1", 8080), False),
 ])  # fmt: skip
 def test_same_origin(origin: str, host: tuple[str, int | None], same: bool) -> None:
-    assert _same_origin(origin, host) is same
+    assert same_origin(origin, host) is same
 
 
 @pytest.mark.parametrize("name", ["cabin-pc.lab", "CABIN-PC", "192.168.1.20", "fe80::1"])
