@@ -11,13 +11,14 @@ framing.
 from __future__ import annotations
 
 import asyncio
+import re
 from typing import Any
 
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
-from carlaverse.launcher.door import Door, HostPolicy, cookie_name, host_name
+from carlaverse.launcher.door import Door, HostPolicy, cookie_name
 from carlaverse.web_guard import new_token
 
 TOKEN = new_token()
@@ -46,8 +47,10 @@ def call(
     query: str = "",
     headers: dict[str, str] | None = None,
     kind: str = "http",
+    server: tuple[str, int] | None = None,
 ) -> tuple[int, dict[str, str], bytes]:
-    """(status, headers, body) of one request; a WebSocket answers 101 or its close code."""
+    """(status, headers, body) of one request; a WebSocket answers 101 or its close code.
+    `server`: the address the connection arrived on (ASGI's scope["server"])."""
     sent: list[dict[str, Any]] = []
     scope = {
         "type": kind,
@@ -55,9 +58,12 @@ def call(
         "path": path,
         "query_string": query.encode(),
         "headers": [(k.lower().encode(), v.encode()) for k, v in (headers or {}).items()],
+        "server": server,
     }
 
     async def receive() -> dict[str, Any]:
+        if kind == "websocket":
+            return {"type": "websocket.connect"}  # a handshake's first message (ASGI)
         return {"type": "http.request", "body": b""}
 
     async def send(message: dict[str, Any]) -> None:
@@ -174,15 +180,32 @@ def test_a_script_shows_the_token_in_the_query_of_an_app_path(door: Door) -> Non
     assert status == 200 and "set-cookie" not in answer
 
 
+LOOPBACK_HOST = re.compile(r"(127\.0\.0\.1|localhost|\[::1\])(?::([0-9]{1,5}))?", re.IGNORECASE)
+
+
 @given(st.text(max_size=40))
-def test_host_parsing_never_raises_and_accepts_only_listed_names(header: str) -> None:
-    policy = HostPolicy("127.0.0.1")
-    name = host_name(header)
-    assert policy.allows(header) == (name in {"127.0.0.1", "localhost", "::1"})
+@example("LocalHost:65535")
+@example("localhost:65536")
+@example("[::1]")
+def test_any_host_header_is_answered_and_only_this_machines_names_pass(header: str) -> None:
+    # RFC 9110 §7.2: Host is `host [":" port]`, an IPv6 address in brackets, names
+    # case-insensitive (RFC 4343), a port up to 65535 (RFC 793); bound to 127.0.0.1 the
+    # launcher's names are loopback's.
+    door = Door(CountingApp(), TOKEN, HostPolicy("127.0.0.1"), COOKIE)
+    status = call(door, headers={"host": header, "authorization": f"Bearer {TOKEN}"})[0]
+    named = LOOPBACK_HOST.fullmatch(header)
+    assert status == (200 if named and int(named[2] or 0) <= 65535 else 403), header
 
 
-def test_bound_to_every_interface_any_address_is_a_host_but_no_other_name() -> None:
-    # DNS rebinding needs a name of the attacker's: a literal address cannot be rebound
-    policy = HostPolicy("0.0.0.0")
-    assert policy.allows("192.168.1.20:8470") and policy.allows("[fe80::1]:8470")
-    assert not policy.allows("evil.example:8470")
+def test_bound_to_every_interface_the_address_it_was_reached_on_is_a_host() -> None:
+    # DNS rebinding needs a name of the attacker's: the literal address a colleague on the lab
+    # network typed, the one the connection arrived on, cannot be rebound. Another address
+    # or a name is not this launcher's.
+    door = Door(CountingApp(), TOKEN, HostPolicy("0.0.0.0"), COOKIE)
+    bearer = {"authorization": f"Bearer {TOKEN}"}
+    for host, reached_on, status in (("192.168.1.20:8470", "192.168.1.20", 200),
+                                     ("[fe80::1]:8470", "fe80::1", 200),
+                                     ("10.0.0.5:8470", "192.168.1.20", 403),
+                                     ("evil.example:8470", "192.168.1.20", 403)):  # fmt: skip
+        answer = call(door, headers={**bearer, "host": host}, server=(reached_on, PORT))
+        assert answer[0] == status, host
