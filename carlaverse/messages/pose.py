@@ -101,6 +101,8 @@ def pose_stamp(buf: bytes | bytearray | memoryview) -> tuple[int, float]:
 
 
 class PoseCodec(Codec[Pose]):
+    """The pose's codec: its fixed 64-byte layout instead of MessagePack."""
+
     def __init__(self) -> None:
         self.type = Pose
 
