@@ -31,7 +31,6 @@ wrong with it: malformed MessagePack, deep nesting, bad UTF-8, a value out of ra
 field this version does not know. Every float on the wire is finite and every integer fits an
 int64 (the constrained types in `base`); a message that cannot be encoded raises
 `MessageError` too.
-
 """
 
 from __future__ import annotations
@@ -39,7 +38,8 @@ from __future__ import annotations
 # isort: off
 # In the order of the list above, not alphabetical: the Structs appear in this package's
 # namespace in the order they are imported here, which is the order `carlaverse schema` and
-# docs/protocol.md present them in (family by family, each family in its module's order).
+# docs/protocol.md present them in (family by family, each family in its module's order;
+# tests/transport/test_messages_package.py holds it).
 from carlaverse.messages.base import (
     SCHEMA_VERSION,
     MessageError,
