@@ -114,7 +114,7 @@ def _bridge_and_config(
 
 
 def _allowed_hosts(names: list[str]) -> list[str]:
-    from carlaverse.web_guard import check_host_name
+    from carlaverse.web_policy import check_host_name
 
     try:
         return [check_host_name(name) for name in names]

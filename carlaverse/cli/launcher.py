@@ -77,7 +77,7 @@ def run(args: argparse.Namespace) -> int:
         from carlaverse.launcher.app import serve
         from carlaverse.launcher.files import ConfigDir
         from carlaverse.launcher.lab import Lab
-        from carlaverse.web_guard import new_token
+        from carlaverse.web_policy import new_token
 
         files = ConfigDir(args.config_dir)
     except (KeySpaceError, ConfigError) as exc:

@@ -1,9 +1,10 @@
 """The web HMI server: pages over HTTP, telemetry and commands over one WebSocket per page.
 
-Its door (carlaverse.web_guard) answers only to this machine's names and those the
-operator adds (`allowed_hosts`), opens the WebSocket only to its own pages' origin, and
-forbids framing; beyond loopback, or with `require_token`, it asks for a pairing token
-made per run (`token`, `pairing_url()`), which a page keeps as a cookie.
+Its door (carlaverse.web_guard, keeping carlaverse.web_policy's rule, as the launcher's does)
+answers only to this machine's names and those the operator adds (`allowed_hosts`), lets
+pages of another origin reach nothing (the WebSocket included) and refuses what another
+page embeds, and forbids framing; beyond loopback, or with `require_token`, it asks for a
+pairing token made per run (`token`, `pairing_url()`), which a page keeps as a cookie.
 
 It runs Starlette on uvicorn in a thread of its own with its own asyncio loop, beside the
 node's fabric loop, and never blocks it: telemetry is read from the bridge at the frame rate
@@ -51,7 +52,8 @@ from carlaverse.hmi.wire import (
     Rejected,
     Telemetry,
 )
-from carlaverse.web_guard import DoorPolicy, WebGuard, door_hosts, is_loopback, new_token
+from carlaverse.web_guard import WebGuard
+from carlaverse.web_policy import DoorPolicy, door_hosts, is_loopback, new_token
 
 log = logging.getLogger(__name__)
 

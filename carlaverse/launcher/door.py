@@ -1,5 +1,6 @@
-"""The launcher's door: the project's web door (`carlaverse.web_guard`: Host, Origin, Fetch
-Metadata and token, decided there for every server) with what is the launcher's own.
+"""The launcher's door: the project's web door (`carlaverse.web_guard`, keeping the rule of
+`carlaverse.web_policy`: Host, Origin, Fetch Metadata and token, decided there for every
+server) with what is the launcher's own.
 
 - **A token always**, made fresh each launch, also on loopback: the page starts processes.
 - **A cookie per port** (`cookie_name`): cookies ignore ports, and two launchers on one host
@@ -17,16 +18,8 @@ from __future__ import annotations
 
 from collections.abc import Iterable
 
-from carlaverse.web_guard import (
-    App,
-    DoorPolicy,
-    Scope,
-    Send,
-    WebGuard,
-    door_hosts,
-    request_headers,
-    send_reply,
-)
+from carlaverse.web_guard import App, Send, WebGuard, send_reply
+from carlaverse.web_policy import DoorPolicy, Scope, door_hosts, request_headers
 
 # Paths the web app's own scripts fetch (socket.io polling, static files).
 APP_PATHS = ("/_nicegui",)

@@ -19,7 +19,7 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from carlaverse.launcher.door import Door, HostPolicy, cookie_name
-from carlaverse.web_guard import new_token
+from carlaverse.web_policy import new_token
 
 TOKEN = new_token()
 PORT = 8470

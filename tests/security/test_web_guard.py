@@ -1,4 +1,4 @@
-"""carlaverse.web_guard's parsers: what a Host, an Origin and an operator's name may be.
+"""carlaverse.web_policy's parsers: what a Host, an Origin and an operator's name may be.
 
 Expected values come from the standards: Host is `host [ ":" port ]` with an IPv6 address in
 brackets (RFC 9110 §7.2, RFC 3986 §3.2.2), names are case-insensitive (RFC 4343), an
@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from carlaverse.web_guard import (
+from carlaverse.web_policy import (
     check_host_name,
     door_hosts,
     is_loopback,
