@@ -29,8 +29,8 @@ One module a job:
     lamp_glare.py     the glare sprite of a lit headlamp
 
 Conventions: world frame (x east, y north, z up) [m]; colours linear RGB in the units of
-`sky.py` (1.0 = a clear zenith sun on a surface facing it); vertex colours and textures are
-sRGB, linearised with γ = 2.2.
+`render/sky.py` (1.0 = a clear zenith sun on a surface facing it); vertex colours and
+textures are sRGB, linearised with γ = 2.2.
 """
 
 from __future__ import annotations

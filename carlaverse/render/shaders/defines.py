@@ -1,7 +1,7 @@
 """The values a program is compiled with: the physical constants its GLSL reads as
 `#define`s, and the switches a quality preset, the time of day, the sun and the weather set.
 
-Conventions: colours linear RGB in the units of `sky.py` (1.0 = a clear zenith sun on a
+Conventions: colours linear RGB in the units of `render/sky.py` (1.0 = a clear zenith sun on a
 surface facing it).
 """
 

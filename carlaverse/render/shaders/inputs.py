@@ -1,6 +1,6 @@
-"""What every program is handed: the sun's and the sky's uniforms (`weather.py` sets them on
-the world node), the wetness (compiled in as 0 on a dry day), the surface's material
-(`lighting.Material`) and clouds, and `flagged()`, which reads the surface's flags.
+"""What every program is handed: the sun's and the sky's uniforms and the wetness (set on the
+world node by `render/weather.py`; a dry day compiles the wetness in as 0), the surface's
+material (`lighting.Material`) and clouds, and `flagged()`, which reads the surface's flags.
 
 The first part of `COMMON` (`program.py`).
 """
