@@ -17,9 +17,10 @@ cookie and goes on to the address without the token.
 
 from __future__ import annotations
 
+import logging
 import re
 import subprocess
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 
 import pytest
@@ -50,6 +51,7 @@ class Served:
     page: str  # a page a browser opens
     socket: str  # the path of its page's WebSocket
     token: str
+    read_log: Callable[[], str]  # what it has logged so far
 
     def own(self) -> dict[str, str]:
         return {"Host": f"127.0.0.1:{self.port}"}
@@ -58,11 +60,28 @@ class Served:
         return {**self.own(), "Authorization": f"Bearer {self.token}"}
 
 
+class _Lines(logging.Handler):
+    """Keeps what this process (the HMI's) logs, formatted."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.lines: list[str] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.lines.append(self.format(record))
+
+
+# the launcher prints its token URL once, on purpose (README: the only place it is shown)
+PRINTED_URL = re.compile(r"launcher at http://\S+\?token=\S+\n")
+
+
 @pytest.fixture(scope="module")
 def servers(tmp_path_factory: pytest.TempPathFactory) -> Iterator[list[Served]]:
     root = tmp_path_factory.mktemp("doors")
     (root / "configs").mkdir()
     launcher = ServedLauncher(root / "configs")  # starts in the background meanwhile
+    hmi_log = _Lines()
+    logging.getLogger().addHandler(hmi_log)
     (root / "pages").mkdir()
     (root / "hmi.yaml").write_text(HMI_YAML)
     config = load_hmi_config(str(root / "hmi.yaml"))
@@ -72,10 +91,13 @@ def servers(tmp_path_factory: pytest.TempPathFactory) -> Iterator[list[Served]]:
         assert launcher.token is not None and hmi.token is not None
         yield [
             Served("launcher", launcher.port, "/", "/_nicegui_ws/socket.io/?EIO=4&transport="
-                   "websocket", launcher.token),
-            Served("hmi", hmi.port, "/dashboard", "/ws", hmi.token),
+                   "websocket", launcher.token,
+                   lambda: PRINTED_URL.sub("", launcher.log_path.read_text(), count=1)),
+            Served("hmi", hmi.port, "/dashboard", "/ws", hmi.token,
+                   lambda: "\n".join(hmi_log.lines)),
         ]  # fmt: skip
     finally:
+        logging.getLogger().removeHandler(hmi_log)
         hmi.close()
         try:
             launcher.terminate()
@@ -171,6 +193,17 @@ def test_both_servers_pair_a_token_in_the_address_into_a_strict_cookie(
         stale = f"{served.page}?token={wrong(served.token)}"
         kept = {**served.own(), "Cookie": cookie.split(";")[0]}
         assert http_get(served.port, stale, kept).status == 401, served.name  # 4: wrong in URL
+
+
+def test_neither_server_writes_its_token_in_its_log(servers: list[Served]) -> None:
+    for served in servers:  # refused for its Host while showing the token everywhere it goes
+        shown = {"Host": "evil.example", "Authorization": f"Bearer {served.token}",
+                 "Cookie": f"carlaverse-{served.name}-{served.port}={served.token}"}  # fmt: skip
+        assert http_get(served.port, f"/?token={served.token}", shown).status == 403
+    for served in servers:
+        logged = served.read_log()
+        assert "refused request" in logged, f"the {served.name} logged no refusal"
+        assert served.token not in logged, f"the {served.name}'s log holds its token"
 
 
 def _goes_on_to(reply: Reply) -> str:
