@@ -13,6 +13,7 @@ gets `X-Frame-Options: DENY` and `Content-Security-Policy: frame-ancestors 'none
 (clickjacking), `Referrer-Policy: no-referrer` (a token in an address never travels on) and
 `X-Content-Type-Options: nosniff`.
 
+    from carlaverse.web_policy import DoorPolicy, door_hosts, new_token
     policy = DoorPolicy(door_hosts("0.0.0.0", ["cabin-pc.lab"]), token=new_token(),
                         cookie="carlaverse-hmi-8080")
     app = WebGuard(starlette_app, policy)
