@@ -3,7 +3,7 @@ writes it: the study log written by the runner's own `StudyLog`, each completed 
 recording by the recorder's own `McapSink` (poses on their real keys, a trigger event, an LSL
 stream through `SharedSink` with the summary `StreamStats` writes), and the answers by the
 runner's own `AnswerStore`. (Running the real runner takes minutes: tests/study/
-test_study_run.py does that.)
+test_study_e2e.py does that.)
 
 Two participants meet head-on along the x axis in each trial: P01 (driver) accelerates from
 rest-ish, P02 (cyclist) rides towards them at a constant speed, and the trial ends before
