@@ -34,7 +34,7 @@ class HandlerGuard:
             try:
                 handler(sample)
             except Exception as exc:  # a bug or a case not foreseen: count, never raise
-                self._failed(name, exc)
+                self.failed(name, exc)
 
         return guarded
 
@@ -45,12 +45,13 @@ class HandlerGuard:
             try:
                 handler(query)
             except Exception as exc:
-                self._failed(name, exc)
+                self.failed(name, exc)
                 reply_err(query, f"the {name} query failed: {type(exc).__name__}")
 
         return guarded
 
-    def _failed(self, name: str, exc: Exception) -> None:
+    def failed(self, name: str, exc: Exception) -> None:
+        """Count and log (bounded) a handler's unexpected exception."""
         self.errors.add(name)
         self.log.warning(name, "%s handler failed: %s: %s", name, type(exc).__name__, exc)
 

@@ -179,8 +179,8 @@ class Inbound:
         thread holds for up to `sys.getswitchinterval()` (5 ms), and zenoh-python then
         builds a Python thread state per sample (more CPU per pose than its callback thread).
         """
-        guarded = self.guard.sample("pose", self._on_pose)
-        return zenoh.handlers.Callback(guarded, indirect=not self.direct_poses)
+        # `_on_pose` guards itself: the guard's wrapper would be a Python frame more per pose.
+        return zenoh.handlers.Callback(self._on_pose, indirect=not self.direct_poses)
 
     def digest_handler(self) -> Callable[[zenoh.Sample], None]:
         """The guarded callback for the authority's pose digest (`world/@egos`), on
@@ -229,13 +229,14 @@ class Inbound:
         # the sender from the key (`_sender`, inlined) and the bytes, handed over as they came.
         # The world view's update checks and decodes them, once, with every other pose it
         # drains. The clock is read without a lock.
-        rx_t = self.clock.now()
         try:
+            rx_t = self.clock.now()
             node_id = parse_cached(str(sample.key_expr)).node_id
+            self._intake.pose(node_id, sample.payload.to_bytes(), rx_t)
         except KeySpaceError:
             self.dropped.add("pose")
-            return
-        self._intake.pose(node_id, sample.payload.to_bytes(), rx_t)
+        except Exception as exc:  # as `HandlerGuard.sample` does: count, never raise
+            self.guard.failed("pose", exc)
 
     def _on_digest(self, sample: zenoh.Sample) -> None:
         """Poses relayed by the authority. Each row is checked as a pose of its own would be,

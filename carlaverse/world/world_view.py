@@ -29,6 +29,7 @@ statistics restart when it comes back. `interest` is None for a view of the whol
 from __future__ import annotations
 
 import logging
+import math
 from collections import Counter, deque
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
@@ -55,6 +56,10 @@ from carlaverse.world.remote_actor import ActorView, DelaySlew, InterpolationSet
 log = logging.getLogger(__name__)
 
 TOMBSTONE_S = 30.0  # [s] a tombstone outlives any sample still in flight by far
+# [s] how often an update looks for silent actors, expired NPC tiles and old tombstones: their
+# timeouts are seconds, and looking at every 50 Hz update cost a node's loop as much CPU per
+# pose as the pose's own work (a loop that wakes every 20 ms runs with cold caches).
+HOUSEKEEPING_S = 0.1
 STATS_LIMIT = 1024  # senders kept at most; beyond, a departed one's place is reused
 NOTICE_LIMIT = 32  # scenario messages waiting for the node's loop; older ones are dropped
 # Despawns kept for the summary; with interest areas every ego that drives out of a node's
@@ -98,6 +103,7 @@ class WorldView:
         self.rejected: Counter[str] = Counter()
         self._delay = DelaySlew(settings)
         self._render: tuple[float, float] | None = None  # (now, render time) last computed
+        self._housekeeping_due = -math.inf  # [s] session time of the next look for silence
         # inbox tag -> what applies it (poses, most of the items, are gathered instead)
         self._handlers: dict[str, Callable[..., None]] = {
             "skeleton": self._on_skeleton, "npc": self._on_npc, "interest": self._on_interest,
@@ -147,9 +153,11 @@ class WorldView:
             handlers[tag](*item[1:])
         if ids:
             self._apply_rows(ids, rows, rx)
-        self._expire(now)
-        self.npcs.drop_expired(now)
-        self._forget_tombstones(now)
+        if now >= self._housekeeping_due or now < self._housekeeping_due - HOUSEKEEPING_S:
+            self._housekeeping_due = now + HOUSEKEEPING_S  # (a clock stepped back looks now)
+            self._expire(now)
+            self.npcs.drop_expired(now)
+            self._forget_tombstones(now)
 
     def _apply_rows(self, ids: list[str], rows: list[bytes], rx: list[float]) -> None:
         """Check and decode the gathered poses (once, together), then apply them."""
