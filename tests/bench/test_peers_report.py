@@ -50,11 +50,13 @@ def test_pooling_counts_every_receiver_and_divides_cpu_per_pose(report: ModuleTy
 def targets(
     report: ModuleType, pose_ms: float, pose_cpu_s: float
 ) -> tuple[list[Any], dict[str, Any]]:
-    """Rows and runs of one round: bare Zenoh at 1 ms and 1 ms of receiver CPU over 4 poses
-    (250 µs a pose), the pose path at `pose_ms` and `pose_cpu_s` over the same 4 poses."""
+    """Rows and runs of one round: bare Zenoh with the node loop at 1 ms and 1 ms of receiver
+    CPU over 4 poses (250 µs a pose), bare Zenoh without a loop at 0.5 ms and 0.5 ms of CPU,
+    the pose path at `pose_ms` and `pose_cpu_s` over the same 4 poses."""
     runs = {
         "pose": [run("pose", [[pose_ms] * 4], {"tx": 0.001, "rx0": pose_cpu_s}) | {"round": 1}],
-        "zenoh": [run("zenoh", [[1.0] * 4], {"tx": 0.001, "rx0": 0.001}) | {"round": 1}],
+        "zenoh-loop": [run("zenoh-loop", [[1.0] * 4], {"tx": 0.001, "rx0": 0.001}) | {"round": 1}],
+        "zenoh": [run("zenoh", [[0.5] * 4], {"tx": 0.001, "rx0": 0.0005}) | {"round": 1}],
     }
     return [report.pool(name, name_runs) for name, name_runs in runs.items()], runs
 
@@ -63,45 +65,48 @@ def targets(
     ("pose_ms", "pose_cpu_s", "p50_met", "cpu_met"),
     [(1.2, 0.0015, "meets", "meets"), (1.21, 0.00151, "MISSES", "MISSES")],
 )
-def test_the_targets_are_judged_against_bare_zenoh(
+def test_the_targets_are_judged_against_bare_zenoh_with_the_same_loop(
     report: ModuleType, pose_ms: float, pose_cpu_s: float, p50_met: str, cpu_met: str
 ) -> None:
-    """Issue 41: p50 at most 1.2 x bare Zenoh's, receiver CPU per pose at most 1.5 x; the
-    limits themselves meet (<=), a hair above misses."""
+    """Issue 41: p50 at most 1.2 x bare Zenoh's, receiver CPU per pose at most 1.5 x, judged
+    like for like (bare Zenoh in receivers with the pose path's node loop); the limits
+    themselves meet (<=), a hair above misses. The ratio over bare Zenoh without a loop is
+    shown beside it: twice the judged one, as that row's figures are half the looped row's."""
     rows, runs = targets(report, pose_ms, pose_cpu_s)
     p50, cpu = report.verdict(rows, runs)
-    assert f"p50 / bare Zenoh's = {pose_ms:.2f}, {p50_met} ≤ 1.2;" in p50
+    assert f"p50 / bare Zenoh, node loop's = {pose_ms:.2f}, {p50_met} ≤ 1.2;" in p50
+    assert f"over bare Zenoh's (no loop) {2 * pose_ms:.2f}." in p50
     # receiver CPU: pose_cpu_s / 4 poses over 0.001 s / 4 poses
-    assert (
-        f"receiver CPU per pose / bare Zenoh's = {pose_cpu_s / 0.001:.2f}, {cpu_met} ≤ 1.5;" in cpu
-    )
+    ratio = pose_cpu_s / 0.001
+    assert f"receiver CPU per pose / bare Zenoh, node loop's = {ratio:.2f}, {cpu_met} ≤ 1.5;" in cpu
+    assert f"over bare Zenoh's (no loop) {2 * ratio:.2f}." in cpu
     assert "|" in report.table(rows)[2] and "1.00 |" in report.table(rows)[2]
 
 
-def test_no_target_is_judged_without_bare_zenoh(report: ModuleType) -> None:
+def test_no_target_is_judged_without_the_like_for_like_reference(report: ModuleType) -> None:
     cpu = {"tx": 0.001, "rx0": 0.001}
-    runs = {name: [run(name, [[1.0] * 4], cpu) | {"round": 1}] for name in ("pose", "dds")}
+    runs = {name: [run(name, [[1.0] * 4], cpu) | {"round": 1}] for name in ("pose", "zenoh")}
     rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
     (line,) = report.verdict(rows, runs)
-    assert "not judged, bare Zenoh was not run" in line
+    assert "not judged, bare Zenoh, node loop was not run" in line
 
 
 def test_each_round_is_compared_with_the_same_rounds_bare_zenoh(report: ModuleType) -> None:
     """The machine drifts between rounds: a round's ratio pairs the runs of that round, and a
-    round whose bare Zenoh run failed is left out rather than paired with another round."""
+    round whose reference run failed is left out rather than paired with another round."""
     pose = [run("pose", [[ms] * 4], {"tx": 0.001, "rx0": cpu_s}) | {"round": k}
             for k, ms, cpu_s in ((1, 0.4, 0.002), (2, 0.9, 0.009), (3, 0.5, 0.003))]  # fmt: skip
-    zenoh = [run("zenoh", [[ms] * 4], {"tx": 0.001, "rx0": 0.001}) | {"round": k}
-             for k, ms in ((1, 0.5), (3, 0.5))]  # fmt: skip
-    runs = {"pose": pose, "zenoh": zenoh}
-    ((first, a), (third, b)) = report.round_ratios(runs, "pose", "zenoh")
+    looped = [run("zenoh-loop", [[ms] * 4], {"tx": 0.001, "rx0": 0.001}) | {"round": k}
+              for k, ms in ((1, 0.5), (3, 0.5))]  # fmt: skip
+    runs = {"pose": pose, "zenoh-loop": looped}
+    ((first, a), (third, b)) = report.round_ratios(runs, "pose", "zenoh-loop")
     assert (first, third) == (1, 3) and (a, b) == pytest.approx((0.8, 1.0))
     rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
     p50, cpu = report.verdict(rows, runs)
-    # pooled: pose's p50 of (0.4, 0.9, 0.5) x 4 is 0.5, bare Zenoh's 0.5; round 2 has no pair
+    # pooled: pose's p50 of (0.4, 0.9, 0.5) x 4 is 0.5, the reference's 0.5; round 2 has no pair
     assert "= 1.00, meets ≤ 1.2; each round alone: round 1 0.80, round 3 1.00." in p50
     # receiver CPU per pose: the mean of the runs' (2, 9, 3 ms) / 4 against 1 ms / 4 in each
-    # of bare Zenoh's: pooled (2 + 9 + 3) / 3 = 4.67, round 1 2.00, round 3 3.00
+    # of the reference's: pooled (2 + 9 + 3) / 3 = 4.67, round 1 2.00, round 3 3.00
     assert "= 4.67, MISSES ≤ 1.5; each round alone: round 1 2.00, round 3 3.00." in cpu
 
 

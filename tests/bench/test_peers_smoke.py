@@ -27,6 +27,7 @@ SCRIPT = ROOT / "tools" / "bench" / "bench_peers.py"
 SECONDS = 1.0
 RATE_HZ = 50.0
 RECEIVERS = 3
+TRANSPORTS = ["udp", "zenoh", "zenoh-loop", "pose", "dds", "zmq", "mqtt"]  # run in one bench call
 # What a transport needs beyond the core dependencies, and how to get it.
 NEEDS = {
     "dds": ("cyclonedds", None),
@@ -58,7 +59,7 @@ def missing(name: str) -> str | None:
 
 @pytest.fixture(scope="module")
 def results() -> dict[str, Any]:
-    names = [n for n in ("udp", "zenoh", "pose", "dds", "zmq", "mqtt") if missing(n) is None]
+    names = [n for n in TRANSPORTS if missing(n) is None]
     command = [sys.executable, str(SCRIPT), "--seconds", str(SECONDS), "--rounds", "1",
                "--transports", ",".join(names), "--json"]  # fmt: skip
     done = subprocess.run(command, capture_output=True, text=True, timeout=170, cwd=ROOT)
@@ -69,7 +70,7 @@ def results() -> dict[str, Any]:
 
 
 @pytest.mark.timeout(180)
-@pytest.mark.parametrize("name", ["udp", "zenoh", "pose", "dds", "zmq", "mqtt"])
+@pytest.mark.parametrize("name", TRANSPORTS)
 def test_a_short_run_measures_every_pose(name: str, results: dict[str, Any]) -> None:
     reason = missing(name)
     if reason is not None:
@@ -95,6 +96,19 @@ def test_the_pose_paths_world_view_accepts_what_was_stamped(results: dict[str, A
         # router); the world view rightly refuses those few. Nothing else may be refused.
         rejected = dict(receiver["world_view_rejected"])
         assert rejected.pop("pose_from_absent_node", 0) <= 5 and rejected == {}, receiver
+
+
+@pytest.mark.timeout(180)
+def test_the_like_for_like_reference_runs_its_node_loop(results: dict[str, Any]) -> None:
+    """Bare Zenoh with a node loop is what the targets are judged against: its main thread
+    must really take what arrived (one publisher: one sender's newest pose kept), and it
+    must be charged for that loop (main-thread CPU, which a receiver that only waits lacks)."""
+    for receiver in results["zenoh-loop"]["receivers"]:
+        assert receiver["loop_senders"] == 1, receiver
+        assert receiver["thread_cpu_s"]["main thread"] > 0
+    looped = results["zenoh-loop"]["receivers"][0]["thread_cpu_s"]["main thread"]
+    waiting = results["zenoh"]["receivers"][0]["thread_cpu_s"]["main thread"]
+    assert looped > waiting
 
 
 def test_an_unknown_transport_is_named_in_one_line() -> None:

@@ -10,6 +10,7 @@ TRANSPORTS = {
     "pose": ("peers.pose_path", "PosePath"),
     "pose-ll": ("peers.pose_path", "PosePathLowLatency"),
     "zenoh": ("peers.zenoh_bare", "BareZenoh"),
+    "zenoh-loop": ("peers.zenoh_bare", "BareZenohNodeLoop"),
     "zenoh-direct": ("peers.zenoh_bare", "BareZenohDirect"),
     "zenoh-ll": ("peers.zenoh_bare", "BareZenohLowLatency"),
     "zenoh-fast": ("peers.zenoh_bare", "BareZenohFastest"),
@@ -22,8 +23,19 @@ TRANSPORTS = {
     "udp": ("peers.udp", "Udp"),
 }
 # The comparison the issue asks for, and variants that take the pose path apart (--diagnose).
-COMPARED = ("pose", "pose-ll", "zenoh", "zenoh-ll", "zenoh-fast", "dds", "zmq", "mqtt", "udp")
-DIAGNOSTIC = ("pose", "zenoh", "zenoh-direct", "zenoh-pose-options", "pose-no-loop")
+COMPARED = (
+    "pose",
+    "pose-ll",
+    "zenoh",
+    "zenoh-loop",
+    "zenoh-ll",
+    "zenoh-fast",
+    "dds",
+    "zmq",
+    "mqtt",
+    "udp",
+)
+DIAGNOSTIC = ("pose", "zenoh", "zenoh-loop", "zenoh-direct", "zenoh-pose-options", "pose-no-loop")
 REFERENCE = "pose"  # the path every other one is compared with
 LOW_LATENCY = "pose-ll"  # the same path in the fabric's low-latency configuration
 

@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import json
 import os
+from collections import deque
 from typing import Any
 
-from carlaverse.messages import Pose, encode_pose
+from carlaverse.messages import MessageError, Pose, decode_pose, encode_pose
 from peers.transport import ChildProcess, Deliver, NoPoll, Plan, Transport
 
 KEY = "bench/pose"
@@ -100,6 +101,43 @@ class ZenohReceiver(NoPoll):
         self._session.close()
 
 
+class LoopedZenohReceiver(ZenohReceiver):
+    """A bare Zenoh receiver in a node: its callback keeps each sample's bytes, and the main
+    thread's loop (`poll`, at the pose path's node-loop rate) takes them, decodes each with the
+    project's decoder and keeps every sender's newest pose: the least any application with a
+    loop of its own does with what arrived (the pose path's `update()` does this and more)."""
+
+    poll_period_s = 0.02  # [s] the pose path's node loop (`PoseReceiver.poll_period_s`)
+
+    def __init__(self, plan: Plan, deliver: Deliver, lowlatency: bool, runtime: str = "") -> None:
+        import zenoh
+
+        self._session = _open_peer(plan, lowlatency, runtime)
+        self._inbox: deque[tuple[str, bytes]] = deque()
+        self.newest: dict[str, Pose] = {}
+        keep = self._inbox.append
+
+        def on_sample(sample: zenoh.Sample) -> None:
+            payload = sample.payload.to_bytes()
+            deliver.payload(payload)  # the harness's decode and arrival stamp
+            keep((str(sample.key_expr), payload))
+
+        self._subscriber = self._session.declare_subscriber(KEY, on_sample)
+
+    def poll(self) -> None:
+        inbox, newest = self._inbox, self.newest
+        while inbox:
+            key, payload = inbox.popleft()
+            try:
+                newest[key] = decode_pose(payload)
+            except MessageError:
+                continue
+
+    def report(self) -> dict[str, Any]:
+        """What the loop kept: each sender's newest pose (the bench's one publisher)."""
+        return {"loop_senders": len(self.newest)}
+
+
 class BareZenoh(Transport):
     label = "bare Zenoh"
     modules = ("zenoh",)
@@ -121,6 +159,17 @@ class BareZenoh(Transport):
 
     def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> ZenohReceiver:
         return ZenohReceiver(plan, deliver, self.indirect, self.lowlatency, self.runtime)
+
+
+class BareZenohNodeLoop(BareZenoh):
+    """Bare Zenoh in receivers that run a node loop as the pose path's do (50 Hz on the main
+    thread, taking what the callback kept): the like-for-like reference for the pose path's
+    receiver CPU, whose node loop costs a thread wake-up per period whatever it applies."""
+
+    label = "bare Zenoh, node loop"
+
+    def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> LoopedZenohReceiver:
+        return LoopedZenohReceiver(plan, deliver, self.lowlatency, self.runtime)
 
 
 class BareZenohDirect(BareZenoh):
