@@ -7,9 +7,11 @@ import pytest
 
 from carlaverse.testing.chromium import missing_browser
 from tests.browser import chromium, page, screenshot_dir
+from tests.recorded_demo import recorded_demo
 from tests.support import Cluster
 
-__all__ = ["chromium", "page", "screenshot_dir"]  # browser fixtures for every test
+# browser fixtures, and one recorded demo session, for every test
+__all__ = ["chromium", "page", "recorded_demo", "screenshot_dir"]
 
 
 @pytest.fixture

@@ -3,9 +3,6 @@
 from __future__ import annotations
 
 import bisect
-import json
-import subprocess
-import sys
 from collections import Counter
 from pathlib import Path
 from typing import Any
@@ -18,24 +15,19 @@ from carlaverse import messages
 from carlaverse.keys import Keys, parse
 from carlaverse.recording.archive import CONFIG_ATTACHMENT, SCENARIO_ATTACHMENT
 from carlaverse.recording.reading import iter_samples, read_attachments, read_metadata
+from tests.recorded_demo import RecordedDemo
 from tests.viz.conftest import rrd_rows
 
 AUTHORITY_STREAMS = ("events", "lights", "npc", "weather")  # what the authority counts as sent
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict, Path, Path]:
-    tmp = tmp_path_factory.mktemp("demo")
-    mcap, rrd = tmp / "demo.mcap", tmp / "demo.rrd"
-    done = subprocess.run(
-        [sys.executable, "-m", "carlaverse", "demo", "--duration", "8", "--json", "--quiet",
-         "--record", str(mcap), "--rrd", str(rrd)],
-        capture_output=True, text=True, timeout=180,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr[-3000:]
-    summary = json.loads(done.stdout)
+def demo(recorded_demo: RecordedDemo) -> tuple[dict, Path, Path]:
+    """The suite's one recorded demo (tests/recorded_demo.py): `demo --duration 8 --json
+    --quiet --record FILE.mcap --rrd FILE.rrd`."""
+    summary = recorded_demo.summary
     assert summary["tools"] == {"recorder": 0, "viewer": 0}
-    return summary, mcap, rrd
+    return summary, recorded_demo.mcap, recorded_demo.rrd
 
 
 def test_demo_recording_has_every_key_the_counts_and_the_configs(demo: tuple) -> None:

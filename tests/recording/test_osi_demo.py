@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import subprocess
-import sys
 from pathlib import Path
 
 import betterosi
@@ -17,6 +15,7 @@ from carlaverse.analysis.tracks import read_tracks
 from carlaverse.cli import main
 from carlaverse.keys import parse
 from carlaverse.recording.reading import iter_samples, recorded_map
+from tests.recorded_demo import RecordedDemo
 
 RATE_HZ = 10.0
 # demo_plan: scripted-i drives a circle about the origin of radius 25 + 6 (i - 1) m, at
@@ -43,14 +42,11 @@ def chord_sag_m(recording: Path) -> dict[str, float]:
 
 
 @pytest.fixture(scope="module")
-def demo(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, list]:
+def demo(
+    tmp_path_factory: pytest.TempPathFactory, recorded_demo: RecordedDemo
+) -> tuple[Path, list]:
     folder = tmp_path_factory.mktemp("osi-demo")
-    recording, trace = folder / "demo.mcap", folder / "demo.osi.mcap"
-    done = subprocess.run(
-        [sys.executable, "-m", "carlaverse", "demo", "--duration", "4", "--quiet",
-         "--record", str(recording)], capture_output=True, text=True, timeout=240,
-    )  # fmt: skip
-    assert done.returncode == 0, done.stderr[-3000:]
+    recording, trace = recorded_demo.mcap, folder / "demo.osi.mcap"  # the suite's one demo
     assert main(["osi", str(recording), "-o", str(trace), "--osi-rate", str(RATE_HZ)]) == 0
     return recording, list(betterosi.read(str(trace), return_ground_truth=True))
 
