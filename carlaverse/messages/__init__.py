@@ -62,6 +62,7 @@ from carlaverse.messages.pose import (
     Pose,
     encode_pose,
     decode_pose,
+    pose_or_refusal,
     pose_stamp,
     PoseCodec,
     POSE,
@@ -305,6 +306,7 @@ __all__ = [
     "decode_pose_rows",
     "encode_pose",
     "pose_columns",
+    "pose_or_refusal",
     "pose_stamp",
     "pose_stamps",
 ]

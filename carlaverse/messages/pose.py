@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import math
 import struct
-from typing import Any
 
 import msgspec
 
@@ -67,28 +66,32 @@ def encode_pose(p: Pose, seq: int | None = None) -> bytes:
         raise MessageError(f"pose does not fit the wire layout: {exc}") from exc
 
 
-def _checked_pose_fields(buf: bytes | bytearray | memoryview) -> tuple[Any, ...]:
-    """The wire pose's fields, unpacked, once the receiver's checks pass (layout, every value
-    finite, the time in range); MessageError naming what failed otherwise."""
+def pose_or_refusal(buf: bytes | bytearray | memoryview) -> Pose | str:
+    """The wire pose decoded once the receiver's checks pass (layout, every value finite, the
+    time in range), else the reason it is refused, in words. One frame for the whole check:
+    a node's loop decodes each pose it hears here, with the caches cold after its sleep."""
     if len(buf) != POSE_SIZE:
-        raise MessageError(f"pose: expected {POSE_SIZE} bytes, got {len(buf)}")
+        return f"pose: expected {POSE_SIZE} bytes, got {len(buf)}"
     v = POSE_LAYOUT.unpack(buf)
     if v[0] != POSE_LAYOUT_VERSION:
-        raise MessageError(f"pose: unknown layout version {v[0]}")
+        return f"pose: unknown layout version {v[0]}"
     # One sum instead of 18 checks: a NaN or an infinity in any field makes it non-finite,
     # and finite fields cannot overflow it (f32/f16 ranges; an absurd time is refused anyway).
     if not math.isfinite(sum(v[4:])):
-        raise MessageError("pose: non-finite value")
+        return "pose: non-finite value"
     if abs(v[4]) > TIME_LIMIT_S:
-        raise MessageError(f"pose: time {v[4]!r} s is out of range")
-    return v
-
-
-def decode_pose(buf: bytes | bytearray | memoryview) -> Pose:
-    v = _checked_pose_fields(buf)
+        return f"pose: time {v[4]!r} s is out of range"
     # The layout unpacks into exactly Pose's positional fields after `seq`, so `flags` is never
     # filled twice; mypy cannot count a slice of the unpacked tuple.
     return Pose(v[3], *v[4:], flags=v[1])  # type: ignore[misc]
+
+
+def decode_pose(buf: bytes | bytearray | memoryview) -> Pose:
+    """The wire pose; MessageError naming what failed its checks (`pose_or_refusal`)."""
+    pose = pose_or_refusal(buf)
+    if isinstance(pose, str):
+        raise MessageError(pose)
+    return pose
 
 
 _POSE_STAMP = struct.Struct("<4xId")  # seq u32 at byte 4, t f64 at byte 8 (POSE_LAYOUT)

@@ -10,7 +10,7 @@ import numpy as np
 
 from carlaverse.messages.base import TIME_LIMIT_S, MessageError, Seq
 from carlaverse.messages.codec import Codec
-from carlaverse.messages.pose import POSE_LAYOUT_VERSION, POSE_SIZE, Pose, decode_pose
+from carlaverse.messages.pose import POSE_LAYOUT_VERSION, POSE_SIZE, Pose, pose_or_refusal
 
 # POSE_LAYOUT as a numpy record, no padding: 64 bytes. Many poses are checked at once with it.
 POSE_DTYPE = np.dtype(
@@ -78,9 +78,11 @@ def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
     """Consecutive 64-byte poses, each decoded as `decode_pose` would; None where it would
     refuse. A relay's batch costs a fraction of a `decode_pose` call per pose."""
     if len(rows) == POSE_SIZE:  # one pose per update: a node hearing one ego at its own rate
-        return [_pose_or_none(rows)]
+        pose = pose_or_refusal(rows)
+        return [None if isinstance(pose, str) else pose]
     if len(rows) <= FEW_ROWS * POSE_SIZE and not len(rows) % POSE_SIZE:
-        return [_pose_or_none(rows[k : k + POSE_SIZE]) for k in range(0, len(rows), POSE_SIZE)]
+        decoded = [pose_or_refusal(rows[k : k + POSE_SIZE]) for k in range(0, len(rows), POSE_SIZE)]
+        return [None if isinstance(pose, str) else pose for pose in decoded]
     columns, good = pose_columns(rows)
     if good.all():  # nearly always
         return cast("list[Pose | None]", columns.poses())  # a new list, held by nobody else
@@ -90,13 +92,6 @@ def decode_pose_rows(rows: bytes | bytearray | memoryview) -> list[Pose | None]:
     for k, pose in zip(keep.tolist(), poses, strict=True):
         out[k] = pose
     return out
-
-
-def _pose_or_none(row: bytes | bytearray | memoryview) -> Pose | None:
-    try:
-        return decode_pose(row)
-    except MessageError:
-        return None
 
 
 # Poses relayed many to a message (`PoseDigest`): at most this many in one.
