@@ -44,23 +44,22 @@ class TileTracker:
     def __init__(self, hysteresis_m: float = TILE_HYSTERESIS_M) -> None:
         self.hysteresis_m = hysteresis_m
         self.tile: tuple[int, int] | None = None
+        # The current tile grown by the hysteresis on every side, (x0, x1, y0, y1) [m]: the
+        # point stays in the tile while inside it. Kept, not worked out on each update: every
+        # pose a node publishes passes here, one check without a call.
+        self._bounds = (math.inf, -math.inf, math.inf, -math.inf)
 
     def update(self, x: float, y: float) -> tuple[int, int]:
         """The current tile after moving to (x, y) [m]."""
-        tile = self.tile
-        if tile is not None and _within(tile, x, y, self.hysteresis_m):
-            return tile
-        self.tile = tile_of(x, y)
-        return self.tile
-
-
-def _within(tile: tuple[int, int], x: float, y: float, margin_m: float) -> bool:
-    """Whether (x, y) lies in `tile` grown by `margin_m` on every side."""
-    x0, y0 = tile[0] * TILE_SIZE_M, tile[1] * TILE_SIZE_M
-    return (
-        x0 - margin_m <= x < x0 + TILE_SIZE_M + margin_m
-        and y0 - margin_m <= y < y0 + TILE_SIZE_M + margin_m
-    )
+        x0, x1, y0, y1 = self._bounds
+        if x0 <= x < x1 and y0 <= y < y1:
+            return self.tile  # type: ignore[return-value]  # (bounds are finite once it is set)
+        tile = self.tile = tile_of(x, y)
+        margin = self.hysteresis_m
+        left, bottom = tile[0] * TILE_SIZE_M - margin, tile[1] * TILE_SIZE_M - margin
+        span = TILE_SIZE_M + 2 * margin
+        self._bounds = (left, left + span, bottom, bottom + span)
+        return tile
 
 
 def tile_reach(radius_m: float, hysteresis_m: float = TILE_HYSTERESIS_M) -> int:
