@@ -221,7 +221,7 @@ def _type_name(type_: Any) -> str:
     name = getattr(type_, "__name__", None)
     if name:
         return name
-    # A union has no name of its own; use the alias messages.py gives it (WorldEvent).
+    # A union has no name of its own; use the alias the messages package gives it (WorldEvent).
     aliases = [alias for alias, value in vars(messages).items() if value is type_]
     return aliases[0] if aliases else "Message"
 

@@ -2,7 +2,7 @@
 
 REP 103: the map frame is ENU (x east, y north, z up); a body frame has x forward, y left,
 z up; rotations are right-handed, so yaw is counter-clockwise seen from above. The session's
-world frame is also x east, y north (carlaverse/messages.py) with yaw counter-clockwise from
+world frame is also x east, y north (carlaverse/messages/pose.py) with yaw counter-clockwise from
 +x, roll right-side-down positive and pitch nose-down positive (ISO 8855). The quaternions are
 read with scipy's Rotation, which shares no code with carlaverse.ros2.frames.
 """
