@@ -190,3 +190,23 @@ def test_threads_are_told_apart_by_who_started_them(monkeypatch: pytest.MonkeyPa
     worker.join()
     assert spent[PYTHON] >= 0.05 * 0.99  # thread_time and schedstat count the same CPU time
     assert spent[MAIN] < 0.05
+
+
+def test_the_lease_option_reaches_the_fabric_settings_and_zero_keeps_the_fabrics_own(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """`--lease-ms` measures what the fabric's keep-alives cost: a run's lease must reach the
+    `FabricSettings` of the processes that open their session as the project does, and 0
+    must leave the fabric's own lease (2000 ms, docs/protocol.md) in place."""
+    monkeypatch.syspath_prepend(str(BENCH))
+    from peers.pose_path import _fabric
+    from peers.transport import Plan
+    from peers.zenoh_bare import lease_option
+
+    def plan(lease_ms: int) -> Plan:
+        return Plan("pose", 2, 1, 50.0, 10, (7001, 7002, 7003), {"lease_ms": lease_ms})
+
+    assert lease_option(plan(0)) == {}
+    assert _fabric(plan(0), lowlatency=False).lease_ms == 2000
+    assert lease_option(plan(10_000)) == {"lease_ms": 10_000}
+    assert _fabric(plan(10_000), lowlatency=False).lease_ms == 10_000

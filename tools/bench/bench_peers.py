@@ -69,12 +69,21 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         help=f"take the pose path apart: {','.join(DIAGNOSTIC)} and py-spy (its own section)",
     )
     parser.add_argument("--native", action="store_true", help="py-spy: name native frames too")
+    parser.add_argument(
+        "--lease-ms",
+        type=int,
+        default=0,
+        help="the fabric's Zenoh lease [ms] in the router and the pose path's processes "
+        "(default: the fabric's own, 2000; Zenoh's default is 10000): what its keep-alives cost",
+    )
     parser.add_argument("--json", action="store_true", help="one JSON summary on stdout")
     parser.add_argument("--write", action="store_true", help="write docs/benchmarks.md section")
     args = parser.parse_args(argv)
     args.transports = [t.strip() for t in args.transports.split(",") if t.strip()]
     if args.diagnose:
         args.transports, args.profile = list(DIAGNOSTIC), True
+    if args.lease_ms < 0:
+        parser.error(f"--lease-ms must be 0 (the fabric's own) or a lease in ms: {args.lease_ms}")
     unknown = [t for t in args.transports if t not in TRANSPORTS]
     if unknown:
         parser.error(f"unknown transport {unknown[0]!r}: choose from {', '.join(TRANSPORTS)}")
@@ -95,7 +104,7 @@ def measure(
             outcome = "done"
             try:
                 result = run_once(name, args.rate, args.seconds, args.receivers,
-                                  time_callback=args.diagnose)  # fmt: skip
+                                  time_callback=args.diagnose, lease_ms=args.lease_ms)  # fmt: skip
                 runs[name].append(result | {"round": k + 1})
             except RunFailed as exc:
                 failed.append(f"round {k + 1}, {load(name).label}: {exc}")
@@ -129,7 +138,9 @@ def workload(args: argparse.Namespace) -> str:
         "network thread, and 'bare Zenoh, fastest set-up' adds one Zenoh receive thread per "
         "process (`ZENOH_RUNTIME`, two by default). 'machine busy' is the share of both cores "
         "in use during that transport's runs (other work shares this machine)."
-    )
+        + (f" The fabric's Zenoh lease: {args.lease_ms} ms (`--lease-ms`; the fabric's own is "
+           "2000 ms) in the router and every process of the pose path." if args.lease_ms else "")
+    )  # fmt: skip
 
 
 def summary(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> dict[str, Any]:

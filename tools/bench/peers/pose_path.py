@@ -20,7 +20,7 @@ from typing import Any
 
 from carlaverse.messages import Pose
 from peers.transport import ChildProcess, Deliver, Plan, Transport
-from peers.zenoh_bare import router_endpoint, zenoh_router
+from peers.zenoh_bare import lease_option, router_endpoint, zenoh_router
 
 SESSION = "bench"
 SENDER_ID = "tx"
@@ -30,7 +30,9 @@ JOIN_TIMEOUT_S = 30.0  # [s] a loaded 2-core host can take seconds to start five
 def _fabric(plan: Plan, lowlatency: bool) -> Any:
     from carlaverse.transport.session import FabricSettings
 
-    return FabricSettings(mode="peer", connect=[router_endpoint(plan)], lowlatency=lowlatency)
+    lease = lease_option(plan)
+    return FabricSettings(mode="peer", connect=[router_endpoint(plan)], lowlatency=lowlatency,
+                          **lease)  # fmt: skip
 
 
 def _open_client(plan: Plan, lowlatency: bool, node_id: str, kind: str, actor_kind: str) -> Any:

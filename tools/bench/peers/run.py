@@ -158,20 +158,23 @@ def _receive_until(receiver: Any, measuring: Any, finished: Any) -> tuple[float,
 
 
 def run_once(name: str, rate_hz: float, seconds: float, measured: int, watch: Any = None,
-             time_callback: bool = False) -> dict[str, Any]:  # fmt: skip
+             time_callback: bool = False, lease_ms: int = 0) -> dict[str, Any]:  # fmt: skip
     """Run `name` once; its latencies, counts and CPU times (raises RunFailed).
 
     `watch` (a profiler) is started with the pid of every process, by role, when the
     measured window opens, and finished when the last measured pose has been sent.
     `time_callback`: the pose path's receivers time the fabric's pose callback (two clock
-    reads more per pose, in their CPU; the other transports ignore it).
+    reads more per pose, in their CPU; the other transports ignore it). `lease_ms`: the
+    fabric's Zenoh lease in the processes that open their session as the project does (the
+    router, and every process of the pose path); 0 keeps the fabric's default.
     """
     transport = load(name)
     receivers = measured + 1
     ports = free_ports(receivers + 2)
     # A DDS domain of its own per run (ids 0-232 are valid): a bench running beside another
     # (a test during a measurement) must not discover the other's participants.
-    options = {"dds_domain": ports[-1] % 230 + 1, "time_callback": time_callback}
+    options = {"dds_domain": ports[-1] % 230 + 1, "time_callback": time_callback,
+               "lease_ms": lease_ms}  # fmt: skip
     plan = Plan(name, receivers, measured, rate_hz, round(rate_hz * seconds), ports, options)
     infrastructure = transport.infrastructure(plan)
     try:

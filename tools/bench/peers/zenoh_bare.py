@@ -29,12 +29,20 @@ def router_endpoint(plan: Plan) -> str:
     return f"tcp/127.0.0.1:{plan.ports[plan.receivers]}"
 
 
-def run_router(ready: Any, stop: Any, endpoint: str, lowlatency: bool, runtime: str = "") -> None:
+def lease_option(plan: Plan) -> dict[str, int]:
+    """`FabricSettings` keywords for the run's `--lease-ms` (none: the fabric's own lease)."""
+    lease_ms = int(plan.options.get("lease_ms") or 0)
+    return {"lease_ms": lease_ms} if lease_ms > 0 else {}
+
+
+def run_router(ready: Any, stop: Any, endpoint: str, lowlatency: bool, runtime: str = "",
+               lease: dict[str, int] | None = None) -> None:  # fmt: skip
     """The project's router on loopback (as `carlaverse router` opens it) until `stop`."""
     from carlaverse.transport.session import FabricSettings, open_session
 
     use_runtime(runtime)
-    settings = FabricSettings(mode="router", listen=[endpoint], lowlatency=lowlatency)
+    settings = FabricSettings(mode="router", listen=[endpoint], lowlatency=lowlatency,
+                              **(lease or {}))  # fmt: skip
     session = open_session(settings)
     ready.set()
     stop.wait()
@@ -42,7 +50,8 @@ def run_router(ready: Any, stop: Any, endpoint: str, lowlatency: bool, runtime: 
 
 
 def zenoh_router(plan: Plan, lowlatency: bool = False, runtime: str = "") -> ChildProcess:
-    return ChildProcess("zenoh router", run_router, router_endpoint(plan), lowlatency, runtime)
+    return ChildProcess("zenoh router", run_router, router_endpoint(plan), lowlatency, runtime,
+                        lease_option(plan))  # fmt: skip
 
 
 def _open_peer(plan: Plan, lowlatency: bool = False, runtime: str = "") -> Any:
