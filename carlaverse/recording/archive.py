@@ -28,6 +28,7 @@ import zenoh
 from carlaverse import __version__, messages
 from carlaverse.keys import Keys
 from carlaverse.recording.encoding import UNDECODABLE
+from carlaverse.zenoh_replies import reply_reason
 
 log = logging.getLogger(__name__)
 
@@ -53,14 +54,6 @@ class ArchiveItem:
     data: bytes = b""
     media_type: str = ""
     values: Mapping[str, str] = field(default_factory=dict)
-
-
-def error_text(err: zenoh.ReplyError | None, limit: int = 300) -> str:
-    """The reason an error reply carries, as text (not the ReplyError's byte dump)."""
-    if err is None:  # zenoh types `Reply.err` optional: a reply that is neither ok nor error
-        return "error reply without a reason"
-    reason = err.payload.to_bytes()[:limit].decode("utf-8", errors="replace").strip()
-    return reason or "error reply without a reason"
 
 
 def _version(dist: str) -> str:
@@ -155,7 +148,7 @@ class Archive:
         try:
             for reply in self._session.get(selector, timeout=self._timeout_s):
                 if reply.ok is None:
-                    self._count_error(name, f"{selector}: {error_text(reply.err)}")
+                    self._count_error(name, f"{selector}: {reply_reason(reply.err)}")
                     continue
                 out.append((str(reply.ok.key_expr), reply.ok.payload.to_bytes()))
         except zenoh.ZError as exc:

@@ -22,6 +22,7 @@ from carlaverse import messages as m
 from carlaverse.keys import Keys
 from carlaverse.transport.clock import SessionClock
 from carlaverse.transport.node_client import LEAVE_EVENT_WAIT_S
+from carlaverse.zenoh_replies import ask
 
 log = logging.getLogger(__name__)
 
@@ -143,14 +144,7 @@ class SwarmMembership:
 
     def _ask(self, key: str, payload: bytes, timeout_s: float) -> bytes | None:
         """The first good reply's payload, else None (an error reply is logged)."""
-        try:
-            for reply in self.session.get(key, payload=payload, timeout=timeout_s):
-                if reply.ok is not None:
-                    return reply.ok.payload.to_bytes()
-                log.warning("query %s answered with an error", key)
-        except zenoh.ZError as exc:
-            log.debug("query %s failed: %s", key, exc)
-        return None
+        return ask(self.session, key, payload, timeout_s)[0]
 
 
 class _LeftEvents:

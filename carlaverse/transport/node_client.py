@@ -36,6 +36,7 @@ from carlaverse.transport.inbound import Inbound
 from carlaverse.transport.interest import InterestArea, TiledPublisher
 from carlaverse.transport.settings import NodeSettings
 from carlaverse.world.world_view import WorldView
+from carlaverse.zenoh_replies import ask
 
 log = logging.getLogger(__name__)
 
@@ -351,24 +352,7 @@ class NodeClient:
         return self._query(self.keys.authority(name), payload, timeout)
 
     def _query(self, key: str, payload: bytes, timeout: float) -> bytes | None:
-        return self._ask(key, payload, timeout)[0]
-
-    def _ask(self, key: str, payload: bytes, timeout: float) -> tuple[bytes | None, str]:
-        """The first good reply's payload, else None and the error reply's text ("" when
-        nobody answered in time)."""
-        error = ""
-        try:
-            for reply in self.session.get(key, payload=payload, timeout=timeout):
-                if reply.ok is not None:
-                    return reply.ok.payload.to_bytes(), ""
-                if timed_out(reply):  # nobody answered: not the authority's word
-                    log.debug("query %s: no answer within %g s", key, timeout)
-                    continue
-                error = _error_text(reply.err)
-                log.warning("query %s answered with an error: %s", key, error)
-        except zenoh.ZError as exc:
-            log.debug("query %s failed: %s", key, exc)
-        return None, error
+        return ask(self.session, key, payload, timeout)[0]
 
     def _try_join(self) -> None:
         s = self.settings
@@ -379,7 +363,7 @@ class NodeClient:
             config_yaml=self.config_yaml,
         )  # fmt: skip
         payload = m.JOIN_REQUEST.encode(request)
-        raw, error = self._ask(self.keys.authority("join"), payload, s.join_timeout_s)
+        raw, error = ask(self.session, self.keys.authority("join"), payload, s.join_timeout_s)
         if raw is None:
             if error:  # the authority cannot read our request; asking again will not help
                 self._refuse(error)
@@ -462,22 +446,3 @@ class NodeClient:
             "again, session time runs on its last estimate meanwhile",
             self.settings.session, CLOCK_QUERY_TIMEOUT_S,
         )  # fmt: skip
-
-
-def timed_out(reply: zenoh.Reply) -> bool:
-    """Whether an error reply is Zenoh's own "Timeout", not a queryable's answer.
-
-    Zenoh ends a query that no queryable finished in time with an error reply "Timeout",
-    from the querier's own session (no replier) or from the session that forwarded the query
-    (its runtime, entity id 0; measured: a held query through a router, 2 s). A queryable
-    replies under its own entity id, never 0, and the authority never says "Timeout".
-    """
-    if reply.err is None or reply.err.payload.to_bytes() != b"Timeout":
-        return False
-    return reply.replier_id is None or reply.replier_id.eid == 0
-
-
-def _error_text(err: zenoh.ReplyError | None) -> str:
-    if err is None:
-        return "no reply"
-    return err.payload.to_bytes().decode("utf-8", "replace")[:300]
