@@ -123,6 +123,16 @@ class Child:
         for reader in self.readers:
             reader.join(max(0.0, deadline - time.monotonic()))
 
+    def wait_exit(self, timeout_s: float) -> int | None:
+        """Wait up to `timeout_s` for the child to exit, then for its last lines; its exit code
+        (None: it is still running)."""
+        try:
+            self.proc.wait(timeout_s)
+        except subprocess.TimeoutExpired:
+            return None
+        self.finish_reading()
+        return self.proc.returncode
+
     def last_error(self) -> str:
         """The last non-empty stderr line: a command's one-line error says why it failed."""
         lines = [line.strip() for line in self.err.lines() if line.strip()]

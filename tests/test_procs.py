@@ -47,6 +47,19 @@ def test_streams_are_read_apart_and_together_in_a_group_of_its_own() -> None:
     assert child.proc.wait() == 0
 
 
+def test_waiting_for_an_exit_gives_its_code_and_last_line_or_none_while_it_runs() -> None:
+    # The one-liner prints a line and exits with 3: both are what wait_exit must hand back.
+    done = start([], command=_script("import sys; print('bye', flush=True); sys.exit(3)"))
+    assert done.wait_exit(20) == 3
+    assert done.out.lines() == ["bye"]  # the readers had the last line by the time it returned
+    # A child sleeping 30 s has not exited after 0.2 s: no code, and it is still running.
+    asleep = start([], command=_script("import time; time.sleep(30)"))
+    try:
+        assert asleep.wait_exit(0.2) is None and asleep.running
+    finally:
+        stop_children([asleep], grace_s=5)
+
+
 def test_own_process_group() -> None:
     child = start([], command=_script("import time; print('up', flush=True); time.sleep(30)"))
     try:

@@ -276,10 +276,7 @@ def _run_killed_and_resumed(page: Page, argv: list[str], out: Path) -> list[int]
         _send(out, "note P02 sneezed")
         for trial, attempt in (("t03", 2), ("t04", 1)):
             _answer_ssq(page, second, out, trial, attempt)
-        deadline = time.monotonic() + 120
-        while second.running and time.monotonic() < deadline:
-            time.sleep(0.1)
-        second.finish_reading()
+        second.wait_exit(120)
         assert second.exit_code == 0, second.log.text()
     finally:
         stop_children([second])

@@ -97,10 +97,7 @@ def test_external_agent_and_pause(tmp_path: Path) -> None:
         control.send(out, "resume")
         _wait(out, runner, 200, event="trial_live", trial="t02")
         _fire_trigger(endpoint, out, "t02")
-        deadline = time.monotonic() + 200
-        while runner.running and time.monotonic() < deadline:
-            time.sleep(0.2)
-        runner.finish_reading()
+        runner.wait_exit(200)
         assert runner.exit_code == 0, runner.log.text()
     finally:
         stop_children([runner, *([agent] if agent else [])])
@@ -118,10 +115,7 @@ def test_missing_roles_are_named_and_the_run_ends_5(tmp_path: Path) -> None:
     out = tmp_path / "out"
     runner = start_child(["study", "run", str(study), "--out", str(out)], name="runner")
     try:  # nobody starts P07's agent
-        deadline = time.monotonic() + 120
-        while runner.running and time.monotonic() < deadline:
-            time.sleep(0.2)
-        runner.finish_reading()
+        runner.wait_exit(120)
     finally:
         stop_children([runner])
     assert runner.exit_code == 5, runner.log.text()  # Exit.NOT_ADMITTED
