@@ -24,20 +24,21 @@ POINT = xosc.WorldPosition(10.0, 20.0, 3.0, 1.0)  # z and h are not read
 def scenario(path: Path, *events: xosc.Event, init: xosc.Init | None = None,
              act_start: xosc.ValueTrigger | None = None, act_stop=None,
              parameters: xosc.ParameterDeclarations | None = None,
-             minor: int = 3) -> Path:  # fmt: skip
-    """A storyboard with these events in one maneuver, written by scenariogeneration as
-    OpenSCENARIO 1.`minor` (older for what 1.3 deprecated and scenariogeneration refuses)."""
+             minor: int = 3, actor: str = "car-1") -> Path:  # fmt: skip
+    """A storyboard with these events in one maneuver of `actor` (beside `bike-1`), written by
+    scenariogeneration as OpenSCENARIO 1.`minor` (older for what 1.3 deprecated and
+    scenariogeneration refuses)."""
     box = xosc.BoundingBox(1.8, 4.5, 1.5, 1.3, 0, 0.75)
     front, rear = xosc.Axle(0.5, 0.8, 1.6, 2.9, 0.3), xosc.Axle(0, 0.8, 1.6, 0, 0.3)
     car = xosc.Vehicle("car", xosc.VehicleCategory.car, box, front, rear, 69, 10, 10)
     entities = xosc.Entities()
-    for name in ("bike-1", "car-1"):
+    for name in ("bike-1", actor):
         entities.add_scenario_object(name, car)
     maneuver = xosc.Maneuver("m")
     for event in events or [_plain_event()]:
         maneuver.add_event(event)
     group = xosc.ManeuverGroup("g")
-    group.add_actor("car-1")
+    group.add_actor(actor)
     group.add_maneuver(maneuver)
     start = act_start or xosc.ValueTrigger(
         "go", 0, xosc.ConditionEdge.none, xosc.SimulationTimeCondition(0.5, GT)

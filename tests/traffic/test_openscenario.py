@@ -26,35 +26,15 @@ from tests.traffic.helpers import (
     pose,
     write_scenario,
 )
+from tests.traffic.openscenario_files import scenario
 
 __all__ = ["net_cache"]  # a fixture, imported for pytest
 CONFLICT = CROSSING_CONFLICT
 
 
 def _write(path: Path, *events: xosc.Event) -> Path:
-    """A storyboard with these events, written by scenariogeneration (OpenSCENARIO 1.3)."""
-    box = xosc.BoundingBox(1.8, 4.5, 1.5, 1.3, 0, 0.75)
-    front, rear = xosc.Axle(0.5, 0.8, 1.6, 2.9, 0.3), xosc.Axle(0, 0.8, 1.6, 0, 0.3)
-    car = xosc.Vehicle("car", xosc.VehicleCategory.car, box, front, rear, 69, 10, 10)
-    entities = xosc.Entities()
-    for name in ("bike-1", "waiting-car"):
-        entities.add_scenario_object(name, car)
-    maneuver = xosc.Maneuver("m")
-    for event in events:
-        maneuver.add_event(event)
-    group = xosc.ManeuverGroup("g")
-    group.add_actor("waiting-car")
-    group.add_maneuver(maneuver)
-    begin = xosc.SimulationTimeCondition(0.5, xosc.Rule.greaterThan)
-    act = xosc.Act("act", xosc.ValueTrigger("go", 0, xosc.ConditionEdge.none, begin))
-    act.add_maneuver_group(group)
-    story = xosc.Story("story")
-    story.add_act(act)
-    board = xosc.StoryBoard(xosc.Init())
-    board.add_story(story)
-    xosc.Scenario("study", "lab", xosc.ParameterDeclarations(), entities, board,
-                  xosc.RoadNetwork(), xosc.Catalog()).write_xml(str(path))  # fmt: skip
-    return path
+    """A storyboard with these events for the car that waits at the conflict (OpenSCENARIO 1.3)."""
+    return scenario(path, *events, actor="waiting-car")
 
 
 def _pull_out() -> xosc.Event:
