@@ -15,9 +15,14 @@ from tests.support import Cluster, wait_until
 SITES = {"car-zh": "zurich", "car-be": "berlin"}
 # One-way latency is the watch's session time on arrival minus the sender's: two clocks, each
 # synchronised to the authority within half its best round trip. On loopback the true delay
-# (~0.3 ms) is of the same order, so a measured median can come out a little below zero
-# (-0.05 ms once in a full suite run); below this it would be a clock fault, not sync error.
+# (~0.3 ms) is of the same order, so a median can come out a little below zero. A node's first
+# clock burst runs while every process is still starting: on a loaded CI host its best round trip
+# was ~5 ms, and the first second of poses came out at -2.5 ms (a full suite run). The next bursts
+# (every 2 s) find the quiet round trip and the offset slews to it at 1 %/s, so within a few
+# seconds the median of the poses since is within this of the true delay; a steady error beyond
+# it would be a clock fault, not sync error.
 SYNC_ERROR_MS = 2.0
+SETTLE_S = 30.0  # [s] for the median to leave the first burst's error behind, on a loaded host
 
 
 @pytest.fixture
@@ -47,15 +52,24 @@ def test_watch_lists_nodes_with_their_sites_rates_and_loss(cluster: Cluster) -> 
             45,
             "both nodes with site and pose rate",
         )
+        assert {node_id: row.site for node_id, row in rows.items()} == SITES
+        for row in rows.values():
+            assert row.kind == "scripted"
+            assert row.latency_p50_ms <= row.latency_p99_ms < 1000  # loaded host
+            assert 0 <= row.loss <= 1
+        ordered = [r.node_id for r in watch.rows() if r.node_id in SITES]
+        assert ordered == ["car-be", "car-zh"]  # by site: berlin before zurich
+
+        def settled() -> bool:
+            now = _measured(watch.rows())
+            return len(now) == 2 and all(r.latency_p50_ms >= -SYNC_ERROR_MS for r in now.values())
+
+        try:
+            wait_until(settled, SETTLE_S, f"both latency medians at or above -{SYNC_ERROR_MS} ms")
+        except AssertionError as exc:
+            raise AssertionError(f"{exc}; the rows: {_measured(watch.rows())}") from None
     finally:
         watch.close()
-    assert {node_id: row.site for node_id, row in rows.items()} == SITES
-    for row in rows.values():
-        assert row.kind == "scripted"
-        assert -SYNC_ERROR_MS <= row.latency_p50_ms <= row.latency_p99_ms < 1000  # loaded host
-        assert 0 <= row.loss <= 1
-    ordered = [r.node_id for r in watch.rows() if r.node_id in SITES]
-    assert ordered == ["car-be", "car-zh"]  # by site: berlin before zurich
 
 
 def test_watch_says_whether_the_authority_runs_and_when_the_router_is_gone(
