@@ -26,8 +26,9 @@ from collections import deque
 from typing import Protocol
 
 from carlaverse import messages as m
-from carlaverse.keys import KeySpaceError, parse_cached
+from carlaverse.keys import KeySpaceError
 from carlaverse.support.tally import Tally
+from carlaverse.transport.pose_routes import PoseRoutes
 
 RING_CAPACITY = 32_768  # samples: 2.5 s of the session's largest roster (512 egos at 50 Hz)
 
@@ -49,9 +50,12 @@ class PoseRing(Protocol):
 class PoseIntake:
     """Drains the pose ring: (node id, pose) of every good sample, in arrival order."""
 
-    def __init__(self, ring: PoseRing, drops: Tally) -> None:
+    def __init__(self, ring: PoseRing, drops: Tally, routes: PoseRoutes | None = None) -> None:
         self._ring = ring
         self._drops = drops
+        # The pose keys heard, by sender; attached to the session, each is declared to Zenoh
+        # so that its samples take a kept route into the ring (`transport.pose_routes`).
+        self.routes = routes if routes is not None else PoseRoutes()
         # (senders, rows) the digest relay took from the ring, oldest first, for the tick
         self._handed: deque[tuple[list[str], list[bytes]]] = deque()
         # Whether the relay reads the ring now (set by it; the tick then does not). At the
@@ -62,7 +66,7 @@ class PoseIntake:
     def relay_take(self) -> tuple[list[str], list[bytes]]:
         """For the digest relay: the sender and row of every good-sized pose waiting, oldest
         first; the tick gets the same at its next `drain`."""
-        taken = checked(*take(self._ring), self._drops)
+        taken = checked(*take(self._ring), self._drops, self.routes)
         self._handed.append(taken)
         return taken
 
@@ -77,7 +81,7 @@ class PoseIntake:
             senders += ids
             rows += batch
         if not self.relayed:
-            ids, batch = checked(*take(self._ring, limit), self._drops)
+            ids, batch = checked(*take(self._ring, limit), self._drops, self.routes)
             senders += ids
             rows += batch
         if not rows:
@@ -91,13 +95,16 @@ class PoseIntake:
         return out
 
 
-def checked(keys: list[str], payloads: list[bytes], drops: Tally) -> tuple[list[str], list[bytes]]:
+def checked(
+    keys: list[str], payloads: list[bytes], drops: Tally, routes: PoseRoutes
+) -> tuple[list[str], list[bytes]]:
     """(sender, payload) of each sample with a pose key of this key space and the pose's
     size, in order; each other one counted in `drops` under `pose`."""
     senders: list[str] = []
     rows: list[bytes] = []
+    known = routes.senders
     for key, payload in zip(keys, payloads, strict=True):
-        node_id = pose_sender(key)
+        node_id = known.get(key) or pose_sender(key, routes)
         if node_id is None or len(payload) != m.POSE_SIZE:
             drops.add("pose")
         else:
@@ -117,10 +124,9 @@ def take(ring: PoseRing, limit: int = RING_CAPACITY) -> tuple[list[str], list[by
     return keys, payloads
 
 
-def pose_sender(key: str) -> str | None:
+def pose_sender(key: str, routes: PoseRoutes) -> str | None:
     """The node id of a pose key `ego/<id>/pose/<tile>` of this key space, else None."""
     try:
-        parsed = parse_cached(key)
+        return routes.sender(key)
     except KeySpaceError:
         return None
-    return parsed.node_id if parsed.area == "ego" and parsed.channel == "pose" else None

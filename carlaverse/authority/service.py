@@ -120,6 +120,7 @@ class Authority:
         poses = s.declare_subscriber(k.all_ego("pose"), zenoh.handlers.RingChannel(RING_CAPACITY))
         self._entities.append(poses)
         self._intake = PoseIntake(poses, self.drops)
+        self._intake.routes.attach(s, name="authority-pose-routes")
         if self.settings.digest_period_s > 0:
             self.digest = PoseDigestRelay(
                 s, k, self._intake, self.drops, s.new_timestamp, self.settings.digest_period_s
@@ -179,6 +180,8 @@ class Authority:
         for entity in self._entities:
             entity.undeclare()  # type: ignore[attr-defined]
         self._entities.clear()
+        if self._intake is not None:
+            self._intake.routes.close()
         if self._token is not None:
             self._token.undeclare()
             self._token = None

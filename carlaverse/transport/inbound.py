@@ -33,6 +33,7 @@ from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse, parse_cach
 from carlaverse.support.tally import Tally
 from carlaverse.transport.clock import SessionClock
 from carlaverse.transport.guard import HandlerGuard
+from carlaverse.transport.pose_routes import PoseRoutes
 from carlaverse.world.intake import WorldIntake
 
 log = logging.getLogger(__name__)
@@ -78,6 +79,10 @@ class Inbound:
         self.before_join = Tally()
         self.accepted = Tally()  # impulses handed to the node, and whatever else is worth a count
         self.guard = HandlerGuard(log)
+        # The pose keys heard, by sender, each declared to Zenoh so its route is kept
+        # (`pose_routes`); declared from subscribe() on.
+        self.routes = PoseRoutes()
+        self._senders = self.routes.senders
         self.authority_id = ""  # zid of the joined authority's session; "" before a join
         self.left = threading.Event()  # the authority announced our own `left` despawn
         self._contacts: deque[tuple[str, int]] = deque(maxlen=SEEN_CONTACTS)
@@ -112,6 +117,7 @@ class Inbound:
         that draws bodies; `audio`: where this node's audio scenes (`audio/<id>`, the
         authority's only) go, called on Zenoh's thread, for a node that plays them."""
         g = self.guard
+        self.routes.attach(session, name=f"{self.node_id}-pose-routes")
         world = {"lights": self._on_lights, "weather": self._on_weather, "events": self._on_event}
         entities: list[object] = []
         if spatial:  # the whole world: its poses (`pose_feed`) and its NPCs in one batch
@@ -166,6 +172,7 @@ class Inbound:
         if self.pose_feed is not None:
             self.pose_feed.undeclare()
             self.pose_feed = None
+        self.routes.close()
 
     def spatial_handlers(self) -> tuple[zenoh.handlers.Callback, Callable[[zenoh.Sample], None]]:
         """The guarded pose and NPC handlers, for the subscriptions of an interest area."""
@@ -226,12 +233,14 @@ class Inbound:
 
     def _on_pose(self, sample: zenoh.Sample) -> None:
         # The hottest path of a node (every pose of every ego it hears), and the delay of each:
-        # the sender from the key (`_sender`, inlined) and the bytes, handed over as they came.
+        # the sender from the key (a key heard before is in `routes.senders`; a new one is
+        # parsed, and declared to Zenoh off this thread) and the bytes, handed over as they came.
         # The world view's update checks and decodes them, once, with every other pose it
         # drains. The clock is read without a lock.
         try:
             rx_t = self.clock.now()
-            node_id = parse_cached(str(sample.key_expr)).node_id
+            key = str(sample.key_expr)
+            node_id = self._senders.get(key) or self.routes.sender(key)
             self._intake.pose(node_id, sample.payload.to_bytes(), rx_t)
         except KeySpaceError:
             self.dropped.add("pose")

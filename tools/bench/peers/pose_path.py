@@ -35,7 +35,9 @@ def _fabric(plan: Plan, lowlatency: bool) -> Any:
                           **lease)  # fmt: skip
 
 
-def _open_client(plan: Plan, lowlatency: bool, node_id: str, kind: str, actor_kind: str) -> Any:
+def _open_client(
+    plan: Plan, lowlatency: bool, node_id: str, kind: str, actor_kind: str, keep_routes: bool = True
+) -> Any:
     from carlaverse.transport.clock import MonotonicClock
     from carlaverse.transport.node_client import NodeClient, NodeSettings
     from carlaverse.transport.session import open_session
@@ -47,7 +49,10 @@ def _open_client(plan: Plan, lowlatency: bool, node_id: str, kind: str, actor_ki
         node_id=node_id, session=SESSION, kind=kind, actor_kind=actor_kind,
         pose_rate_hz=plan.rate_hz, direct_pose_callbacks=lowlatency,
     )  # fmt: skip
-    client = NodeClient(session, settings, MonotonicClock()).start()
+    client = NodeClient(session, settings, MonotonicClock())
+    if not keep_routes:  # the diagnostic: no pose key declared, Zenoh matches every sample
+        client.inbound.routes.limit = 0
+    client.start()
     if not client.wait_joined(JOIN_TIMEOUT_S):
         raise TimeoutError(f"{node_id} was not admitted within {JOIN_TIMEOUT_S:g} s")
     return client
@@ -90,12 +95,16 @@ class PoseSender:
 class PoseReceiver:
     poll_period_s = 0.02  # [s] the node loop applying what arrived (50 Hz)
 
-    def __init__(self, plan: Plan, lowlatency: bool, index: int, deliver: Deliver) -> None:
+    def __init__(
+        self, plan: Plan, lowlatency: bool, index: int, deliver: Deliver, keep_routes: bool = True
+    ) -> None:
         self.in_callback_s: list[float] = []
         self._entered = 0.0
         if plan.options.get("time_callback"):  # harness work in this receiver's CPU: asked for
             self._stamp_callback_entry()
-        self._client = _open_client(plan, lowlatency, f"rx{index}", "observer", "")  # no actor
+        self._client = _open_client(  # an observer: no actor
+            plan, lowlatency, f"rx{index}", "observer", "", keep_routes
+        )
         world = self._client.world
         push_wire = world.intake.pose
 
@@ -148,6 +157,7 @@ class PosePath(Transport):
     extra_receiver = False  # the authority receives every pose
     lowlatency = False  # the fabric's `lowlatency` setting, in every process of the run
     node_loop = True  # whether each receiver's main thread applies what arrived (`update()`)
+    keep_routes = True  # whether each receiver declares the pose keys it hears (`pose_routes`)
 
     def infrastructure(self, plan: Plan) -> list[Any]:
         router = zenoh_router(plan, self.lowlatency)
@@ -158,7 +168,7 @@ class PosePath(Transport):
         return PoseSender(plan, self.lowlatency)
 
     def open_receiver(self, plan: Plan, index: int, deliver: Deliver) -> PoseReceiver:
-        receiver = PoseReceiver(plan, self.lowlatency, index, deliver)
+        receiver = PoseReceiver(plan, self.lowlatency, index, deliver, self.keep_routes)
         if not self.node_loop:
             receiver.poll_period_s = None  # type: ignore[misc]
         return receiver
@@ -178,3 +188,11 @@ class PosePathNoNodeLoop(PosePath):
 
     label = "pose path, no node loop"
     node_loop = False
+
+
+class PosePathNoRoutes(PosePath):
+    """Diagnostic: the pose path whose receivers declare no pose key (`transport.pose_routes`),
+    so Zenoh matches each sample's key against its whole routing table, as before."""
+
+    label = "pose path, pose keys not declared"
+    keep_routes = False

@@ -17,6 +17,7 @@ TRANSPORTS = {
     "zenoh-pose-options": ("peers.zenoh_bare", "BareZenohPoseOptions"),
     "zenoh-express": ("peers.zenoh_bare", "BareZenohExpress"),
     "pose-no-loop": ("peers.pose_path", "PosePathNoNodeLoop"),
+    "pose-no-routes": ("peers.pose_path", "PosePathNoRoutes"),
     "dds": ("peers.dds", "CycloneDds"),
     "zmq": ("peers.zmq_pubsub", "ZmqPubSub"),
     "mqtt": ("peers.mqtt", "Mqtt"),
@@ -35,7 +36,15 @@ COMPARED = (
     "mqtt",
     "udp",
 )
-DIAGNOSTIC = ("pose", "zenoh", "zenoh-loop", "zenoh-direct", "zenoh-pose-options", "pose-no-loop")
+DIAGNOSTIC = (
+    "pose",
+    "zenoh",
+    "zenoh-loop",
+    "zenoh-direct",
+    "zenoh-pose-options",
+    "pose-no-loop",
+    "pose-no-routes",
+)
 REFERENCE = "pose"  # the path every other one is compared with
 LOW_LATENCY = "pose-ll"  # the same path in the fabric's low-latency configuration
 
