@@ -146,6 +146,10 @@ class SessionClock:
         t = self.local.now()
         return t + _offset_at(self._anchor, t)
 
+    def at(self, local_t: float) -> float:
+        """Session time at local time `local_t` [s] (a stamp taken with `local.now()`)."""
+        return local_t + _offset_at(self._anchor, local_t)
+
     @property
     def offset(self) -> float:
         """The offset applied now [s]: session time − local time."""

@@ -66,6 +66,11 @@ class Inbound:
         self.direct_poses = direct_poses
         self._intake = intake
         self.clock = clock
+        # Poses are stamped on arrival with the local clock (for a node, `time.monotonic`
+        # itself, no Python frame), and the world view's update turns the stamps into session
+        # time: the callback, on a thread that wakes cold for each pose, stays short.
+        self._stamp = clock.local.now
+        intake.pose_stamp_to_session = clock.at
         self._lost = lost
         self._appeared = appeared
         self.impulses: deque[m.Impulse] = deque(maxlen=256)
@@ -236,9 +241,9 @@ class Inbound:
         # the sender from the key (a key heard before is in `routes.senders`; a new one is
         # parsed, and declared to Zenoh off this thread) and the bytes, handed over as they came.
         # The world view's update checks and decodes them, once, with every other pose it
-        # drains. The clock is read without a lock.
+        # drains. The arrival is stamped on the local clock (see __init__).
         try:
-            rx_t = self.clock.now()
+            rx_t = self._stamp()
             key = str(sample.key_expr)
             node_id = self._senders.get(key) or self.routes.sender(key)
             self._intake.pose(node_id, sample.payload.to_bytes(), rx_t)
@@ -250,7 +255,7 @@ class Inbound:
     def _on_digest(self, sample: zenoh.Sample) -> None:
         """Poses relayed by the authority. Each row is checked as a pose of its own would be,
         by the world view's update, with every other pose it drains."""
-        rx_t = self.clock.now()
+        rx_t = self._stamp()  # local, as a pose's (see __init__)
         digest = self._authority_message(sample, m.POSE_DIGEST, "digest")
         if isinstance(digest, m.PoseDigest):
             self._intake.pose_rows(digest.ids, digest.rows, rx_t)

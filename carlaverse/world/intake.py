@@ -13,6 +13,7 @@ the view's owner applies what came, in order, in `WorldView.update`.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Callable
 from typing import Any, Literal
 
 from carlaverse.messages import (
@@ -54,14 +55,20 @@ class WorldIntake:
         # Malformed input by channel: what a source could not decode, and the poses the
         # view's update refuses, so a channel's count is in one place.
         self.dropped = Tally()
+        # A pose's arrival stamp is are session time, unless a source stamps them on a clock of
+        # its own and gives this to turn them into session time when the update drains them:
+        # the live session does (`transport.inbound`), with its host's monotonic clock, one C
+        # call in the Zenoh callback, which runs cold, where each Python frame costs µs.
+        self.pose_stamp_to_session: Callable[[float], float] | None = None
 
     # ------------------------------------------------------------ egos
 
     def pose(self, node_id: str, wire: bytes, rx_t: float) -> None:
         """A pose of `node_id` in its 64-byte wire form as it came, unchecked, received at
-        session time `rx_t` [s]: the view's update checks and decodes it (a bad one is
-        counted in `dropped` under `pose`). The callback that received it then costs next
-        to nothing, which matters most when it runs cold, as it does at 50 Hz."""
+        `rx_t` [s] (session time, or see `pose_stamp_to_session`): the view's update checks
+        and decodes it (a bad one is counted in `dropped` under `pose`). The callback that
+        received it then costs next to nothing, which matters most when it runs cold, as it
+        does at 50 Hz."""
         if len(wire) != POSE_SIZE:  # joined with the others it would shift every row after it
             self.dropped.add("pose")
         elif node_id != self.own_id:

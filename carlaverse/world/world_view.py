@@ -161,6 +161,9 @@ class WorldView:
 
     def _apply_rows(self, ids: list[str], rows: list[bytes], rx: list[float]) -> None:
         """Check and decode the gathered poses (once, together), then apply them."""
+        to_session = self.intake.pose_stamp_to_session
+        if to_session is not None:
+            rx = [to_session(t) for t in rx]
         poses = decode_pose_rows(rows[0] if len(rows) == 1 else b"".join(rows))
         if None in poses:  # a bad row: dropped and counted, the rest kept in order
             keep = [k for k, pose in enumerate(poses) if pose is not None]

@@ -188,3 +188,20 @@ def test_now_is_monotonic_under_random_exchanges(steps: list) -> None:  # type: 
         local.advance(1e-6)
         assert clock.now() > last
         last = clock.now()
+
+
+def test_a_stamp_taken_on_the_local_clock_reads_as_session_time_later() -> None:
+    # A pose callback stamps its arrival with `local.now()` and the world view turns it into
+    # session time when it drains, ms later. Whatever happened meanwhile (here an exchange
+    # that moved the estimate by 3 ms, slewed in at most 1 %), the stamp reads as the session
+    # time it was taken at: before the exchange the offset was 5000 s flat, so 5000 s on.
+    local = ManualClock(100.0)
+    clock = SessionClock(local)
+    exchange(clock, local, 5000.0, RTT_S / 2, RTT_S / 2)
+    local.advance(1.0)
+    stamp, then = local.now(), clock.now()
+    assert clock.at(stamp) == then == stamp + 5000.0
+    local.advance(0.010)
+    exchange(clock, local, 5000.003, RTT_S / 2, RTT_S / 2)  # later, and a better estimate
+    assert clock.at(stamp) == pytest.approx(stamp + 5000.0, abs=1e-12)
+    assert clock.at(local.now()) == pytest.approx(clock.now(), abs=1e-12)

@@ -141,7 +141,7 @@ def test_a_declared_key_changes_nothing_a_wildcard_subscriber_receives(
 
 
 def _pose(seq: int, t: float) -> m.Pose:
-    return m.Pose(seq, t, 5.0, 2.0, 0.5, 0.0, 0.1, 1.5, 3.0, 0.0, 0.0, 0.0, 0.0, 0.25, 0.0, 0.0, 0.0)
+    return m.Pose(seq, t, 5.0, 2.0, 0.5, yaw=0.1, vx=1.5)
 
 
 def test_a_node_and_the_authority_each_declare_the_key_a_pose_comes_on() -> None:

@@ -417,3 +417,17 @@ def test_the_despawn_log_keeps_the_newest_within_its_bound(
         world.intake.gone(node_id, "left", t + 0.05)
         world.update(t + 0.05)
     assert [d.actor_id for d in world.despawns] == [f"n{k}" for k in range(30, 80)]
+
+
+def test_poses_stamped_on_a_local_clock_are_judged_in_session_time() -> None:
+    # A live session stamps a pose's arrival on its host's monotonic clock and gives the view
+    # the conversion (session = local + 1000 s here). A pose sent at session time 1000.50 and
+    # stamped at local 0.52 arrived 20 ms after it was sent: that is its latency, and it is
+    # plausible; unconverted, the stamp would be 1000 s before the send and refused.
+    world = WorldView("me", S)
+    world.intake.pose_stamp_to_session = lambda local_t: local_t + 1000.0
+    world.intake.present("a")
+    world.intake.pose("a", encode_pose(Pose(1, 1000.50, 0, 0)), 0.52)
+    world.update(1000.53)
+    assert "a" in world.egos and not world.rejected
+    assert world.stats["a"].summary(1000.53).latency_p50_ms == pytest.approx(20.0, abs=1e-6)

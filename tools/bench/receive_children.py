@@ -267,17 +267,18 @@ def _project(session: Any, egos: int, feed: Feed, updating: bool) -> Receiver:
     push_wire = world.intake.pose
 
     latency = receiver.latency_s
+    at = clock.at  # the fabric stamps arrivals on the local clock (`transport.inbound`)
 
     def counted(node_id: str, payload: bytes, rx_t: float) -> None:  # one call more per pose
         receiver.received += 1
-        latency.append(rx_t - pose_stamp(payload)[1])
+        latency.append(at(rx_t) - pose_stamp(payload)[1])
         push_wire(node_id, payload, rx_t)
 
     push_digest = world.intake.pose_rows
 
     def counted_many(ids: list[str], rows: bytes, rx_t: float) -> None:  # one call per digest
         receiver.received += len(ids)
-        latency.extend((rx_t - pose_stamps(rows)[1]).tolist())
+        latency.extend((at(rx_t) - pose_stamps(rows)[1]).tolist())
         push_digest(ids, rows, rx_t)
 
     world.intake.pose = counted  # type: ignore[method-assign]

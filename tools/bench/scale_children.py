@@ -139,24 +139,26 @@ def probe_main(
     client = NodeClient(session, settings, MonotonicClock())
     receipts = Receipts()
     push_wire = client.world.intake.pose
+    at = client.clock.at  # the fabric stamps arrivals on the local clock (`transport.inbound`)
 
     def stamped(sender: str, payload: bytes, rx_t: float) -> None:
         seq, t = pose_stamp(payload)
-        receipts.heard(sender, seq, rx_t - t)
+        receipts.heard(sender, seq, at(rx_t) - t)
         push_wire(sender, payload, rx_t)
 
     push_digest = client.world.intake.pose_rows
 
-    def stamped_many(ids: list[str], rows: bytes, rx_t: float) -> None:
+    def stamped_many(ids: list[str], rows: bytes, local_t: float) -> None:
         seqs, times = pose_stamps(rows)
         sent = times.tolist()
+        rx_t = at(local_t)
         for sender, seq, t in zip(ids, seqs.tolist(), sent, strict=True):
             receipts.heard(sender, seq, rx_t - t)
         if receipts.recording:
             stamp = receipts.stamp_s
             receipts.to_relay_s += [stamp - t for t in sent]
             receipts.hop_s += [rx_t - stamp] * len(ids)
-        push_digest(ids, rows, rx_t)
+        push_digest(ids, rows, local_t)
 
     if digest:  # the digest's timestamp, noted before the node's own handler applies it
         from carlaverse.transport.inbound import Inbound
