@@ -210,3 +210,30 @@ def test_the_lease_option_reaches_the_fabric_settings_and_zero_keeps_the_fabrics
     assert _fabric(plan(0), lowlatency=False).lease_ms == 2000
     assert lease_option(plan(10_000)) == {"lease_ms": 10_000}
     assert _fabric(plan(10_000), lowlatency=False).lease_ms == 10_000
+
+
+def test_the_pose_path_without_a_loop_is_judged_against_bare_zenoh_without_one(
+    report: ModuleType,
+) -> None:
+    """--diagnose runs the pose path whose receivers never run their loop: its like for like
+    is bare Zenoh whose receivers only wait, and that pair is judged too (no 'no loop' ratio
+    beside it: its reference is that row already)."""
+    cpu = {"tx": 0.001, "rx0": 0.001}
+    runs = {
+        name: [run(name, [[ms] * 4], cpu | {"rx0": rx_s}) | {"round": 1}]
+        for name, ms, rx_s in (
+            ("pose", 1.0, 0.003), ("zenoh-loop", 1.0, 0.002),
+            ("pose-no-loop", 0.6, 0.0016), ("zenoh", 0.5, 0.001),
+        )
+    }  # fmt: skip
+    rows = [report.pool(name, name_runs) for name, name_runs in runs.items()]
+    lines = report.verdict(rows, runs)
+    assert len(lines) == 4
+    p50, cpu_line = lines[2:]
+    # 0.6 / 0.5 ms = 1.20 (meets, at the limit); 1.6 / 1.0 ms per 4 poses = 1.60 (misses)
+    assert "pose path, no node loop: p50 / bare Zenoh's = 1.20, meets ≤ 1.2; " in p50
+    assert (
+        "receiver CPU per pose / bare Zenoh's = 1.60, MISSES ≤ 1.5; each round alone: "
+        "round 1 1.60." in cpu_line
+    )
+    assert "(no loop)" not in p50 + cpu_line

@@ -101,6 +101,7 @@ TARGET_RECEIVER_CPU = 1.5  # its receivers' CPU per pose / bare Zenoh's receiver
 # bare Zenoh whose receivers only wait (the floor; shown beside, not judged).
 BASE = "zenoh-loop"
 FLOOR = "zenoh"
+NO_LOOP = "pose-no-loop"  # the pose path whose receivers wait too: judged against the floor
 
 
 def p50_ms(row: Row) -> float:
@@ -121,7 +122,8 @@ TARGETS = (
 def verdict(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]:
     """The issue's targets, from the figures: the pose path's p50 and its receivers' CPU per
     pose, each over bare Zenoh's with the same node loop in the same run (and, beside it, over
-    bare Zenoh's without one).
+    bare Zenoh's without one); where it ran (`--diagnose`), the pose path whose receivers run
+    no loop either, over bare Zenoh's without one: like for like again, without the loop.
 
     Judged on the pooled rounds; each round's own ratio follows, as the two ran minutes apart
     within a round while a shared machine's speed drifts between rounds (its load says how
@@ -133,20 +135,20 @@ def verdict(rows: list[Row], runs: dict[str, list[dict[str, Any]]]) -> list[str]
                 f"{TARGET_RECEIVER_CPU:g} × bare Zenoh's, each with the same node loop): not "
                 f"judged, {load(BASE).label} was not run."]  # fmt: skip
     lines = []
-    for name in (REFERENCE, LOW_LATENCY):
-        if name not in by_name:
+    for name, base in ((REFERENCE, BASE), (LOW_LATENCY, BASE), (NO_LOOP, FLOOR)):
+        if name not in by_name or base not in by_name:
             continue
         for what, measure, limit in TARGETS:
-            ratio = measure(by_name[name]) / measure(by_name[BASE])
+            ratio = measure(by_name[name]) / measure(by_name[base])
             met = "meets" if ratio <= limit else "MISSES"
-            paired = round_ratios(runs, name, BASE, measure)
+            paired = round_ratios(runs, name, base, measure)
             rounds = ", ".join(f"round {k} {r:.2f}" for k, r in paired)
             floor = ""
-            if FLOOR in by_name:
+            if base != FLOOR and FLOOR in by_name:
                 floor = (f"; over {load(FLOOR).label}'s (no loop) "
                          f"{measure(by_name[name]) / measure(by_name[FLOOR]):.2f}")  # fmt: skip
             lines.append(
-                f"- Target, {load(name).label}: {what} / {load(BASE).label}'s = {ratio:.2f}, "
+                f"- Target, {load(name).label}: {what} / {load(base).label}'s = {ratio:.2f}, "
                 f"{met} ≤ {limit:g}; each round alone: {rounds or '–'}{floor}."
             )
     return lines
