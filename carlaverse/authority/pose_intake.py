@@ -28,7 +28,7 @@ from typing import Protocol
 from carlaverse import messages as m
 from carlaverse.keys import KeySpaceError
 from carlaverse.support.tally import Tally
-from carlaverse.transport.pose_routes import PoseRoutes
+from carlaverse.transport.key_routes import KeyRoutes
 
 RING_CAPACITY = 32_768  # samples: 2.5 s of the session's largest roster (512 egos at 50 Hz)
 
@@ -50,12 +50,12 @@ class PoseRing(Protocol):
 class PoseIntake:
     """Drains the pose ring: (node id, pose) of every good sample, in arrival order."""
 
-    def __init__(self, ring: PoseRing, drops: Tally, routes: PoseRoutes | None = None) -> None:
+    def __init__(self, ring: PoseRing, drops: Tally, routes: KeyRoutes | None = None) -> None:
         self._ring = ring
         self._drops = drops
         # The pose keys heard, by sender; attached to the session, each is declared to Zenoh
-        # so that its samples take a kept route into the ring (`transport.pose_routes`).
-        self.routes = routes if routes is not None else PoseRoutes()
+        # so that its samples take a kept route into the ring (`transport.key_routes`).
+        self.routes = routes if routes is not None else KeyRoutes()
         # (senders, rows) the digest relay took from the ring, oldest first, for the tick
         self._handed: deque[tuple[list[str], list[bytes]]] = deque()
         # Whether the relay reads the ring now (set by it; the tick then does not). At the
@@ -96,7 +96,7 @@ class PoseIntake:
 
 
 def checked(
-    keys: list[str], payloads: list[bytes], drops: Tally, routes: PoseRoutes
+    keys: list[str], payloads: list[bytes], drops: Tally, routes: KeyRoutes
 ) -> tuple[list[str], list[bytes]]:
     """(sender, payload) of each sample with a pose key of this key space and the pose's
     size, in order; each other one counted in `drops` under `pose`."""
@@ -124,7 +124,7 @@ def take(ring: PoseRing, limit: int = RING_CAPACITY) -> tuple[list[str], list[by
     return keys, payloads
 
 
-def pose_sender(key: str, routes: PoseRoutes) -> str | None:
+def pose_sender(key: str, routes: KeyRoutes) -> str | None:
     """The node id of a pose key `ego/<id>/pose/<tile>` of this key space, else None."""
     try:
         return routes.sender(key)

@@ -33,7 +33,7 @@ from carlaverse.keys import AUTHORITY_ID, Keys, KeySpaceError, parse, parse_cach
 from carlaverse.support.tally import Tally
 from carlaverse.transport.clock import SessionClock
 from carlaverse.transport.guard import HandlerGuard
-from carlaverse.transport.pose_routes import PoseRoutes
+from carlaverse.transport.key_routes import KeyRoutes
 from carlaverse.world.intake import WorldIntake
 
 log = logging.getLogger(__name__)
@@ -84,9 +84,9 @@ class Inbound:
         self.before_join = Tally()
         self.accepted = Tally()  # impulses handed to the node, and whatever else is worth a count
         self.guard = HandlerGuard(log)
-        # The pose keys heard, by sender, each declared to Zenoh so its route is kept
-        # (`pose_routes`); declared from subscribe() on.
-        self.routes = PoseRoutes()
+        # The ego keys heard through wildcards, by sender, each declared to Zenoh so its route
+        # is kept (`key_routes`); declared from subscribe() on.
+        self.routes = KeyRoutes(channels=("pose", "state", "skeleton"))
         self._senders = self.routes.senders
         self.authority_id = ""  # zid of the joined authority's session; "" before a join
         self.left = threading.Event()  # the authority announced our own `left` despawn
@@ -122,7 +122,7 @@ class Inbound:
         that draws bodies; `audio`: where this node's audio scenes (`audio/<id>`, the
         authority's only) go, called on Zenoh's thread, for a node that plays them."""
         g = self.guard
-        self.routes.attach(session, name=f"{self.node_id}-pose-routes")
+        self.routes.attach(session, name=f"{self.node_id}-key-routes")
         world = {"lights": self._on_lights, "weather": self._on_weather, "events": self._on_event}
         entities: list[object] = []
         if spatial:  # the whole world: its poses (`pose_feed`) and its NPCs in one batch
@@ -210,8 +210,11 @@ class Inbound:
             return None
 
     def _sender(self, sample: zenoh.Sample, channel: str) -> str | None:
+        """The sender of an ego sample (`state`, `skeleton`), or None, counted, if its key is
+        not one."""
+        key = str(sample.key_expr)
         try:
-            return parse_cached(str(sample.key_expr)).node_id
+            return self._senders.get(key) or self.routes.sender(key)
         except KeySpaceError:
             self.dropped.add(channel)
             return None
@@ -278,8 +281,10 @@ class Inbound:
             self.overrides.append(override)  # type: ignore[arg-type]
 
     def _on_presence(self, sample: zenoh.Sample) -> None:
-        node_id = self._sender(sample, "presence")
-        if node_id is None:
+        try:  # `node/<id>`: a token each, rarely heard, no route worth keeping
+            node_id = parse_cached(str(sample.key_expr)).node_id
+        except KeySpaceError:
+            self.dropped.add("presence")
             return
         alive = sample.kind == zenoh.SampleKind.PUT
         if node_id == AUTHORITY_ID:

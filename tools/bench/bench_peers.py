@@ -47,7 +47,7 @@ VARIANTS = (
     "real-time priority, remote destinations only); 'pose path, no node loop' is the pose path "
     "whose receivers never run `update()`, so the Zenoh callback has each process to itself; "
     "'pose path, pose keys not declared' is the pose path whose receivers declare no pose key "
-    "they hear (`transport.pose_routes`), so Zenoh matches each sample's key against its whole "
+    "they hear (`transport.key_routes`), so Zenoh matches each sample's key against its whole "
     "routing table, as it did before they did. "
     "Here the pose path's receivers time the fabric's pose callback (two clock reads more per "
     "pose, in their CPU; not in the comparison's runs)."

@@ -157,7 +157,7 @@ class PosePath(Transport):
     extra_receiver = False  # the authority receives every pose
     lowlatency = False  # the fabric's `lowlatency` setting, in every process of the run
     node_loop = True  # whether each receiver's main thread applies what arrived (`update()`)
-    keep_routes = True  # whether each receiver declares the pose keys it hears (`pose_routes`)
+    keep_routes = True  # whether each receiver declares the pose keys it hears (`key_routes`)
 
     def infrastructure(self, plan: Plan) -> list[Any]:
         router = zenoh_router(plan, self.lowlatency)
@@ -191,7 +191,7 @@ class PosePathNoNodeLoop(PosePath):
 
 
 class PosePathNoRoutes(PosePath):
-    """Diagnostic: the pose path whose receivers declare no pose key (`transport.pose_routes`),
+    """Diagnostic: the pose path whose receivers declare no pose key (`transport.key_routes`),
     so Zenoh matches each sample's key against its whole routing table, as before."""
 
     label = "pose path, pose keys not declared"

@@ -1,15 +1,16 @@
-"""Pose keys declared to Zenoh as they are first heard, so that Zenoh keeps their routes.
+"""Ego keys declared to Zenoh as they are first heard, so that Zenoh keeps their routes.
 
 A node hears other egos' poses through wildcard subscriptions (`ego/*/pose/**`, or
-`ego/*/pose/<tile>` in an interest area), and each sample comes on its sender's concrete key
-(`ego/<id>/pose/<tile>`). Zenoh keeps the route of a sample (which local subscribers get
-it) on the resource of its key in its routing tables, and a concrete key that nothing in this
-process declared has no resource: every such sample is matched against the whole table again
-(`Resource::get_matches` in the receiving process's profile), a cost that grows with the
-session, since every node's subscriptions, tokens and queryables are in those tables.
-Declaring the key here (`Session.declare_keyexpr`) makes its resource, and the samples after
-it take the kept route, as they do for a subscription on the exact key. In `bench_peers`
-this took ~30 µs a pose off the pose path's receivers (five processes on one host), and a
+`ego/*/pose/<tile>` in an interest area), their states and walkers' skeletons too
+(`ego/*/state`, `ego/*/skeleton`), and each sample comes on its sender's concrete key
+(`ego/<id>/pose/<tile>`, `ego/<id>/skeleton`). Zenoh keeps the route of a sample (which local
+subscribers get it) on the resource of its key in its routing tables, and a concrete key that
+nothing in this process declared has no resource: every such sample is matched against the
+whole table again (`Resource::get_matches` in the receiving process's profile), a cost that
+grows with the session, since every node's subscriptions, tokens and queryables are in those
+tables. Declaring the key here (`Session.declare_keyexpr`) makes its resource, and the samples
+after it take the kept route, as they do for a subscription on the exact key. In `bench_peers`
+this took 30-60 µs a pose off the pose path's receivers (five processes on one host), and a
 bare subscriber among 200 other declarations spent ~110 µs a sample more without it.
 
 Declaring takes Zenoh's tables lock, which a direct callback on Zenoh's own thread may be
@@ -35,13 +36,14 @@ log = logging.getLogger(__name__)
 LIMIT = 1024  # declared keys kept: every tile of 256 egos' last few tiles
 
 
-class PoseRoutes:
-    """The pose keys heard, by key -> sender id (`senders`, read without a lock in callbacks),
-    each declared to the session once `attach`ed."""
+class KeyRoutes:
+    """The keys of the ego `channels` heard, by key -> sender id (`senders`, read without a
+    lock in callbacks), each declared to the session once `attach`ed."""
 
-    def __init__(self, limit: int = LIMIT) -> None:
+    def __init__(self, channels: tuple[str, ...] = ("pose",), limit: int = LIMIT) -> None:
+        self.channels = channels
         self.limit = limit
-        self.senders: dict[str, str] = {}  # concrete pose key -> node id, declared or due
+        self.senders: dict[str, str] = {}  # concrete key -> node id, declared or due
         self._once: dict[str, str] = {}  # keys heard once, not in `senders`
         self._pending: deque[str] = deque()  # in `senders`, not yet declared
         self._declared: deque[tuple[str, zenoh.KeyExpr]] = deque()  # oldest first
@@ -51,12 +53,12 @@ class PoseRoutes:
         self._thread: threading.Thread | None = None
 
     def sender(self, key: str) -> str:
-        """The node id of pose key `key`, which `senders` lacks; KeySpaceError if it is not
-        `ego/<id>/pose[/<tile>]`. Never waits: heard the second time, the key is queued for
-        the declaring thread."""
+        """The node id of `key`, which `senders` lacks; KeySpaceError if it is not a key
+        `ego/<id>/<channel>[/<tile>]` of one of `channels`. Never waits: heard the second
+        time, the key is queued for the declaring thread."""
         parsed = parse_cached(key)
-        if parsed.area != "ego" or parsed.channel != "pose":
-            raise KeySpaceError(f"not a pose key: {key!r}")
+        if parsed.area != "ego" or parsed.channel not in self.channels:
+            raise KeySpaceError(f"not a key of ego {'/'.join(self.channels)}: {key!r}")
         once = self._once
         if once.pop(key, None) is None:
             if len(once) >= self.limit:
@@ -68,10 +70,10 @@ class PoseRoutes:
             self._due.set()
         return parsed.node_id
 
-    def attach(self, session: zenoh.Session, name: str = "pose-routes") -> None:
+    def attach(self, session: zenoh.Session, name: str = "key-routes") -> None:
         """Declare the keys heard, from now on, in `session` (on a daemon thread of ours)."""
         if self._thread is not None:
-            raise RuntimeError("pose routes are attached to a session already")
+            raise RuntimeError("key routes are attached to a session already")
         self._session = session
         self._thread = threading.Thread(target=self._run, name=name, daemon=True)
         self._thread.start()
@@ -109,7 +111,7 @@ class PoseRoutes:
             try:
                 expr = session.declare_keyexpr(key)
             except Exception as exc:  # a closing session: the samples just go unrouted
-                log.debug("pose key %s not declared: %s", key, exc)
+                log.debug("key %s not declared: %s", key, exc)
                 continue
             self._declared.append((key, expr))
             while len(self._declared) > self.limit:
@@ -122,4 +124,4 @@ class PoseRoutes:
         try:
             session.undeclare(expr)
         except Exception as exc:  # the session closed under us: nothing left to undeclare
-            log.debug("pose key %s not undeclared: %s", expr, exc)
+            log.debug("key %s not undeclared: %s", expr, exc)

@@ -1,4 +1,4 @@
-"""Pose keys declared to Zenoh as they are heard (`transport.pose_routes`), on real Zenoh
+"""Ego keys declared to Zenoh as they are heard (`transport.key_routes`), on real Zenoh
 sessions over 127.0.0.1: which keys get declared, when, how many, and that declaring a key
 changes nothing a subscriber receives. (What it saves, Zenoh's matching of each sample
 against its whole routing table, is CPU: `bench_peers --diagnose` measures it.)"""
@@ -17,8 +17,8 @@ from carlaverse.authority.service import Authority, AuthoritySettings
 from carlaverse.keys import Keys, KeySpaceError
 from carlaverse.procs import free_port
 from carlaverse.transport.clock import MonotonicClock
+from carlaverse.transport.key_routes import KeyRoutes
 from carlaverse.transport.node_client import NodeClient, NodeSettings
-from carlaverse.transport.pose_routes import PoseRoutes
 from carlaverse.transport.session import FabricSettings, open_session
 from tests.support import wait_until
 
@@ -41,7 +41,7 @@ def pair() -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
 def test_a_key_heard_twice_is_declared_once_and_its_sender_kept(
     pair: tuple[zenoh.Session, zenoh.Session],
 ) -> None:
-    routes = PoseRoutes()
+    routes = KeyRoutes()
     routes.attach(pair[0])
     key = K.pose("car-1", "t3_-2")
     try:
@@ -61,7 +61,7 @@ def test_a_key_heard_twice_is_declared_once_and_its_sender_kept(
 def test_keys_heard_once_each_declare_nothing(pair: tuple[zenoh.Session, zenoh.Session]) -> None:
     # A flood of made-up keys, each sent once: every one is parsed (its sender is named), none
     # is kept or declared, and what is remembered of them stays within the bound.
-    routes = PoseRoutes(limit=8)
+    routes = KeyRoutes(limit=8)
     routes.attach(pair[0])
     try:
         senders = [routes.sender(K.pose(f"n{i}", "t0_0")) for i in range(100)]
@@ -73,12 +73,18 @@ def test_keys_heard_once_each_declare_nothing(pair: tuple[zenoh.Session, zenoh.S
         routes.close()
 
 
-def test_only_pose_keys_of_the_key_space_are_accepted() -> None:
-    routes = PoseRoutes()
+def test_only_keys_of_its_ego_channels_are_accepted() -> None:
+    routes = KeyRoutes()  # poses only, as the authority hears them
     for key in (K.ego("car-1", "state"), "carlaverse/t/ego/car 1/pose/t0_0", "elsewhere/pose"):
         with pytest.raises(KeySpaceError):
             routes.sender(key)
     assert routes.senders == {} and routes._once == {}
+    # a node's: its wildcards bring poses, states and walkers' skeletons, never presence
+    routes = KeyRoutes(channels=("pose", "state", "skeleton"))
+    assert routes.sender(K.ego("walker-1", "skeleton")) == "walker-1"
+    assert routes.sender(K.ego("car-1", "state")) == "car-1"
+    with pytest.raises(KeySpaceError):
+        routes.sender(K.node("car-1"))
 
 
 def test_past_the_limit_the_oldest_declaration_goes(
@@ -86,7 +92,7 @@ def test_past_the_limit_the_oldest_declaration_goes(
 ) -> None:
     # An ego crossing five tiles with room for three: its last three tiles stay declared; the
     # first two are forgotten, so heard again they would be noted and declared again.
-    routes = PoseRoutes(limit=3)
+    routes = KeyRoutes(limit=3)
     routes.attach(pair[0])
     keys = [K.pose("car-1", f"t{i}_0") for i in range(5)]
     try:
@@ -117,7 +123,7 @@ def test_a_declared_key_changes_nothing_a_wildcard_subscriber_receives(
     subscriber = receiver.declare_subscriber(K.all_ego("pose"), on_sample)
     key = K.pose("car-1", "t0_0")
     publisher = sender.declare_publisher(key)
-    routes = PoseRoutes()
+    routes = KeyRoutes()
     routes.attach(receiver)
     try:
         # Zenoh links and propagates the subscription in the background: probe until a
