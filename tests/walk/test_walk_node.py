@@ -70,10 +70,13 @@ def test_the_sim_walker_walks_as_a_pedestrian(cluster: Cluster, tmp_path: Path) 
     view = report["view"]
     assert view["error"] == "" and view["frames"] >= 20, view
     # The loop stamps each state it writes (host monotonic clock), so the view measures
-    # motion-to-photon from it: the 90 Hz loop writes a new state between any two frames, so
-    # (almost) every frame shows a state not drawn before, and its age is positive and far
-    # below the run's length.
-    assert view["motion_to_photon_frames"] >= view["frames"] - 2, view
+    # motion-to-photon from it: the 90 Hz loop writes a new state between any two frames (the
+    # view draws ~25 a second here), so nearly every frame shows a state not drawn before, and
+    # its age is positive and far below the run's length. A frame repeats a state only when the
+    # loop's process was kept off the cores for a whole frame interval (~40 ms): on a loaded
+    # two-core CI host that happened to 3 frames of 242 in a full suite run; a loop that wrote
+    # at a third of its rate or a lost stamp would leave most frames without one.
+    assert view["motion_to_photon_frames"] >= 0.97 * view["frames"], view
     assert 0 < view["motion_to_photon_ms_p50"] < 5000, view
     frames = sorted((tmp_path / "view").glob("frame-*.png"))
     image = np.asarray(Image.open(frames[-1])).astype(int)
