@@ -9,7 +9,8 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from pathlib import Path
 from typing import Any
 
@@ -33,6 +34,21 @@ def demo_seen(kind: str, *args: str, timeout: float = 120) -> dict[str, Any]:
     assert summary["all_seen"], summary["nodes"]
     assert f"{kind}-1" in summary["nodes"]["scripted-2"]["actors_seen"], summary["nodes"]
     return summary
+
+
+@contextmanager
+def linked_peers() -> Iterator[tuple[Any, Any]]:
+    """Two Zenoh peer sessions over loopback: one listening, one connected to it (closed in
+    reverse on exit). Patient, as a loaded host may take seconds to open them."""
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    deadline = time.monotonic() + 20
+    listener = open_session(FabricSettings(listen=[endpoint]), deadline=deadline)
+    connected = open_session(FabricSettings(connect=[endpoint]), deadline=deadline)
+    try:
+        yield listener, connected
+    finally:
+        connected.close()
+        listener.close()
 
 
 def wait_until(condition: Callable[[], Any], timeout: float, what: str, poll: float = 0.02) -> Any:

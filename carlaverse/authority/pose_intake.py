@@ -50,12 +50,12 @@ class PoseRing(Protocol):
 class PoseIntake:
     """Drains the pose ring: (node id, pose) of every good sample, in arrival order."""
 
-    def __init__(self, ring: PoseRing, drops: Tally, routes: KeyRoutes | None = None) -> None:
+    def __init__(self, ring: PoseRing, drops: Tally) -> None:
         self._ring = ring
         self._drops = drops
         # The pose keys heard, by sender; attached to the session, each is declared to Zenoh
         # so that its samples take a kept route into the ring (`transport.key_routes`).
-        self.routes = routes if routes is not None else KeyRoutes()
+        self.routes = KeyRoutes()
         # (senders, rows) the digest relay took from the ring, oldest first, for the tick
         self._handed: deque[tuple[list[str], list[bytes]]] = deque()
         # Whether the relay reads the ring now (set by it; the tick then does not). At the

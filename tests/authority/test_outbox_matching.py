@@ -3,7 +3,6 @@ subscribes to, so audio scenes are built only for those (real sessions over loop
 
 from __future__ import annotations
 
-import time
 from collections.abc import Iterator
 
 import pytest
@@ -12,23 +11,15 @@ import zenoh
 from carlaverse import messages as m
 from carlaverse.authority.outbox import ZenohOutbox
 from carlaverse.keys import Keys
-from carlaverse.transport.session import FabricSettings, open_session
-from tests.support import free_port, wait_until
+from tests.support import linked_peers, wait_until
 
 K = Keys("t")
 
 
 @pytest.fixture
 def sessions() -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    deadline = time.monotonic() + 20
-    authority = open_session(FabricSettings(listen=[endpoint]), deadline=deadline)
-    node = open_session(FabricSettings(connect=[endpoint]), deadline=deadline)
-    try:
+    with linked_peers() as (authority, node):  # the node connects to the authority
         yield authority, node
-    finally:
-        node.close()
-        authority.close()
 
 
 def test_a_listener_is_heard_while_something_subscribes_to_its_audio(

@@ -7,20 +7,18 @@ from __future__ import annotations
 
 import threading
 from collections.abc import Iterator
+from pathlib import Path
 
 import pytest
 import zenoh
 
 from carlaverse import messages as m
-from carlaverse.authority.domain import EmptyDomain
-from carlaverse.authority.service import Authority, AuthoritySettings
 from carlaverse.keys import Keys, KeySpaceError
-from carlaverse.procs import free_port
 from carlaverse.transport.clock import MonotonicClock
 from carlaverse.transport.key_routes import KeyRoutes
 from carlaverse.transport.node_client import NodeClient, NodeSettings
 from carlaverse.transport.session import FabricSettings, open_session
-from tests.support import wait_until
+from tests.support import Cluster, linked_peers, wait_until
 
 K = Keys("t")
 
@@ -28,14 +26,8 @@ K = Keys("t")
 @pytest.fixture
 def pair() -> Iterator[tuple[zenoh.Session, zenoh.Session]]:
     """Two peers linked over loopback: a listener (the receiver) and one connected to it."""
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    receiver = open_session(FabricSettings(mode="peer", listen=[endpoint]))
-    sender = open_session(FabricSettings(mode="peer", connect=[endpoint]))
-    try:
+    with linked_peers() as (receiver, sender):
         yield receiver, sender
-    finally:
-        sender.close()
-        receiver.close()
 
 
 def test_a_key_heard_twice_is_declared_once_and_its_sender_kept(
@@ -150,27 +142,22 @@ def _pose(seq: int, t: float) -> m.Pose:
     return m.Pose(seq, t, 5.0, 2.0, 0.5, yaw=0.1, vx=1.5)
 
 
-def test_a_node_and_the_authority_each_declare_the_key_a_pose_comes_on() -> None:
+def test_a_node_and_the_authority_each_declare_the_key_a_pose_comes_on(tmp_path: Path) -> None:
     # One session as a site has it (a router, the authority, two nodes): a node publishing
     # its pose on its tile's key is heard by an observer (no actor, no interest area: it
     # hears the whole world) and by the authority, and both declare exactly that key; nobody
     # declares a key for the node's own poses.
-    endpoint = f"tcp/127.0.0.1:{free_port()}"
-    router = open_session(FabricSettings(mode="router", listen=[endpoint]))
-    sessions = [open_session(FabricSettings(mode="peer", connect=[endpoint])) for _ in range(3)]
-    clock = MonotonicClock()
-    authority = Authority(sessions[0], AuthoritySettings(session="t"), clock, EmptyDomain())
-    authority.start()
-    ticking = threading.Thread(target=authority.run, daemon=True)
-    ticking.start()
-    settings = [
-        NodeSettings(node_id="car-a", session="t", kind="scripted"),
-        NodeSettings(node_id="watch", session="t", kind="observer", actor_kind=""),
-    ]
-    nodes = [NodeClient(s, n, clock).start() for s, n in zip(sessions[1:], settings, strict=True)]
-    sender, hearer = nodes
+    cluster = Cluster(tmp_path)
     try:
-        assert all(node.wait_joined(20) for node in nodes)
+        cluster.router()
+        authority = cluster.in_process_authority().start()
+        hearer = cluster.observer("watch")
+        session = open_session(FabricSettings(connect=[cluster.endpoint]))
+        cluster.sessions.append(session)
+        settings = NodeSettings(node_id="car-a", session="t", kind="scripted")
+        sender = NodeClient(session, settings, MonotonicClock()).start()
+        cluster.sessions.append(sender)
+        assert sender.wait_joined(20) and hearer.wait_joined(20)
         # x = 5 m, y = 2 m lies in tile (0, 0) at any tile size above 5 m
         key = K.pose("car-a", "t0_0")
 
@@ -186,11 +173,4 @@ def test_a_node_and_the_authority_each_declare_the_key_a_pose_comes_on() -> None
         assert sender.inbound.routes.declared == []  # its own poses never reach it
         assert "car-a" in hearer.world.egos
     finally:
-        for node in nodes:
-            node.close()
-        authority.stop()
-        ticking.join(timeout=5)
-        authority.close()
-        for session in sessions:
-            session.close()
-        router.close()
+        cluster.close()
