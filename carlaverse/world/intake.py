@@ -55,7 +55,7 @@ class WorldIntake:
         # Malformed input by channel: what a source could not decode, and the poses the
         # view's update refuses, so a channel's count is in one place.
         self.dropped = Tally()
-        # A pose's arrival stamp is are session time, unless a source stamps them on a clock of
+        # Poses' arrival stamps are session time, unless a source stamps them on a clock of
         # its own and gives this to turn them into session time when the update drains them:
         # the live session does (`transport.inbound`), with its host's monotonic clock, one C
         # call in the Zenoh callback, which runs cold, where each Python frame costs µs.
